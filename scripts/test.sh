@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Runs the whole g1tess test suite. Installs what the tests need when it is missing:
+# Mesa's lavapipe Vulkan driver (GPU tests run on it when no other Vulkan device exists).
+# With CI=true a missing GPU adapter fails the GPU tests instead of skipping them.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+need_vulkan() {
+  ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || ! ldconfig -p | grep -q libvulkan.so.1
+}
+if need_vulkan; then
+  echo "== installing mesa-vulkan-drivers (lavapipe) and libvulkan1"
+  if [ "$(id -u)" = 0 ]; then SUDO=""; else SUDO="sudo"; fi
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq mesa-vulkan-drivers libvulkan1 >/dev/null
+fi
+
+# Vulkan loaders warn without a runtime dir.
+if [ -z "${XDG_RUNTIME_DIR:-}" ]; then
+  export XDG_RUNTIME_DIR="${TMPDIR:-/tmp}/g1tess-xdg-$(id -u)"
+  mkdir -p "$XDG_RUNTIME_DIR" && chmod 700 "$XDG_RUNTIME_DIR"
+fi
+
+echo "== cargo test --release"
+cargo test --release 2>&1

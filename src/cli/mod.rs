@@ -1,0 +1,63 @@
+//! The command line: one file per command. `main` prints errors as one line and exits
+//! non-zero; nothing a user can type makes it panic.
+
+mod common;
+mod stats;
+mod tessellate;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+pub use common::InputArgs;
+
+#[derive(Parser)]
+#[command(
+    name = "g1tess",
+    version,
+    about = "Smooth G1 curved surfaces from triangle meshes with vertex normals",
+    long_about = "Smooth G1 curved surfaces from triangle meshes with vertex normals.\n\n\
+                  With no command, runs the default job (see the README)."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Evaluate every patch on a barycentric grid and write the surface (positions + normals).
+    Tessellate(tessellate::TessellateArgs),
+    /// Continuity statistics across shared edges (Table 1 protocol).
+    Stats(stats::StatsArgs),
+}
+
+/// The default job: `cargo run --release` with no arguments.
+fn default_run() -> anyhow::Result<()> {
+    for mesh in ["sphere320", "torus200"] {
+        stats::run(&stats::StatsArgs {
+            input: InputArgs::builtin(mesh),
+            json: false,
+        })?;
+    }
+    Ok(())
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Some(Command::Stats(a)) => stats::run(&a),
+        Some(Command::Tessellate(a)) => tessellate::run(&a),
+        None => default_run(),
+    }
+}
+
+pub fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            let chain: Vec<String> = e.chain().map(|c| c.to_string()).collect();
+            eprintln!("error: {}", chain.join(": "));
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,63 @@
+//! Vertex-normal estimation from face normals.
+
+use glam::DVec3;
+
+/// How face normals are weighted when a vertex normal is estimated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NormalWeighting {
+    /// Plain mean of the unit normals of the incident faces.
+    Unweighted,
+    /// Faces weighted by their area.
+    Area,
+    /// Faces weighted by the corner angle at the vertex (the default: independent of how
+    /// the neighbourhood is triangulated).
+    Angle,
+}
+
+/// One unit normal per vertex from the incident faces. A vertex whose weighted sum vanishes
+/// (or that no face uses) gets the sum of the unweighted unit face normals, and failing
+/// that +z, so the result is always a finite unit vector.
+pub fn vertex_normals(
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    weighting: NormalWeighting,
+) -> Vec<DVec3> {
+    let mut acc = vec![DVec3::ZERO; positions.len()];
+    let mut fallback = vec![DVec3::ZERO; positions.len()];
+    for t in triangles {
+        let p = t.map(|v| positions[v as usize]);
+        let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+        let len = cross.length();
+        if len == 0.0 || !len.is_finite() {
+            continue;
+        }
+        let unit = cross / len;
+        for k in 0..3 {
+            let w = match weighting {
+                NormalWeighting::Unweighted => 1.0,
+                NormalWeighting::Area => 0.5 * len,
+                NormalWeighting::Angle => {
+                    let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
+                    let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+                    e1.dot(e2).clamp(-1.0, 1.0).acos()
+                }
+            };
+            acc[t[k] as usize] += w * unit;
+            fallback[t[k] as usize] += unit;
+        }
+    }
+    acc.iter()
+        .zip(&fallback)
+        .map(|(a, f)| {
+            a.try_normalize()
+                .or_else(|| f.try_normalize())
+                .unwrap_or(DVec3::Z)
+        })
+        .collect()
+}
+
+/// Unit normal of a flat triangle (zero for a degenerate one).
+pub fn face_normal(p: [DVec3; 3]) -> DVec3 {
+    (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
+}

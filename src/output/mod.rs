@@ -1,0 +1,5 @@
+//! What leaves the library: continuity statistics, mesh files, pictures and plots.
+
+pub mod atomic;
+pub mod stats;
+pub mod writers;

@@ -1,0 +1,191 @@
+//! Basis functions of every patch kind at a barycentric point, with their homogeneous
+//! derivatives. A patch is `S(b) = Σ w_j(b) c_j` over its control points `c_j`; its tangents
+//! are `S_s = Σ ws_j c_j` and `S_t = Σ wt_j c_j` with `ws = ∂w/∂b1 − ∂w/∂b0` and
+//! `wt = ∂w/∂b2 − ∂w/∂b0` (the surface parametrised by b = (1 − s − t, s, t)).
+//!
+//! `shaders/common.wgsl` and the per-scheme shaders compute the same functions.
+
+/// Most control points of any patch kind (G1: 12 boundary + 6 Gregory points).
+pub const MAX_POINTS: usize = 18;
+
+/// Basis values and tangent-direction derivatives at one point.
+#[derive(Clone, Copy, Debug)]
+pub struct Weights {
+    pub n: usize,
+    pub w: [f64; MAX_POINTS],
+    pub ws: [f64; MAX_POINTS],
+    pub wt: [f64; MAX_POINTS],
+}
+
+impl Weights {
+    pub fn zero(n: usize) -> Self {
+        Weights {
+            n,
+            w: [0.0; MAX_POINTS],
+            ws: [0.0; MAX_POINTS],
+            wt: [0.0; MAX_POINTS],
+        }
+    }
+}
+
+/// Control-point powers (on b0, b1, b2) of a Bézier triangle of degree `n`, in the order
+/// used by every table: i (power on b0) from n down to 0, then j from n − i down to 0.
+pub fn bezier_powers(n: u32) -> Vec<[u32; 3]> {
+    let mut out = Vec::new();
+    for i in (0..=n).rev() {
+        for j in (0..=n - i).rev() {
+            out.push([i, j, n - i - j]);
+        }
+    }
+    out
+}
+
+/// Index of the control point with powers (i, j, k) in [`bezier_powers`] order.
+pub fn bezier_index(n: u32, p: [u32; 3]) -> usize {
+    let i = p[0];
+    // Rows with power i' > i come first: row i' holds n − i' + 1 points.
+    let before: u32 = (i + 1..=n).map(|ii| n - ii + 1).sum();
+    (before + (n - i - p[1])) as usize
+}
+
+fn factorial(n: u32) -> f64 {
+    (1..=n).map(|x| x as f64).product()
+}
+
+/// Value and homogeneous gradient (∂/∂b0, ∂/∂b1, ∂/∂b2) of the monomial
+/// `c · b0^i b1^j b2^k`.
+#[inline]
+pub fn monomial(c: f64, p: [u32; 3], b: [f64; 3]) -> (f64, [f64; 3]) {
+    let pw = |x: f64, e: u32| if e == 0 { 1.0 } else { x.powi(e as i32) };
+    let v = [pw(b[0], p[0]), pw(b[1], p[1]), pw(b[2], p[2])];
+    let d = |m: usize| {
+        if p[m] == 0 {
+            0.0
+        } else {
+            p[m] as f64 * pw(b[m], p[m] - 1)
+        }
+    };
+    (
+        c * v[0] * v[1] * v[2],
+        [
+            c * d(0) * v[1] * v[2],
+            c * v[0] * d(1) * v[2],
+            c * v[0] * v[1] * d(2),
+        ],
+    )
+}
+
+/// Bernstein basis of degree `n` at `b` with tangent derivatives.
+pub fn bezier(n: u32, b: [f64; 3]) -> Weights {
+    let powers = bezier_powers(n);
+    let mut out = Weights::zero(powers.len());
+    let nf = factorial(n);
+    for (idx, p) in powers.iter().enumerate() {
+        let c = nf / (factorial(p[0]) * factorial(p[1]) * factorial(p[2]));
+        let (v, g) = monomial(c, *p, b);
+        out.w[idx] = v;
+        out.ws[idx] = g[1] - g[0];
+        out.wt[idx] = g[2] - g[0];
+    }
+    out
+}
+
+/// Powers (on b0, b1, b2) of the G1 patch's 12 boundary points: edge k's points L_{k,0..3}
+/// (power 4 − j on vertex k, j on vertex k + 1).
+pub fn g1_boundary_powers() -> [[u32; 3]; 12] {
+    let mut out = [[0; 3]; 12];
+    for k in 0..3 {
+        for j in 0..4u32 {
+            let mut p = [0u32; 3];
+            p[k] = 4 - j;
+            p[(k + 1) % 3] = j;
+            out[4 * k + j as usize] = p;
+        }
+    }
+    out
+}
+
+/// Basis of the G1 patch (`../shared/spec/G1-CONSTRUCTION.md`): 12 quartic Bernstein
+/// functions on the boundary points, then for m = 0, 1, 2 the Gregory weights
+/// α_m on G_{m,1} (slot 12 + 2m) and β_{m+1} on G_{m,2} (slot 13 + 2m).
+pub fn g1(b: [f64; 3]) -> Weights {
+    let mut out = Weights::zero(18);
+    for (idx, p) in g1_boundary_powers().iter().enumerate() {
+        let c = 24.0 / (factorial(p[0]) * factorial(p[1]) * factorial(p[2]));
+        let (v, g) = monomial(c, *p, b);
+        out.w[idx] = v;
+        out.ws[idx] = g[1] - g[0];
+        out.wt[idx] = g[2] - g[0];
+    }
+    for m in 0..3 {
+        let (im, iy, iz) = (m, (m + 1) % 3, (m + 2) % 3);
+        let (x, y, z) = (b[im], b[iy], b[iz]);
+        let s = y + z;
+        // Homogeneous gradient by (x, y, z) of alpha_m and beta_m; all tend to 0 at s = 0.
+        let (a, da, be, dbe) = if s > 0.0 {
+            let s2 = s * s;
+            (
+                12.0 * x * x * y * y * z / s,
+                [
+                    24.0 * x * y * y * z / s,
+                    12.0 * x * x * y * z * (y + 2.0 * z) / s2,
+                    12.0 * x * x * y * y * y / s2,
+                ],
+                12.0 * x * x * y * z * z / s,
+                [
+                    24.0 * x * y * z * z / s,
+                    12.0 * x * x * z * z * z / s2,
+                    12.0 * x * x * y * z * (z + 2.0 * y) / s2,
+                ],
+            )
+        } else {
+            (0.0, [0.0; 3], 0.0, [0.0; 3])
+        };
+        // Map (x, y, z) derivatives back onto (b0, b1, b2).
+        let mut ga = [0.0; 3];
+        let mut gb = [0.0; 3];
+        for (slot, &bi) in [im, iy, iz].iter().enumerate() {
+            ga[bi] = da[slot];
+            gb[bi] = dbe[slot];
+        }
+        // alpha_m weighs G_{m,1}; beta_m weighs G_{m-1,2}, stored at slot 13 + 2(m − 1).
+        let sa = 12 + 2 * m;
+        let sb = 13 + 2 * ((m + 2) % 3);
+        out.w[sa] = a;
+        out.ws[sa] = ga[1] - ga[0];
+        out.wt[sa] = ga[2] - ga[0];
+        out.w[sb] = be;
+        out.ws[sb] = gb[1] - gb[0];
+        out.wt[sb] = gb[2] - gb[0];
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bezier_index_matches_order() {
+        for n in 1..=4 {
+            for (i, p) in bezier_powers(n).iter().enumerate() {
+                assert_eq!(bezier_index(n, *p), i);
+            }
+        }
+    }
+
+    #[test]
+    fn partitions_of_unity() {
+        for b in [[0.2, 0.3, 0.5], [1.0, 0.0, 0.0], [0.0, 0.25, 0.75]] {
+            for n in 1..=3 {
+                let w = bezier(n, b);
+                assert!((w.w[..w.n].iter().sum::<f64>() - 1.0).abs() < 1e-15);
+                assert!(w.ws[..w.n].iter().sum::<f64>().abs() < 1e-14);
+            }
+            let w = g1(b);
+            assert!((w.w.iter().sum::<f64>() - 1.0).abs() < 1e-15, "{b:?}");
+            assert!(w.ws.iter().sum::<f64>().abs() < 1e-14);
+            assert!(w.wt.iter().sum::<f64>().abs() < 1e-14);
+        }
+    }
+}

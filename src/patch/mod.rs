@@ -1,0 +1,223 @@
+//! Patch tables: for each triangle of a mesh, the control points of one curved patch,
+//! in f64, ignorant of the backend that evaluates them (OpenSubdiv's Far/Osd split).
+//!
+//! One scheme = one file here + one WGSL file in `shaders/`. A table is plain arrays
+//! (`stride` points per patch, patch-major) so a GPU can take it as it is.
+
+pub mod basis;
+pub mod g1;
+
+use glam::DVec3;
+
+use crate::mesh::Mesh;
+use crate::{Error, Result};
+use basis::Weights;
+
+/// The surface construction applied to every triangle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Scheme {
+    /// Bézier G1 (Walton & Meek 1996): quartic boundary, Gregory interior, shared tangent
+    /// planes across edges.
+    G1,
+    /// The flat triangle (degree-1 Bézier), the baseline.
+    Flat,
+}
+
+impl Scheme {
+    /// Every scheme, in the order reports list them.
+    pub fn all() -> Vec<Scheme> {
+        vec![Scheme::G1, Scheme::Flat]
+    }
+
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scheme::G1 => "g1",
+            Scheme::Flat => "flat",
+        }
+    }
+
+    pub fn parse(s: &str) -> Result<Scheme> {
+        Scheme::all()
+            .into_iter()
+            .find(|x| x.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<_> = Scheme::all().iter().map(|x| x.name()).collect();
+                Error::Invalid(format!(
+                    "unknown scheme '{s}' (known: {})",
+                    names.join(", ")
+                ))
+            })
+    }
+}
+
+impl std::fmt::Display for Scheme {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Options of the schemes that have any. Defaults are the paper's.
+#[derive(Clone, Copy, Debug)]
+pub struct SchemeOptions {
+    /// Phong tessellation's shape factor α (default 3/4, the paper's).
+    pub phong_alpha: f64,
+}
+
+impl Default for SchemeOptions {
+    fn default() -> Self {
+        SchemeOptions { phong_alpha: 0.75 }
+    }
+}
+
+/// How a table's control points are evaluated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum PatchKind {
+    /// Bézier triangle of this degree; points in [`basis::bezier_powers`] order. The normal
+    /// is the exact normal S_s × S_t of the geometry.
+    Bezier(u32),
+    /// The G1 patch: 12 boundary points (edge k: L_{k,0..3}) then G_{0,1}, G_{0,2}, G_{1,1},
+    /// G_{1,2}, G_{2,1}, G_{2,2}.
+    Gregory,
+}
+
+impl PatchKind {
+    /// Control points per patch.
+    pub fn stride(self) -> usize {
+        match self {
+            PatchKind::Bezier(n) => ((n + 1) * (n + 2) / 2) as usize,
+            PatchKind::Gregory => 18,
+        }
+    }
+
+    /// Basis values and tangent derivatives at `b`.
+    pub fn weights(self, b: [f64; 3]) -> Weights {
+        match self {
+            PatchKind::Bezier(n) => basis::bezier(n, b),
+            PatchKind::Gregory => basis::g1(b),
+        }
+    }
+}
+
+/// Position, tangents and unit normal of a patch at one point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    pub p: DVec3,
+    /// ∂S/∂s along b = (1 − s − t, s, t).
+    pub ds: DVec3,
+    /// ∂S/∂t.
+    pub dt: DVec3,
+    /// Unit normal S_s × S_t / |S_s × S_t|, or the fallback described at [`unit_normal`].
+    pub n: DVec3,
+}
+
+/// The exact unit normal from two tangents. Where they are parallel (a degenerate patch)
+/// the flat normal `fallback` is returned instead, so the result is never NaN.
+#[inline]
+pub fn unit_normal(ds: DVec3, dt: DVec3, fallback: DVec3) -> DVec3 {
+    let c = ds.cross(dt);
+    let len = c.length();
+    if len > 1e-300 && len.is_finite() {
+        c / len
+    } else {
+        fallback
+    }
+}
+
+/// Control points of one scheme for every triangle of a mesh.
+#[derive(Clone, Debug)]
+pub struct PatchTable {
+    pub scheme: Scheme,
+    pub kind: PatchKind,
+    /// Control points per patch (`kind.stride()`).
+    pub stride: usize,
+    /// `stride` points per patch, patch after patch.
+    pub points: Vec<DVec3>,
+    /// Flat unit normal of each patch's triangle, the fallback where the patch is singular.
+    pub flat_normals: Vec<DVec3>,
+    /// Edges where a construction needed its documented fallback (see the scheme's file).
+    pub fallbacks: usize,
+}
+
+impl PatchTable {
+    /// Builds the table of `scheme` for every triangle of `mesh`.
+    pub fn build(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<PatchTable> {
+        let _ = opts;
+        let (kind, points, fallbacks) = match scheme {
+            Scheme::G1 => {
+                let (p, f) = g1::build(mesh);
+                (PatchKind::Gregory, p, f)
+            }
+            Scheme::Flat => (
+                PatchKind::Bezier(1),
+                mesh.triangles
+                    .iter()
+                    .flat_map(|t| t.map(|v| mesh.positions[v as usize]))
+                    .collect(),
+                0,
+            ),
+        };
+        let flat_normals = mesh
+            .triangles
+            .iter()
+            .map(|t| crate::mesh::normals::face_normal(t.map(|v| mesh.positions[v as usize])))
+            .collect();
+        let table = PatchTable {
+            scheme,
+            kind,
+            stride: kind.stride(),
+            points,
+            flat_normals,
+            fallbacks,
+        };
+        debug_assert_eq!(table.points.len(), table.stride * mesh.triangles.len());
+        if let Some(i) = table.points.iter().position(|p| !p.is_finite()) {
+            return Err(Error::mesh(
+                &mesh.name,
+                format!(
+                    "{scheme}: patch {} has a non-finite control point (degenerate input)",
+                    i / table.stride
+                ),
+            ));
+        }
+        Ok(table)
+    }
+
+    /// Number of patches.
+    pub fn len(&self) -> usize {
+        self.flat_normals.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Control points of patch `i`.
+    pub fn patch(&self, i: usize) -> &[DVec3] {
+        &self.points[i * self.stride..(i + 1) * self.stride]
+    }
+
+    /// Evaluates patch `i` at barycentric `b` with precomputed weights.
+    #[inline]
+    pub fn eval_weights(&self, i: usize, w: &Weights) -> SurfacePoint {
+        let c = self.patch(i);
+        let (mut p, mut ds, mut dt) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+        for (j, cj) in c.iter().enumerate() {
+            p += w.w[j] * *cj;
+            ds += w.ws[j] * *cj;
+            dt += w.wt[j] * *cj;
+        }
+        SurfacePoint {
+            p,
+            ds,
+            dt,
+            n: unit_normal(ds, dt, self.flat_normals[i]),
+        }
+    }
+
+    /// Evaluates patch `i` at barycentric `b` (b0 + b1 + b2 = 1; b_k weighs corner k).
+    pub fn eval(&self, i: usize, b: [f64; 3]) -> SurfacePoint {
+        self.eval_weights(i, &self.kind.weights(b))
+    }
+}
