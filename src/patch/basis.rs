@@ -161,6 +161,18 @@ pub fn g1(b: [f64; 3]) -> Weights {
     out
 }
 
+/// Basis of [`crate::patch::PatchKind::PnNormals`]: the cubic Bernstein basis with its
+/// derivatives in slots 0..10, the quadratic basis values (for the normal field, no
+/// derivatives) in slots 10..16.
+pub fn pn_normals(b: [f64; 3]) -> Weights {
+    let cubic = bezier(3, b);
+    let quad = bezier(2, b);
+    let mut out = cubic;
+    out.n = 16;
+    out.w[10..16].copy_from_slice(&quad.w[..6]);
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -80,6 +80,10 @@ pub enum PatchKind {
     /// The G1 patch: 12 boundary points (edge k: L_{k,0..3}) then G_{0,1}, G_{0,2}, G_{1,1},
     /// G_{1,2}, G_{2,1}, G_{2,2}.
     Gregory,
+    /// PN triangle with its quadratic normal field: the 10 cubic geometry points, then the
+    /// 6 quadratic normal-field coefficients (in `bezier_powers(2)` order). Position and
+    /// tangents come from the cubic; the reported normal is the normalised quadratic field.
+    PnNormals,
 }
 
 impl PatchKind {
@@ -88,6 +92,7 @@ impl PatchKind {
         match self {
             PatchKind::Bezier(n) => ((n + 1) * (n + 2) / 2) as usize,
             PatchKind::Gregory => 18,
+            PatchKind::PnNormals => 16,
         }
     }
 
@@ -96,6 +101,7 @@ impl PatchKind {
         match self {
             PatchKind::Bezier(n) => basis::bezier(n, b),
             PatchKind::Gregory => basis::g1(b),
+            PatchKind::PnNormals => basis::pn_normals(b),
         }
     }
 }
@@ -202,18 +208,23 @@ impl PatchTable {
     #[inline]
     pub fn eval_weights(&self, i: usize, w: &Weights) -> SurfacePoint {
         let c = self.patch(i);
+        let geometry = match self.kind {
+            PatchKind::PnNormals => 10,
+            _ => self.stride,
+        };
         let (mut p, mut ds, mut dt) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
-        for (j, cj) in c.iter().enumerate() {
+        for (j, cj) in c[..geometry].iter().enumerate() {
             p += w.w[j] * *cj;
             ds += w.ws[j] * *cj;
             dt += w.wt[j] * *cj;
         }
-        SurfacePoint {
-            p,
-            ds,
-            dt,
-            n: unit_normal(ds, dt, self.flat_normals[i]),
-        }
+        let n = if geometry < self.stride {
+            let field: DVec3 = (geometry..self.stride).map(|j| w.w[j] * c[j]).sum();
+            field.try_normalize().unwrap_or(self.flat_normals[i])
+        } else {
+            unit_normal(ds, dt, self.flat_normals[i])
+        };
+        SurfacePoint { p, ds, dt, n }
     }
 
     /// Evaluates patch `i` at barycentric `b` (b0 + b1 + b2 = 1; b_k weighs corner k).
