@@ -20,11 +20,15 @@ pub struct TessellateArgs {
     /// Output file (.obj).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Print a JSON summary on stdout: {"output", "mesh", "scheme", "level", "backend",
+    /// "vertices", "triangles"}.
+    #[arg(long)]
+    pub json: bool,
 }
 
 pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     anyhow::ensure!(a.level >= 1, "--level must be at least 1");
-    let (_mesh, table) = a.input.load()?;
+    let (mesh, table) = a.input.load()?;
     let evaluator = CpuEvaluator::default();
     let per = grid_len(a.level);
     let local = grid_triangles(a.level);
@@ -40,11 +44,24 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
             .extend(local.iter().map(|t| t.map(|i| i + base)));
     }
     write_obj(&a.output, &out).with_context(|| format!("writing {}", a.output.display()))?;
-    eprintln!(
-        "wrote {}: {} vertices, {} triangles",
-        a.output.display(),
-        out.positions.len(),
-        out.triangles.len()
-    );
+    if a.json {
+        let summary = serde_json::json!({
+            "output": a.output.display().to_string(),
+            "mesh": mesh.name,
+            "scheme": table.scheme.to_string(),
+            "level": a.level,
+            "backend": evaluator.describe(),
+            "vertices": out.positions.len(),
+            "triangles": out.triangles.len(),
+        });
+        println!("{summary}");
+    } else {
+        eprintln!(
+            "wrote {}: {} vertices, {} triangles",
+            a.output.display(),
+            out.positions.len(),
+            out.triangles.len()
+        );
+    }
     Ok(())
 }
