@@ -19,6 +19,10 @@ pub struct InputArgs {
     /// Estimate normals even where the file gives them.
     #[arg(long)]
     pub recompute_normals: bool,
+    /// Mark edges whose dihedral angle exceeds DEG degrees as creases and estimate normals
+    /// per smoothing group (replaces any normals the file gives).
+    #[arg(long, value_name = "DEG")]
+    pub crease_angle: Option<f64>,
     /// Phong tessellation's shape factor α.
     #[arg(long, default_value_t = 0.75)]
     pub phong_alpha: f64,
@@ -32,6 +36,7 @@ impl InputArgs {
             scheme: Scheme::G1,
             normals: NormalWeighting::Angle,
             recompute_normals: false,
+            crease_angle: None,
             phong_alpha: 0.75,
         }
     }
@@ -40,6 +45,7 @@ impl InputArgs {
         LoadOptions {
             weighting: self.normals,
             recompute_normals: self.recompute_normals,
+            crease_angle: self.crease_angle,
         }
     }
 

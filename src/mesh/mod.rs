@@ -2,6 +2,7 @@
 //! the built-in meshes of the paper.
 
 pub mod adjacency;
+pub mod creases;
 pub mod generators;
 pub mod normals;
 pub mod obj;
@@ -52,6 +53,9 @@ pub struct LoadOptions {
     pub weighting: NormalWeighting,
     /// Estimate normals even where the file gives them.
     pub recompute_normals: bool,
+    /// Mark edges with a dihedral angle above this many degrees as creases and estimate
+    /// normals per smoothing group (see [`creases::split_normals_by_angle`]).
+    pub crease_angle: Option<f64>,
 }
 
 impl Default for LoadOptions {
@@ -59,6 +63,7 @@ impl Default for LoadOptions {
         Self {
             weighting: NormalWeighting::Angle,
             recompute_normals: false,
+            crease_angle: None,
         }
     }
 }
@@ -86,6 +91,9 @@ impl Mesh {
                 .iter()
                 .map(|t| t.map(|v| n[v as usize]))
                 .collect();
+        }
+        if let Some(angle) = opts.crease_angle {
+            creases::split_normals_by_angle(&mut mesh, angle, opts.weighting)?;
         }
         mesh.validate()?;
         Ok(mesh)

@@ -1,11 +1,16 @@
 //! Continuity statistics across shared edges (Table 1 protocol of
 //! `../shared/spec/EVALUATION.md`): 21 points per interior edge, cos of the two patches'
 //! unit normals, and the position gap between them.
+//!
+//! Crease edges (the two triangles give an end vertex different normals, see
+//! [`crate::mesh::creases`]) are meant to break the tangent plane: they are left out of the
+//! cos statistics and reported on their own (`crease_edges`, `crease_max_gap`).
 
 use glam::DVec3;
 use serde::Serialize;
 
 use crate::eval::{Evaluator, PatchPoint, Pattern};
+use crate::mesh::creases::crease_edges;
 use crate::mesh::{Adjacency, LoadReport, Mesh};
 use crate::patch::PatchTable;
 use crate::Result;
@@ -36,14 +41,34 @@ pub struct Continuity {
     pub max_gap: f64,
     /// Samples with cos < 0 (folded patches).
     pub folded: usize,
+    /// Interior edges that are creases (left out of everything above).
+    pub crease_edges: usize,
+    /// Edge samples on crease edges.
+    pub crease_samples: usize,
+    /// Largest distance between the two patches' positions on crease edges.
+    pub crease_max_gap: f64,
 }
 
 /// The evaluation points of every interior edge: for each edge and each t, the point on the
 /// first triangle then the same point on the second.
 pub fn edge_points(mesh: &Mesh, adjacency: &Adjacency) -> Vec<PatchPoint> {
+    edge_points_where(mesh, adjacency, &|_| true)
+}
+
+/// [`edge_points`] of the interior edges whose index in `adjacency.edges` passes `keep`.
+pub fn edge_points_where(
+    mesh: &Mesh,
+    adjacency: &Adjacency,
+    keep: &dyn Fn(usize) -> bool,
+) -> Vec<PatchPoint> {
     let n = SAMPLES_PER_EDGE - 1;
     let mut out = Vec::with_capacity(adjacency.interior * SAMPLES_PER_EDGE as usize * 2);
-    for e in adjacency.interior_edges() {
+    for (_, e) in adjacency
+        .edges
+        .iter()
+        .enumerate()
+        .filter(|(i, e)| e.is_interior() && keep(*i))
+    {
         for i in 0..=n {
             // Parameter from e.v[0] (t = 0) to e.v[1] (t = 1), both ends exact.
             let t = i as f64 / n as f64;
@@ -118,31 +143,49 @@ impl Acc {
             max_one_minus_abs_cos: self.worst_abs,
             max_gap: self.gap,
             folded: self.folded,
+            ..Default::default()
         }
     }
 }
 
 /// Continuity statistics of `table` over the interior edges of `mesh`, evaluated by
-/// `evaluator`.
+/// `evaluator`: cos and gap over the non-crease edges, the gap alone over crease edges.
 pub fn continuity(
     mesh: &Mesh,
     adjacency: &Adjacency,
     table: &PatchTable,
     evaluator: &dyn Evaluator,
 ) -> Result<Continuity> {
-    let points = edge_points(mesh, adjacency);
+    let creases = crease_edges(mesh, adjacency);
+    let mut points = edge_points_where(mesh, adjacency, &|i| !creases[i]);
+    let smooth_pairs = points.len() / 2;
+    points.extend(edge_points_where(mesh, adjacency, &|i| creases[i]));
     let mut acc = Acc::default();
+    let mut crease = Acc::default();
+    let mut pairs = 0usize;
     let mut pending: Option<(DVec3, DVec3)> = None;
     evaluator.evaluate(table, &Pattern::Points(points), &mut |chunk| {
         for (p, n) in chunk.positions.iter().zip(chunk.normals) {
             match pending.take() {
                 None => pending = Some((*p, *n)),
-                Some((p0, n0)) => acc.push([p0, *p], [n0, *n]),
+                Some((p0, n0)) => {
+                    let target = if pairs < smooth_pairs {
+                        &mut acc
+                    } else {
+                        &mut crease
+                    };
+                    target.push([p0, *p], [n0, *n]);
+                    pairs += 1;
+                }
             }
         }
         Ok(())
     })?;
-    Ok(acc.finish())
+    let mut c = acc.finish();
+    c.crease_edges = creases.iter().filter(|&&x| x).count();
+    c.crease_samples = crease.n;
+    c.crease_max_gap = crease.gap;
+    Ok(c)
 }
 
 /// Everything `g1tess stats --json` prints for one mesh and scheme.
@@ -153,6 +196,8 @@ pub struct StatsReport {
     pub triangles: usize,
     pub vertices: usize,
     pub interior_edges: usize,
+    /// Interior edges that are creases: left out of samples, cos, max_gap and folded.
+    pub crease_edges: usize,
     pub boundary_edges: usize,
     pub nonmanifold_edges: usize,
     /// Interior edges whose two triangles disagree in orientation.
@@ -165,6 +210,10 @@ pub struct StatsReport {
     pub max_gap_relative: f64,
     pub diagonal: f64,
     pub folded: usize,
+    /// Edge samples on crease edges.
+    pub crease_samples: usize,
+    /// Largest position gap between the two patches on crease edges.
+    pub crease_max_gap: f64,
     pub backend: String,
     /// Edges where the construction took a documented fallback.
     pub fallbacks: usize,
@@ -186,6 +235,7 @@ impl StatsReport {
             triangles: mesh.triangles.len(),
             vertices: mesh.positions.len(),
             interior_edges: adjacency.interior,
+            crease_edges: c.crease_edges,
             boundary_edges: adjacency.boundary,
             nonmanifold_edges: adjacency.nonmanifold,
             misoriented_edges: adjacency.misoriented,
@@ -200,6 +250,8 @@ impl StatsReport {
             },
             diagonal,
             folded: c.folded,
+            crease_samples: c.crease_samples,
+            crease_max_gap: c.crease_max_gap,
             backend,
             fallbacks: table.fallbacks,
             load: mesh.load_report.clone(),
@@ -211,10 +263,10 @@ impl StatsReport {
         format!(
             "mesh {} · scheme {} · backend {}\n\
              triangles {} · vertices {} · interior edges {} · boundary edges {} · non-manifold edges {} · misoriented edges {}\n\
-             samples {} (21 per interior edge)\n\
+             samples {} (21 per non-crease interior edge)\n\
              cos  min {:.9}  max {:.9}  mean {:.9}  std {:.6e}\n\
              max 1-|cos| {:.3e} · folded samples (cos < 0) {}\n\
-             max gap {:.3e} ({:.3e} × bbox diagonal)",
+             max gap {:.3e} ({:.3e} × bbox diagonal){}",
             self.mesh,
             self.scheme,
             self.backend,
@@ -233,6 +285,14 @@ impl StatsReport {
             self.folded,
             self.max_gap,
             self.max_gap_relative,
+            if self.crease_edges > 0 {
+                format!(
+                    "\ncrease edges {} (left out of the above) · {} samples · max gap {:.3e}",
+                    self.crease_edges, self.crease_samples, self.crease_max_gap
+                )
+            } else {
+                String::new()
+            },
         )
     }
 }

@@ -5,9 +5,21 @@
 //! Documented fallbacks (counted in [`crate::patch::PatchTable::fallbacks`]): where a
 //! boundary tangent W_i vanishes, its ribbon vector A_i is 0 and λ is 0; where
 //! A0 + A2 = 0 (opposite normals with the edge in their plane), A1 = N_a × Ŵ1.
+//!
+//! **Creases.** Where the two triangles of an edge give one of its end vertices different
+//! normals (see [`crate::mesh::creases`]), the edge gets one boundary curve built once and
+//! shared bitwise by both triangles ([`crease_curve`]): at an end where the normals differ
+//! the end tangent is the crease direction N_left × N_right (it lies in both sides' tangent
+//! planes), at an end where they agree it is the ordinary Walton–Meek end tangent. Each
+//! triangle then builds its ribbon and Gregory points from its own corner normals, so the
+//! patch is G1 with its neighbours across every other edge and meets its neighbour across
+//! the crease without a crack.
+
+use std::collections::HashMap;
 
 use glam::DVec3;
 
+use crate::mesh::creases::{split_ends, use_normal};
 use crate::mesh::Mesh;
 
 /// The Walton–Meek cubic between (qa, na) and (qb, nb) (Theorem 2.1, Γ the unit edge
@@ -79,9 +91,24 @@ pub fn patch_points(
     ids: [u32; 3],
     fallbacks: &mut usize,
 ) -> [DVec3; 18] {
+    patch_points_with_curves(q, n, ids, [None; 3], fallbacks)
+}
+
+/// [`patch_points`] where edge k's boundary cubic may be given (`curves[k]`, running from
+/// corner k to corner k + 1), as for crease edges; the other edges get the Walton–Meek
+/// cubic of their end points and this triangle's normals.
+pub fn patch_points_with_curves(
+    q: [DVec3; 3],
+    n: [DVec3; 3],
+    ids: [u32; 3],
+    curves: [Option<[DVec3; 4]>; 3],
+    fallbacks: &mut usize,
+) -> [DVec3; 18] {
     let edges: [EdgeData; 3] = std::array::from_fn(|k| {
         let (a, b) = (k, (k + 1) % 3);
-        let v = if ids[a] <= ids[b] {
+        let v = if let Some(c) = curves[k] {
+            c
+        } else if ids[a] <= ids[b] {
             walton_meek(q[a], n[a], q[b], n[b])
         } else {
             let r = walton_meek(q[b], n[b], q[a], n[a]);
@@ -125,16 +152,112 @@ pub fn patch_points(
     out
 }
 
+/// Unit crease direction at a vertex whose two sides have unit normals `n0` and `n1`:
+/// N0 × N1, computed as N0 × (N1 − N0) so that it stays accurate (and perpendicular to
+/// both normals to rounding) when the normals are close, oriented along `g`. Where the
+/// normals are parallel or opposite it is undefined: the fallback (counted) is `g`
+/// projected on the plane of `n0`, or `g` itself.
+pub fn crease_direction(n0: DVec3, n1: DVec3, g: DVec3, fallbacks: &mut usize) -> DVec3 {
+    let c = n0.cross(n1 - n0);
+    let t = match c.try_normalize() {
+        Some(t) if c.length() > 1e-150 => t,
+        _ => {
+            *fallbacks += 1;
+            (g - g.dot(n0) * n0).try_normalize().unwrap_or(g)
+        }
+    };
+    if t.dot(g) < 0.0 {
+        -t
+    } else {
+        t
+    }
+}
+
+/// The boundary cubic shared by the two triangles of a crease edge from `qa` to `qb`.
+/// `na[i]`, `nb[i]` are side i's unit normals at the two ends; `split[0]` / `split[1]` say
+/// whether the sides differ at `qa` / `qb`.
+///
+/// The Walton–Meek cubic is built with, at a split end, the surrogate normal
+/// (N_left + N_right)/|·| (perpendicular to the crease direction); at a split end its arm
+/// keeps the Walton–Meek length but turns onto the crease direction
+/// ([`crease_direction`]), which lies in both sides' tangent planes. An end where the sides
+/// agree keeps the ordinary Walton–Meek end tangent (perpendicular to the common normal).
+pub fn crease_curve(
+    qa: DVec3,
+    qb: DVec3,
+    na: [DVec3; 2],
+    nb: [DVec3; 2],
+    split: [bool; 2],
+    fallbacks: &mut usize,
+) -> [DVec3; 4] {
+    let surrogate = |n: [DVec3; 2], s: bool, f: &mut usize| {
+        if !s {
+            return n[0];
+        }
+        match (n[0] + n[1]).try_normalize() {
+            Some(m) => m,
+            None => {
+                *f += 1;
+                n[0]
+            }
+        }
+    };
+    let ma = surrogate(na, split[0], fallbacks);
+    let mb = surrogate(nb, split[1], fallbacks);
+    let mut v = walton_meek(qa, ma, qb, mb);
+    let g = (qb - qa).normalize_or_zero();
+    if split[0] {
+        let arm = (v[1] - v[0]).length();
+        v[1] = qa + arm * crease_direction(na[0], na[1], g, fallbacks);
+    }
+    if split[1] {
+        let arm = (v[3] - v[2]).length();
+        v[2] = qb - arm * crease_direction(nb[0], nb[1], g, fallbacks);
+    }
+    v
+}
+
 /// Control points of every triangle of `mesh`, and the number of fallbacks taken.
+/// Crease edges (split normals at an end, see [`crate::mesh::creases`]) get one shared
+/// [`crease_curve`].
 pub fn build(mesh: &Mesh) -> (Vec<DVec3>, usize) {
     let mut fallbacks = 0;
+    // Shared curves of crease edges, keyed by edge use 3t + k, running from corner k to k+1.
+    let mut curves: HashMap<u32, [DVec3; 4]> = HashMap::new();
+    let adjacency = mesh.adjacency();
+    for (e, split) in adjacency.edges.iter().zip(split_ends(mesh, &adjacency)) {
+        if !e.is_interior() || !(split[0] || split[1]) {
+            continue;
+        }
+        let [u0, u1] = [e.uses[0], e.uses[1]];
+        let [a, b] = e.v;
+        let curve = crease_curve(
+            mesh.positions[a as usize],
+            mesh.positions[b as usize],
+            [use_normal(mesh, u0, a), use_normal(mesh, u1, a)],
+            [use_normal(mesh, u0, b), use_normal(mesh, u1, b)],
+            split,
+            &mut fallbacks,
+        );
+        for u in [u0, u1] {
+            let from = mesh.triangles[u.triangle as usize][u.local as usize];
+            let c = if from == a {
+                curve
+            } else {
+                [curve[3], curve[2], curve[1], curve[0]]
+            };
+            curves.insert(3 * u.triangle + u.local as u32, c);
+        }
+    }
     let mut points = Vec::with_capacity(mesh.triangles.len() * 18);
     for (t, tri) in mesh.triangles.iter().enumerate() {
         let q = tri.map(|v| mesh.positions[v as usize]);
-        points.extend_from_slice(&patch_points(
+        let given = std::array::from_fn(|k| curves.get(&(3 * t as u32 + k as u32)).copied());
+        points.extend_from_slice(&patch_points_with_curves(
             q,
             mesh.corner_normals[t],
             *tri,
+            given,
             &mut fallbacks,
         ));
     }
