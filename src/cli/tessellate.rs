@@ -1,14 +1,15 @@
-//! `g1tess tessellate`: evaluate every patch on a grid and write the surface.
+//! `g1tess tessellate`: evaluate every patch on a grid and write the welded surface.
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use clap::Args;
 
 use super::InputArgs;
 use crate::eval::cpu::CpuEvaluator;
-use crate::eval::{grid_len, grid_triangles, Evaluator, Pattern};
-use crate::output::writers::{write_obj, IndexedMesh};
+use crate::eval::Evaluator;
+use crate::output::progress;
+use crate::output::weld::{weld_into, WeldPlan};
+use crate::output::writers::{write_welded, MeshFormat};
 
 #[derive(Args, Clone, Debug)]
 pub struct TessellateArgs {
@@ -17,33 +18,39 @@ pub struct TessellateArgs {
     /// Grid level: n segments per edge, (n+1)(n+2)/2 points per patch.
     #[arg(long, default_value_t = 8)]
     pub level: u32,
-    /// Output file (.obj).
+    /// Output file; the format follows the extension: .obj, .ply (binary), .stl (binary),
+    /// .glb (glTF 2.0 binary).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Print a JSON summary on stdout: {"output", "mesh", "scheme", "level", "backend",
-    /// "vertices", "triangles"}.
+    /// "vertices", "triangles", ...} (see the README).
     #[arg(long)]
     pub json: bool,
+    /// No progress bars and no summary line on stderr.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     anyhow::ensure!(a.level >= 1, "--level must be at least 1");
+    let format = MeshFormat::from_path(&a.output)?;
     let (mesh, table) = a.input.load()?;
+    let adjacency = mesh.adjacency();
+    let plan = WeldPlan::new(&mesh, &adjacency, a.level)?;
     let evaluator = CpuEvaluator::default();
-    let per = grid_len(a.level);
-    let local = grid_triangles(a.level);
-    let mut out = IndexedMesh::default();
-    evaluator.evaluate(&table, &Pattern::Grid { level: a.level }, &mut |chunk| {
-        out.positions.extend_from_slice(chunk.positions);
-        out.normals.extend_from_slice(chunk.normals);
+    let title = format!(
+        "g1tess: {}, scheme {}, level {}",
+        mesh.name, table.scheme, a.level
+    );
+    let bar = progress::bar(plan.patches() as u64, "evaluating", "patches", a.quiet);
+    let mut snap = 0.0;
+    write_welded(&a.output, format, &plan, &title, &bar, &mut |sink| {
+        snap = weld_into(&plan, &table, &evaluator, sink, &mut |k| bar.inc(k as u64))?;
+        bar.set_position(0);
+        bar.set_message("writing faces");
         Ok(())
     })?;
-    for p in 0..table.len() {
-        let base = (p * per) as u32;
-        out.triangles
-            .extend(local.iter().map(|t| t.map(|i| i + base)));
-    }
-    write_obj(&a.output, &out).with_context(|| format!("writing {}", a.output.display()))?;
+    bar.finish_and_clear();
     if a.json {
         let summary = serde_json::json!({
             "output": a.output.display().to_string(),
@@ -51,16 +58,29 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
             "scheme": table.scheme.to_string(),
             "level": a.level,
             "backend": evaluator.describe(),
-            "vertices": out.positions.len(),
-            "triangles": out.triangles.len(),
+            "vertices": plan.positions,
+            "triangles": plan.triangles,
+            "format": format,
+            "vertex_records": plan.records,
+            "file_vertices": format.file_vertices(&plan),
+            "crease_edges": plan.report.split_edges,
+            "boundary_edges": plan.report.boundary_edges,
+            "nonmanifold_edges": plan.report.nonmanifold_edges,
+            "max_weld_snap": snap,
         });
         println!("{summary}");
-    } else {
+    } else if !a.quiet {
         eprintln!(
-            "wrote {}: {} vertices, {} triangles",
+            "wrote {}: {} vertices ({} with split normals), {} triangles; \
+             {} boundary, {} non-manifold, {} crease edges; max weld snap {:.3e}",
             a.output.display(),
-            out.positions.len(),
-            out.triangles.len()
+            plan.positions,
+            plan.records,
+            plan.triangles,
+            plan.report.boundary_edges,
+            plan.report.nonmanifold_edges,
+            plan.report.split_edges,
+            snap
         );
     }
     Ok(())

@@ -12,6 +12,16 @@ pub fn write_atomic<F>(path: &Path, f: F) -> Result<()>
 where
     F: FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 {
+    write_atomic_with(path, |w| f(w).map_err(|e| Error::io(path, e)))
+}
+
+/// [`write_atomic`] for a writer that can fail with any [`Error`] (an evaluation streaming
+/// into the file, say): on any failure the temporary file is removed and the target is
+/// left as it was.
+pub fn write_atomic_with<F>(path: &Path, f: F) -> Result<()>
+where
+    F: FnOnce(&mut BufWriter<File>) -> Result<()>,
+{
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -24,19 +34,19 @@ where
         name.to_string_lossy(),
         std::process::id()
     ));
+    let io = |e: std::io::Error| Error::io(path, e);
     let result = (|| {
-        let file = File::create(&tmp)?;
+        let file = File::create(&tmp).map_err(io)?;
         let mut w = BufWriter::with_capacity(1 << 20, file);
         f(&mut w)?;
-        w.flush()?;
-        w.get_ref().sync_all()?;
-        std::fs::rename(&tmp, path)
+        w.flush().map_err(io)?;
+        w.get_ref().sync_all().map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(io)
     })();
-    if let Err(e) = result {
+    if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(path, e));
     }
-    Ok(())
+    result
 }
 
 /// Creates `dir` and its parents.

@@ -1,14 +1,35 @@
 //! Mesh writers. Every file is written atomically (see [`super::atomic`]).
+//!
+//! Welded output ([`super::weld`]) streams patch by patch into one of four formats, chosen
+//! by the file extension ([`MeshFormat`]):
+//! - `.obj`: `v` welded positions (17 significant digits, exact f64 round trip), `vn` one
+//!   per vertex record, `f p//r` triangles; lines interleaved as the patches arrive (every
+//!   face only refers to earlier lines).
+//! - `.ply`: binary little-endian, `float x y z nx ny nz` per vertex record, then
+//!   `list uchar int vertex_indices` per triangle; the counts come from the plan, so the
+//!   header is written first and nothing is held back.
+//! - `.stl`: binary, one facet per triangle with the normal of the flat welded triangle
+//!   (zero where it is degenerate).
+//! - `.glb`: glTF 2.0 binary, one mesh with interleaved f32 POSITION and NORMAL (one per
+//!   vertex record) and u32 indices; accessor min/max bounds set. The JSON chunk is reserved
+//!   up front and filled in once the bounds are known.
+//!
+//! PLY and glTF list every vertex before any triangle: their triangles are regenerated
+//! from the plan (topology only) after the vertices are written.
 
-use std::io::Write;
+use std::fs::File;
+use std::io::{self, BufWriter, Seek, SeekFrom, Write};
 use std::path::Path;
 
 use glam::DVec3;
+use indicatif::ProgressBar;
 
-use super::atomic::write_atomic;
-use crate::Result;
+use super::atomic::{write_atomic, write_atomic_with};
+use super::weld::{PatchOut, WeldPlan, WeldSink};
+use crate::eval::grid_triangles;
+use crate::{Error, Result};
 
-/// An indexed triangle mesh with one normal per vertex, as produced by tessellation.
+/// An indexed triangle mesh with one normal per vertex, unwelded.
 #[derive(Clone, Debug, Default)]
 pub struct IndexedMesh {
     pub positions: Vec<DVec3>,
@@ -38,4 +59,418 @@ pub fn write_obj(path: &Path, mesh: &IndexedMesh) -> Result<()> {
         }
         Ok(())
     })
+}
+
+/// Output mesh formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MeshFormat {
+    Obj,
+    Ply,
+    Stl,
+    Glb,
+}
+
+impl MeshFormat {
+    /// The format named by `path`'s extension (case-insensitive).
+    pub fn from_path(path: &Path) -> Result<MeshFormat> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        match ext.as_str() {
+            "obj" => Ok(MeshFormat::Obj),
+            "ply" => Ok(MeshFormat::Ply),
+            "stl" => Ok(MeshFormat::Stl),
+            "glb" => Ok(MeshFormat::Glb),
+            _ => Err(Error::Invalid(format!(
+                "{}: unknown output format '{ext}' (known: .obj, .ply, .stl, .glb)",
+                path.display()
+            ))),
+        }
+    }
+
+    /// Vertices as the file's reader counts them: OBJ and STL positions, PLY and glTF
+    /// vertex records (positions repeated where normals are split).
+    pub fn file_vertices(self, plan: &WeldPlan) -> usize {
+        match self {
+            MeshFormat::Obj | MeshFormat::Stl => plan.positions,
+            MeshFormat::Ply | MeshFormat::Glb => plan.records,
+        }
+    }
+
+    /// Size of a binary file, where the format limits it.
+    fn check(self, plan: &WeldPlan, path: &Path, title: &str) -> Result<()> {
+        let too_big = |why: &str| {
+            Err(Error::Invalid(format!(
+                "{}: {} vertices / {} triangles are too many for {why}",
+                path.display(),
+                plan.records,
+                plan.triangles
+            )))
+        };
+        match self {
+            MeshFormat::Ply if plan.records > i32::MAX as usize => too_big("PLY's int indices"),
+            MeshFormat::Stl if plan.triangles > u32::MAX as usize => {
+                too_big("STL's 32-bit triangle count")
+            }
+            MeshFormat::Glb if glb_layout(plan, title).total > u32::MAX as u64 => {
+                too_big("a glTF binary (4 GiB)")
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// One format's streaming writer.
+trait FormatWriter {
+    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()>;
+    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_>) -> io::Result<()>;
+    fn finish(&mut self, w: &mut BufWriter<File>, progress: &ProgressBar) -> io::Result<()>;
+}
+
+/// Writes the welded output of `plan` to `path` in `format`, atomically. `produce` must
+/// run the evaluation and feed every patch, in order, to the sink it is given (see
+/// [`super::weld::weld_into`]). `title` goes into the file's comment/header. `progress`
+/// is advanced once per patch in the pass that writes triangles after the vertices
+/// (PLY, glTF); the caller advances it during evaluation.
+pub fn write_welded(
+    path: &Path,
+    format: MeshFormat,
+    plan: &WeldPlan,
+    title: &str,
+    progress: &ProgressBar,
+    produce: &mut dyn FnMut(&mut dyn WeldSink) -> Result<()>,
+) -> Result<()> {
+    format.check(plan, path, title)?;
+    let mut writer: Box<dyn FormatWriter + '_> = match format {
+        MeshFormat::Obj => Box::new(ObjWriter {
+            plan,
+            title,
+            text: String::new(),
+        }),
+        MeshFormat::Ply => Box::new(PlyWriter {
+            plan,
+            title,
+            buf: Vec::new(),
+        }),
+        MeshFormat::Stl => Box::new(StlWriter {
+            plan,
+            title,
+            buf: Vec::new(),
+        }),
+        MeshFormat::Glb => Box::new(GlbWriter {
+            plan,
+            title,
+            buf: Vec::new(),
+            min: [f32::INFINITY; 3],
+            max: [f32::NEG_INFINITY; 3],
+        }),
+    };
+    write_atomic_with(path, |w| {
+        let io = |e: io::Error| Error::io(path, e);
+        writer.begin(w).map_err(io)?;
+        struct Adapter<'w, 'x> {
+            writer: &'x mut dyn FormatWriter,
+            w: &'w mut BufWriter<File>,
+            path: &'x Path,
+        }
+        impl WeldSink for Adapter<'_, '_> {
+            fn patch(&mut self, out: &PatchOut<'_>) -> Result<()> {
+                self.writer
+                    .patch(self.w, out)
+                    .map_err(|e| Error::io(self.path, e))
+            }
+        }
+        produce(&mut Adapter {
+            writer: writer.as_mut(),
+            w,
+            path,
+        })?;
+        writer.finish(w, progress).map_err(io)
+    })
+}
+
+/// Calls `f` with every patch's triangles (record ids), in order, advancing `progress`.
+fn for_each_patch_triangles(
+    plan: &WeldPlan,
+    progress: &ProgressBar,
+    f: &mut dyn FnMut(&[[u32; 3]]) -> io::Result<()>,
+) -> io::Result<()> {
+    let grid = grid_triangles(plan.level);
+    let mut scratch = (Vec::new(), Vec::new());
+    let mut tris = Vec::with_capacity(grid.len());
+    for p in 0..plan.patches() {
+        tris.clear();
+        plan.patch_triangles(p, &grid, &mut scratch, &mut tris);
+        f(&tris)?;
+        progress.inc(1);
+    }
+    Ok(())
+}
+
+fn push_f32s(buf: &mut Vec<u8>, v: DVec3) {
+    for x in [v.x as f32, v.y as f32, v.z as f32] {
+        buf.extend_from_slice(&x.to_le_bytes());
+    }
+}
+
+struct ObjWriter<'a> {
+    plan: &'a WeldPlan,
+    title: &'a str,
+    text: String,
+}
+
+impl FormatWriter for ObjWriter<'_> {
+    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+        writeln!(
+            w,
+            "# {}\n# welded: {} positions (v), {} vertex normals (vn), {} triangles",
+            self.title, self.plan.positions, self.plan.records, self.plan.triangles
+        )
+    }
+
+    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_>) -> io::Result<()> {
+        use std::fmt::Write as _;
+        let t = &mut self.text;
+        t.clear();
+        for p in out.new_positions {
+            let _ = writeln!(t, "v {:?} {:?} {:?}", p.x, p.y, p.z);
+        }
+        for r in out.new_records {
+            let n = r.normal;
+            let _ = writeln!(t, "vn {:?} {:?} {:?}", n.x, n.y, n.z);
+        }
+        for (r, p) in out.triangles.iter().zip(out.position_triangles) {
+            let _ = writeln!(
+                t,
+                "f {}//{} {}//{} {}//{}",
+                p[0] + 1,
+                r[0] + 1,
+                p[1] + 1,
+                r[1] + 1,
+                p[2] + 1,
+                r[2] + 1
+            );
+        }
+        w.write_all(t.as_bytes())
+    }
+
+    fn finish(&mut self, _: &mut BufWriter<File>, _: &ProgressBar) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+struct PlyWriter<'a> {
+    plan: &'a WeldPlan,
+    title: &'a str,
+    buf: Vec<u8>,
+}
+
+impl FormatWriter for PlyWriter<'_> {
+    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+        // PLY headers are ASCII lines.
+        let title: String = self
+            .title
+            .chars()
+            .map(|c| {
+                if c.is_ascii_graphic() || c == ' ' {
+                    c
+                } else {
+                    '?'
+                }
+            })
+            .collect();
+        write!(
+            w,
+            "ply\nformat binary_little_endian 1.0\ncomment {title}\n\
+             element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+             property float nx\nproperty float ny\nproperty float nz\n\
+             element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+            self.plan.records, self.plan.triangles
+        )
+    }
+
+    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_>) -> io::Result<()> {
+        self.buf.clear();
+        for r in out.new_records {
+            push_f32s(&mut self.buf, r.position);
+            push_f32s(&mut self.buf, r.normal);
+        }
+        w.write_all(&self.buf)
+    }
+
+    fn finish(&mut self, w: &mut BufWriter<File>, progress: &ProgressBar) -> io::Result<()> {
+        let buf = &mut self.buf;
+        for_each_patch_triangles(self.plan, progress, &mut |tris| {
+            buf.clear();
+            for t in tris {
+                buf.push(3);
+                for i in t {
+                    buf.extend_from_slice(&(*i as i32).to_le_bytes());
+                }
+            }
+            w.write_all(buf)
+        })
+    }
+}
+
+struct StlWriter<'a> {
+    plan: &'a WeldPlan,
+    title: &'a str,
+    buf: Vec<u8>,
+}
+
+impl FormatWriter for StlWriter<'_> {
+    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+        // The header must not start with "solid" (ASCII STL).
+        let mut header = [b' '; 80];
+        let text = format!("binary STL from {}", self.title);
+        let n = text.len().min(80);
+        header[..n].copy_from_slice(&text.as_bytes()[..n]);
+        w.write_all(&header)?;
+        w.write_all(&(self.plan.triangles as u32).to_le_bytes())
+    }
+
+    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_>) -> io::Result<()> {
+        self.buf.clear();
+        for t in out.grid_triangles {
+            let p = t.map(|i| out.grid_positions[i as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            push_f32s(&mut self.buf, n);
+            for q in p {
+                push_f32s(&mut self.buf, q);
+            }
+            self.buf.extend_from_slice(&[0, 0]);
+        }
+        w.write_all(&self.buf)
+    }
+
+    fn finish(&mut self, _: &mut BufWriter<File>, _: &ProgressBar) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Byte sizes of a glTF binary for a plan.
+struct GlbLayout {
+    /// The JSON chunk, padded with spaces.
+    json_bytes: u64,
+    vertex_bytes: u64,
+    index_bytes: u64,
+    total: u64,
+}
+
+/// Room reserved for the JSON chunk beyond the placeholder's length: the bounds' six
+/// numbers may print longer than the placeholders.
+const GLB_JSON_SLACK: usize = 256;
+
+fn glb_layout(plan: &WeldPlan, title: &str) -> GlbLayout {
+    let vertex_bytes = plan.records as u64 * 24;
+    let index_bytes = plan.triangles as u64 * 12;
+    let placeholder = glb_json(plan, title, [-f32::MAX; 3], [-f32::MAX; 3]).len();
+    let json_bytes = (placeholder + GLB_JSON_SLACK).next_multiple_of(4) as u64;
+    GlbLayout {
+        json_bytes,
+        vertex_bytes,
+        index_bytes,
+        total: 12 + 8 + json_bytes + 8 + vertex_bytes + index_bytes,
+    }
+}
+
+fn glb_json(plan: &WeldPlan, title: &str, min: [f32; 3], max: [f32; 3]) -> String {
+    let r = plan.records as u64;
+    let t = plan.triangles as u64;
+    serde_json::json!({
+        "asset": {"version": "2.0", "generator": "g1tess"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{
+            "name": title,
+            "primitives": [{
+                "attributes": {"POSITION": 0, "NORMAL": 1},
+                "indices": 2,
+                "mode": 4
+            }]
+        }],
+        "buffers": [{"byteLength": r * 24 + t * 12}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": r * 24, "byteStride": 24, "target": 34962},
+            {"buffer": 0, "byteOffset": r * 24, "byteLength": t * 12, "target": 34963}
+        ],
+        "accessors": [
+            {"bufferView": 0, "byteOffset": 0, "componentType": 5126, "count": r,
+             "type": "VEC3", "min": min, "max": max},
+            {"bufferView": 0, "byteOffset": 12, "componentType": 5126, "count": r,
+             "type": "VEC3"},
+            {"bufferView": 1, "byteOffset": 0, "componentType": 5125, "count": 3 * t,
+             "type": "SCALAR"}
+        ]
+    })
+    .to_string()
+}
+
+struct GlbWriter<'a> {
+    plan: &'a WeldPlan,
+    title: &'a str,
+    buf: Vec<u8>,
+    min: [f32; 3],
+    max: [f32; 3],
+}
+
+impl FormatWriter for GlbWriter<'_> {
+    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+        let layout = glb_layout(self.plan, self.title);
+        if layout.total > u32::MAX as u64 {
+            return Err(io::Error::other("glTF binary over 4 GiB"));
+        }
+        w.write_all(b"glTF")?;
+        w.write_all(&2u32.to_le_bytes())?;
+        w.write_all(&(layout.total as u32).to_le_bytes())?;
+        w.write_all(&(layout.json_bytes as u32).to_le_bytes())?;
+        w.write_all(b"JSON")?;
+        w.write_all(&vec![b' '; layout.json_bytes as usize])?;
+        let bin = (layout.vertex_bytes + layout.index_bytes) as u32;
+        w.write_all(&bin.to_le_bytes())?;
+        w.write_all(b"BIN\0")
+    }
+
+    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_>) -> io::Result<()> {
+        self.buf.clear();
+        for r in out.new_records {
+            let p = [
+                r.position.x as f32,
+                r.position.y as f32,
+                r.position.z as f32,
+            ];
+            for (k, x) in p.into_iter().enumerate() {
+                self.min[k] = self.min[k].min(x);
+                self.max[k] = self.max[k].max(x);
+            }
+            push_f32s(&mut self.buf, r.position);
+            push_f32s(&mut self.buf, r.normal);
+        }
+        w.write_all(&self.buf)
+    }
+
+    fn finish(&mut self, w: &mut BufWriter<File>, progress: &ProgressBar) -> io::Result<()> {
+        let buf = &mut self.buf;
+        for_each_patch_triangles(self.plan, progress, &mut |tris| {
+            buf.clear();
+            for t in tris {
+                for i in t {
+                    buf.extend_from_slice(&i.to_le_bytes());
+                }
+            }
+            w.write_all(buf)
+        })?;
+        let json = glb_json(self.plan, self.title, self.min, self.max);
+        if json.len() as u64 > glb_layout(self.plan, self.title).json_bytes {
+            return Err(io::Error::other("glTF JSON outgrew its reserved chunk"));
+        }
+        w.seek(SeekFrom::Start(20))?;
+        w.write_all(json.as_bytes())?;
+        w.seek(SeekFrom::End(0))?;
+        Ok(())
+    }
 }

@@ -1,0 +1,556 @@
+//! Welded, indexed output of a grid evaluation, built while the samples stream in.
+//!
+//! Every patch is evaluated on the grid of level n ([`Pattern::Grid`]); the welded mesh
+//! keeps
+//! - one position per input vertex, taken from the first triangle that uses the vertex;
+//! - n − 1 positions per edge, taken from the first triangle that uses the edge (its
+//!   *owner*); every other triangle of the edge maps its own edge samples onto these, so
+//!   positions on shared edges are bitwise identical whatever the backend;
+//! - the (n − 1)(n − 2)/2 interior points of each patch.
+//!
+//! Triangles keep the input's orientation (the grid triangles of a patch are oriented
+//! like the patch). A closed manifold input gives a closed manifold output with the same
+//! Euler characteristic. Boundary and non-manifold edges are kept as they are: each use of
+//! a non-manifold edge maps onto the owner's samples.
+//!
+//! **Split normals.** Positions are always welded. Normals are carried by *vertex records*
+//! (a position id and a normal): a position has one record, except where the input splits
+//! normals: an input vertex has one record per distinct corner normal around it (bitwise,
+//! see [`crate::mesh::creases`]), and each sample inside an edge whose triangles disagree
+//! on an end normal (a crease) has one record per triangle of the edge, each with the
+//! normal its own patch evaluates there. OBJ files keep both (`v` = positions, `vn` =
+//! records, `f p//r`); formats with one attribute set per vertex (PLY, glTF) write the
+//! records, so their meshes are cut along creases, as split normals require there.
+//!
+//! Memory: the plan is O(triangles); while streaming, the welder keeps the positions of the
+//! input vertices and edge samples (V + E(n − 1) points) and nothing else, so big outputs
+//! never need the whole sample array.
+//!
+//! Order: positions and records are numbered in the order they first appear when the
+//! patches are visited in order, and within a patch: corners 0, 1, 2, edges 0, 1, 2 (each
+//! from its lower-numbered vertex to the other), then the interior in grid order. A writer
+//! can therefore emit each patch's new positions and records as soon as it arrives.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use crate::eval::pattern::grid_index;
+use crate::eval::{grid_len, grid_triangles, Chunk};
+use crate::mesh::creases::{normal_key, split_ends};
+use crate::mesh::{Adjacency, Mesh};
+use crate::{Error, Result};
+
+const NONE: u32 = u32::MAX;
+
+/// One vertex record of the welded mesh: a welded position with the normal of one side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Record {
+    pub position: DVec3,
+    pub normal: DVec3,
+    pub position_id: u32,
+}
+
+/// What welding found in the input topology.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct WeldReport {
+    pub boundary_edges: usize,
+    pub nonmanifold_edges: usize,
+    /// Edges whose triangles disagree on an end normal: their samples get one record per
+    /// triangle.
+    pub split_edges: usize,
+    /// Records beyond one per position (split normals).
+    pub extra_records: usize,
+}
+
+/// The numbering of a welded grid output, from the topology alone.
+#[derive(Clone, Debug)]
+pub struct WeldPlan {
+    pub level: u32,
+    /// Welded positions.
+    pub positions: usize,
+    /// Vertex records (≥ positions; more where normals are split).
+    pub records: usize,
+    /// Output triangles: level² per patch.
+    pub triangles: usize,
+    pub report: WeldReport,
+    tris: Vec<[u32; 3]>,
+    vertices: usize,
+    /// Per edge use 3t + k: the edge (index in the adjacency).
+    use_edge: Vec<u32>,
+    /// Per edge use: its local direction (corner k → k + 1) runs from the higher to the
+    /// lower vertex id, against the canonical sample order.
+    use_rev: Vec<bool>,
+    vertex_owner: Vec<u32>,
+    vertex_pos: Vec<u32>,
+    edge_owner: Vec<u32>,
+    edge_pos: Vec<u32>,
+    corner_rec: Vec<u32>,
+    corner_new_rec: Vec<bool>,
+    use_rec: Vec<u32>,
+    use_new_rec: Vec<bool>,
+    interior_pos: Vec<u32>,
+    interior_rec: Vec<u32>,
+}
+
+/// Grid index of corner k of the grid of level n.
+fn corner_grid(n: u32, k: usize) -> usize {
+    match k {
+        0 => grid_index(n, 0, 0),
+        1 => grid_index(n, n, 0),
+        _ => grid_index(n, 0, n),
+    }
+}
+
+/// Grid index of the sample at step i (1..n) from corner k along local edge k.
+fn edge_grid(n: u32, k: usize, i: u32) -> usize {
+    match k {
+        0 => grid_index(n, i, 0),
+        1 => grid_index(n, n - i, i),
+        _ => grid_index(n, 0, n - i),
+    }
+}
+
+/// Interior grid points (i, j ≥ 1, i + j ≤ n − 1) in grid order.
+fn interior_grid(n: u32) -> impl Iterator<Item = usize> {
+    (1..n.saturating_sub(1)).flat_map(move |j| (1..n - j).map(move |i| grid_index(n, i, j)))
+}
+
+impl WeldPlan {
+    /// Plans the welded output of `mesh` on the grid of level `level` (≥ 1).
+    pub fn new(mesh: &Mesh, adjacency: &Adjacency, level: u32) -> Result<WeldPlan> {
+        if level == 0 {
+            return Err(Error::Invalid("level must be at least 1".into()));
+        }
+        let n = level;
+        let nf = mesh.triangles.len();
+        let nv = mesh.positions.len();
+        let ne = adjacency.edges.len();
+        let per_edge = (n - 1) as u64;
+        let per_interior = ((n as u64).saturating_sub(1) * (n as u64).saturating_sub(2)) / 2;
+        // Upper bound on records: every corner, edge use and interior point its own.
+        let bound = nv as u64 + 3 * nf as u64 * (1 + per_edge) + nf as u64 * per_interior;
+        if bound >= NONE as u64 {
+            return Err(Error::Invalid(format!(
+                "{}: level {level} gives too many vertices for 32-bit indices",
+                mesh.name
+            )));
+        }
+        let mut plan = WeldPlan {
+            level,
+            positions: 0,
+            records: 0,
+            triangles: nf * (n as usize) * (n as usize),
+            report: WeldReport {
+                boundary_edges: adjacency.boundary,
+                nonmanifold_edges: adjacency.nonmanifold,
+                ..Default::default()
+            },
+            tris: mesh.triangles.clone(),
+            vertices: nv,
+            use_edge: vec![NONE; 3 * nf],
+            use_rev: vec![false; 3 * nf],
+            vertex_owner: vec![NONE; nv],
+            vertex_pos: vec![NONE; nv],
+            edge_owner: vec![NONE; ne],
+            edge_pos: vec![NONE; ne],
+            corner_rec: vec![NONE; 3 * nf],
+            corner_new_rec: vec![false; 3 * nf],
+            use_rec: vec![NONE; 3 * nf],
+            use_new_rec: vec![false; 3 * nf],
+            interior_pos: vec![NONE; nf],
+            interior_rec: vec![NONE; nf],
+        };
+        let split: Vec<bool> = split_ends(mesh, adjacency)
+            .iter()
+            .map(|s| s[0] || s[1])
+            .collect();
+        plan.report.split_edges = split.iter().filter(|&&s| s).count();
+        for (e, edge) in adjacency.edges.iter().enumerate() {
+            for u in &edge.uses {
+                let i = 3 * u.triangle as usize + u.local as usize;
+                plan.use_edge[i] = e as u32;
+                plan.use_rev[i] =
+                    mesh.triangles[u.triangle as usize][u.local as usize] != edge.v[0];
+            }
+        }
+        let mut groups: HashMap<(u32, [u64; 3]), u32> = HashMap::new();
+        let (mut pos, mut rec) = (0u32, 0u32);
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for (k, &vk) in tri.iter().enumerate() {
+                let v = vk as usize;
+                if plan.vertex_pos[v] == NONE {
+                    plan.vertex_pos[v] = pos;
+                    plan.vertex_owner[v] = t as u32;
+                    pos += 1;
+                }
+                let key = (vk, normal_key(mesh.corner_normals[t][k]));
+                let c = 3 * t + k;
+                match groups.get(&key) {
+                    Some(&r) => plan.corner_rec[c] = r,
+                    None => {
+                        groups.insert(key, rec);
+                        plan.corner_rec[c] = rec;
+                        plan.corner_new_rec[c] = true;
+                        rec += 1;
+                    }
+                }
+            }
+            for k in 0..3 {
+                let u = 3 * t + k;
+                let e = plan.use_edge[u] as usize;
+                if plan.edge_pos[e] == NONE {
+                    plan.edge_pos[e] = pos;
+                    plan.edge_owner[e] = u as u32;
+                    pos += n - 1;
+                    plan.use_rec[u] = rec;
+                    plan.use_new_rec[u] = true;
+                    rec += n - 1;
+                } else if split[e] {
+                    plan.use_rec[u] = rec;
+                    plan.use_new_rec[u] = true;
+                    rec += n - 1;
+                } else {
+                    plan.use_rec[u] = plan.use_rec[plan.edge_owner[e] as usize];
+                }
+            }
+            plan.interior_pos[t] = pos;
+            plan.interior_rec[t] = rec;
+            pos += per_interior as u32;
+            rec += per_interior as u32;
+        }
+        plan.positions = pos as usize;
+        plan.records = rec as usize;
+        plan.report.extra_records = plan.records - plan.positions;
+        Ok(plan)
+    }
+
+    /// Number of patches.
+    pub fn patches(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// Input vertices, input edges (for the boundary store).
+    fn store_len(&self) -> usize {
+        self.vertices + self.edge_pos.len() * (self.level as usize - 1)
+    }
+
+    /// Store slot of edge `e`'s canonical sample m (1..n).
+    fn edge_slot(&self, e: u32, m: u32) -> usize {
+        self.vertices + e as usize * (self.level as usize - 1) + (m as usize - 1)
+    }
+
+    /// Record id and position id of every grid point of patch `p`, in grid order.
+    pub fn local_ids(&self, p: usize, rec: &mut Vec<u32>, pos: &mut Vec<u32>) {
+        let n = self.level;
+        let len = grid_len(n);
+        rec.clear();
+        rec.resize(len, NONE);
+        pos.clear();
+        pos.resize(len, NONE);
+        let tri = self.tris[p];
+        for (k, &v) in tri.iter().enumerate() {
+            let g = corner_grid(n, k);
+            rec[g] = self.corner_rec[3 * p + k];
+            pos[g] = self.vertex_pos[v as usize];
+        }
+        for k in 0..3 {
+            let u = 3 * p + k;
+            let e = self.use_edge[u] as usize;
+            for m in 1..n {
+                let i = if self.use_rev[u] { n - m } else { m };
+                let g = edge_grid(n, k, i);
+                rec[g] = self.use_rec[u] + m - 1;
+                pos[g] = self.edge_pos[e] + m - 1;
+            }
+        }
+        for (idx, g) in interior_grid(n).enumerate() {
+            rec[g] = self.interior_rec[p] + idx as u32;
+            pos[g] = self.interior_pos[p] + idx as u32;
+        }
+    }
+
+    /// Output triangles (record ids) of patch `p`, appended to `out`; `scratch` and
+    /// `grid` (= `grid_triangles(level)`) are reused between calls.
+    pub fn patch_triangles(
+        &self,
+        p: usize,
+        grid: &[[u32; 3]],
+        scratch: &mut (Vec<u32>, Vec<u32>),
+        out: &mut Vec<[u32; 3]>,
+    ) {
+        self.local_ids(p, &mut scratch.0, &mut scratch.1);
+        let rec = &scratch.0;
+        out.extend(grid.iter().map(|t| t.map(|i| rec[i as usize])));
+    }
+}
+
+/// What the welder hands to a [`WeldSink`] for one patch.
+pub struct PatchOut<'a> {
+    pub patch: usize,
+    /// Positions first appearing in this patch, in id order.
+    pub new_positions: &'a [DVec3],
+    /// Records first appearing in this patch, in id order.
+    pub new_records: &'a [Record],
+    /// This patch's triangles as record ids.
+    pub triangles: &'a [[u32; 3]],
+    /// The same triangles as position ids.
+    pub position_triangles: &'a [[u32; 3]],
+    /// Welded position of every grid point of the patch (grid order).
+    pub grid_positions: &'a [DVec3],
+    /// The patch's triangles as grid indices (the same for every patch).
+    pub grid_triangles: &'a [[u32; 3]],
+}
+
+/// A consumer of welded output, patch after patch.
+pub trait WeldSink {
+    fn patch(&mut self, out: &PatchOut<'_>) -> Result<()>;
+}
+
+/// Turns the chunks of a grid evaluation into welded output, patch by patch.
+pub struct Welder<'a> {
+    plan: &'a WeldPlan,
+    store: Vec<DVec3>,
+    next_patch: usize,
+    next_pos: u32,
+    next_rec: u32,
+    /// Largest distance between a patch's own evaluation of a shared point and the welded
+    /// position it was mapped onto (0 for the owner; rounding for a surface whose patches
+    /// meet; the size of the crack otherwise).
+    pub max_snap: f64,
+    grid: Vec<[u32; 3]>,
+    local_rec: Vec<u32>,
+    local_pos: Vec<u32>,
+    grid_positions: Vec<DVec3>,
+    new_positions: Vec<DVec3>,
+    new_records: Vec<Record>,
+    triangles: Vec<[u32; 3]>,
+    position_triangles: Vec<[u32; 3]>,
+}
+
+impl<'a> Welder<'a> {
+    pub fn new(plan: &'a WeldPlan) -> Welder<'a> {
+        Welder {
+            plan,
+            store: vec![DVec3::NAN; plan.store_len()],
+            next_patch: 0,
+            next_pos: 0,
+            next_rec: 0,
+            max_snap: 0.0,
+            grid: grid_triangles(plan.level),
+            local_rec: Vec::new(),
+            local_pos: Vec::new(),
+            grid_positions: Vec::new(),
+            new_positions: Vec::new(),
+            new_records: Vec::new(),
+            triangles: Vec::new(),
+            position_triangles: Vec::new(),
+        }
+    }
+
+    /// All patches seen.
+    pub fn is_complete(&self) -> bool {
+        self.next_patch == self.plan.patches()
+    }
+
+    /// Consumes one chunk of a [`Pattern::Grid`](crate::eval::Pattern::Grid) evaluation at
+    /// the plan's level (chunks must arrive in patch order).
+    pub fn push_chunk(&mut self, chunk: &Chunk<'_>, sink: &mut dyn WeldSink) -> Result<()> {
+        let per = grid_len(self.plan.level);
+        if chunk.first != self.next_patch
+            || chunk.positions.len() % per != 0
+            || chunk.normals.len() != chunk.positions.len()
+        {
+            return Err(Error::Invalid(format!(
+                "welding: chunk at patch {} with {} samples does not continue patch {} (grid of {per})",
+                chunk.first,
+                chunk.positions.len(),
+                self.next_patch
+            )));
+        }
+        for (i, (pos, nrm)) in chunk
+            .positions
+            .chunks_exact(per)
+            .zip(chunk.normals.chunks_exact(per))
+            .enumerate()
+        {
+            self.push_patch(chunk.first + i, pos, nrm, sink)?;
+        }
+        Ok(())
+    }
+
+    fn push_patch(
+        &mut self,
+        p: usize,
+        pos: &[DVec3],
+        nrm: &[DVec3],
+        sink: &mut dyn WeldSink,
+    ) -> Result<()> {
+        let plan = self.plan;
+        let n = plan.level;
+        plan.local_ids(p, &mut self.local_rec, &mut self.local_pos);
+        self.grid_positions.clear();
+        self.grid_positions.extend_from_slice(pos);
+        self.new_positions.clear();
+        self.new_records.clear();
+        let tri = plan.tris[p];
+        // Maps grid point g onto store slot `slot`: the owner fills it, others snap to it.
+        let visit = |this: &mut Self, g: usize, slot: usize, owner: bool, new_rec: bool| {
+            if owner {
+                this.store[slot] = pos[g];
+                this.new_positions.push(pos[g]);
+                this.next_pos += 1;
+            } else {
+                this.max_snap = this.max_snap.max(pos[g].distance(this.store[slot]));
+            }
+            let q = this.store[slot];
+            this.grid_positions[g] = q;
+            if new_rec {
+                this.new_records.push(Record {
+                    position: q,
+                    normal: nrm[g],
+                    position_id: this.local_pos[g],
+                });
+                this.next_rec += 1;
+            }
+        };
+        for (k, &vk) in tri.iter().enumerate() {
+            let v = vk as usize;
+            let owner = plan.vertex_owner[v] == p as u32;
+            debug_assert!(!owner || plan.vertex_pos[v] == self.next_pos);
+            visit(
+                self,
+                corner_grid(n, k),
+                v,
+                owner,
+                plan.corner_new_rec[3 * p + k],
+            );
+        }
+        for k in 0..3 {
+            let u = 3 * p + k;
+            let e = plan.use_edge[u];
+            let owner = plan.edge_owner[e as usize] == u as u32;
+            debug_assert!(!owner || plan.edge_pos[e as usize] == self.next_pos);
+            debug_assert!(!plan.use_new_rec[u] || plan.use_rec[u] == self.next_rec);
+            for m in 1..n {
+                let i = if plan.use_rev[u] { n - m } else { m };
+                let slot = plan.edge_slot(e, m);
+                visit(self, edge_grid(n, k, i), slot, owner, plan.use_new_rec[u]);
+            }
+        }
+        debug_assert_eq!(plan.interior_pos[p], self.next_pos);
+        debug_assert_eq!(plan.interior_rec[p], self.next_rec);
+        for g in interior_grid(n) {
+            self.new_positions.push(pos[g]);
+            self.new_records.push(Record {
+                position: pos[g],
+                normal: nrm[g],
+                position_id: self.local_pos[g],
+            });
+            self.next_pos += 1;
+            self.next_rec += 1;
+        }
+        self.triangles.clear();
+        self.position_triangles.clear();
+        for t in &self.grid {
+            self.triangles.push(t.map(|i| self.local_rec[i as usize]));
+            self.position_triangles
+                .push(t.map(|i| self.local_pos[i as usize]));
+        }
+        self.next_patch = p + 1;
+        sink.patch(&PatchOut {
+            patch: p,
+            new_positions: &self.new_positions,
+            new_records: &self.new_records,
+            triangles: &self.triangles,
+            position_triangles: &self.position_triangles,
+            grid_positions: &self.grid_positions,
+            grid_triangles: &self.grid,
+        })
+    }
+}
+
+/// A welded mesh held in memory (small runs, tests, pictures).
+#[derive(Clone, Debug, Default)]
+pub struct WeldedMesh {
+    /// Welded positions.
+    pub positions: Vec<DVec3>,
+    /// Normal of each vertex record.
+    pub normals: Vec<DVec3>,
+    /// Position id of each vertex record.
+    pub record_position: Vec<u32>,
+    /// Triangles as record ids.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl WeldSink for WeldedMesh {
+    fn patch(&mut self, out: &PatchOut<'_>) -> Result<()> {
+        self.positions.extend_from_slice(out.new_positions);
+        for r in out.new_records {
+            self.normals.push(r.normal);
+            self.record_position.push(r.position_id);
+        }
+        self.triangles.extend_from_slice(out.triangles);
+        Ok(())
+    }
+}
+
+impl WeldedMesh {
+    /// Triangles as position ids (the welded topology).
+    pub fn position_triangles(&self) -> Vec<[u32; 3]> {
+        self.triangles
+            .iter()
+            .map(|t| t.map(|r| self.record_position[r as usize]))
+            .collect()
+    }
+
+    /// Position of every vertex record.
+    pub fn record_positions(&self) -> Vec<DVec3> {
+        self.record_position
+            .iter()
+            .map(|&p| self.positions[p as usize])
+            .collect()
+    }
+}
+
+/// Evaluates `table` on the grid of `plan.level` with `evaluator` and welds the result into
+/// `sink`; returns the largest snap distance ([`Welder::max_snap`]). `on_chunk` receives
+/// the number of patches of each chunk (for progress bars).
+pub fn weld_into(
+    plan: &WeldPlan,
+    table: &crate::patch::PatchTable,
+    evaluator: &dyn crate::eval::Evaluator,
+    sink: &mut dyn WeldSink,
+    on_chunk: &mut dyn FnMut(usize),
+) -> Result<f64> {
+    let mut welder = Welder::new(plan);
+    let per = grid_len(plan.level);
+    evaluator.evaluate(
+        table,
+        &crate::eval::Pattern::Grid { level: plan.level },
+        &mut |chunk| {
+            welder.push_chunk(&chunk, sink)?;
+            on_chunk(chunk.positions.len() / per);
+            Ok(())
+        },
+    )?;
+    if !welder.is_complete() {
+        return Err(Error::Invalid(
+            "welding: the evaluator did not deliver every patch".into(),
+        ));
+    }
+    Ok(welder.max_snap)
+}
+
+/// Welds the whole grid evaluation in memory.
+pub fn weld(
+    mesh: &Mesh,
+    table: &crate::patch::PatchTable,
+    evaluator: &dyn crate::eval::Evaluator,
+    level: u32,
+) -> Result<(WeldedMesh, WeldPlan, f64)> {
+    let plan = WeldPlan::new(mesh, &mesh.adjacency(), level)?;
+    let mut out = WeldedMesh::default();
+    let snap = weld_into(&plan, table, evaluator, &mut out, &mut |_| {})?;
+    Ok((out, plan, snap))
+}

@@ -1,0 +1,391 @@
+//! OBJ, binary PLY, binary STL and glTF binary output, read back (tobj, a PLY and an STL
+//! reader written here, the `gltf` crate) and compared with the welded mesh in memory;
+//! atomic writes; the command line.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use glam::DVec3;
+use indicatif::ProgressBar;
+
+use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::mesh::{LoadOptions, Mesh};
+use g1tess::output::weld::{weld, weld_into, WeldPlan, WeldSink, WeldedMesh};
+use g1tess::output::writers::{write_welded, MeshFormat};
+use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+
+fn dir() -> PathBuf {
+    let d = std::env::temp_dir().join(format!("g1tess-formats-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A smooth mesh and one with split normals (cube with one normal per face).
+fn meshes() -> Vec<Mesh> {
+    let cube = dir().join("cube.obj");
+    let mut s = String::new();
+    for i in 0..8 {
+        s += &format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
+    }
+    s += "vn 0 0 -1\nvn 0 0 1\nvn 0 -1 0\nvn 0 1 0\nvn -1 0 0\nvn 1 0 0\n";
+    for (i, q) in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ]
+    .iter()
+    .enumerate()
+    {
+        let c: Vec<String> = q.iter().map(|v| format!("{v}//{}", i + 1)).collect();
+        s += &format!("f {}\n", c.join(" "));
+    }
+    std::fs::write(&cube, s).unwrap();
+    vec![
+        Mesh::load("torus200", &LoadOptions::default()).unwrap(),
+        Mesh::load(cube.to_str().unwrap(), &LoadOptions::default()).unwrap(),
+    ]
+}
+
+/// Writes `mesh` at `level` to `path` and returns the in-memory welded mesh of the same run.
+fn write(mesh: &Mesh, level: u32, path: &Path) -> (WeldedMesh, WeldPlan) {
+    let table = PatchTable::build(mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let (w, plan, _) = weld(mesh, &table, &CpuEvaluator::default(), level).unwrap();
+    let format = MeshFormat::from_path(path).unwrap();
+    write_welded(
+        path,
+        format,
+        &plan,
+        "test",
+        &ProgressBar::hidden(),
+        &mut |sink| {
+            weld_into(&plan, &table, &CpuEvaluator::default(), sink, &mut |_| {}).map(|_| ())
+        },
+    )
+    .unwrap();
+    (w, plan)
+}
+
+fn f32s(v: DVec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// Equal lengths and bitwise equal entries, reporting the first difference.
+fn same(got: &[DVec3], want: &[DVec3], what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}: lengths");
+    if let Some(i) = (0..got.len()).find(|&i| got[i] != want[i]) {
+        panic!(
+            "{what}: entry {i} reads back as {} instead of {}",
+            got[i], want[i]
+        );
+    }
+}
+
+#[test]
+fn obj_reads_back_exactly() {
+    for mesh in meshes() {
+        let path = dir().join(format!("{}.obj", mesh.name));
+        let (w, _) = write(&mesh, 4, &path);
+        let (models, _) = tobj::load_obj(
+            &path,
+            &tobj::LoadOptions {
+                triangulate: false,
+                single_index: false,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(models.len(), 1);
+        let m = &models[0].mesh;
+        // tobj is built with f64 here: the text carries every f64 exactly.
+        let pos: Vec<DVec3> = m.positions.chunks(3).map(DVec3::from_slice).collect();
+        let nrm: Vec<DVec3> = m.normals.chunks(3).map(DVec3::from_slice).collect();
+        // tobj renumbers vertices in the order faces first use them: compare the counts
+        // and every face corner's position and normal.
+        assert_eq!(pos.len(), w.positions.len(), "{}", mesh.name);
+        assert_eq!(nrm.len(), w.normals.len());
+        let tris: Vec<u32> = w.position_triangles().into_iter().flatten().collect();
+        let recs: Vec<u32> = w.triangles.iter().flatten().copied().collect();
+        let corner =
+            |v: &[DVec3], i: &[u32]| -> Vec<DVec3> { i.iter().map(|&k| v[k as usize]).collect() };
+        same(
+            &corner(&pos, &m.indices),
+            &corner(&w.positions, &tris),
+            &mesh.name,
+        );
+        same(
+            &corner(&nrm, &m.normal_indices),
+            &corner(&w.normals, &recs),
+            &mesh.name,
+        );
+        // The welding survives: as many distinct positions as the file has `v` lines.
+        let distinct: std::collections::HashSet<[u64; 3]> =
+            pos.iter().map(|p| p.to_array().map(f64::to_bits)).collect();
+        assert_eq!(distinct.len(), w.positions.len());
+    }
+}
+
+/// A minimal binary PLY reader: header counts, then the vertex and face elements.
+fn read_ply(path: &Path) -> (Vec<[f32; 6]>, Vec<[i32; 3]>) {
+    let bytes = std::fs::read(path).unwrap();
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
+    let header = std::str::from_utf8(&bytes[..end]).unwrap();
+    let lines: Vec<&str> = header.lines().collect();
+    assert_eq!(lines[0], "ply");
+    assert_eq!(lines[1], "format binary_little_endian 1.0");
+    let count = |el: &str| -> usize {
+        lines
+            .iter()
+            .find_map(|l| l.strip_prefix(&format!("element {el} ")))
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let props: Vec<&str> = lines
+        .iter()
+        .filter(|l| l.starts_with("property"))
+        .copied()
+        .collect();
+    assert_eq!(
+        props,
+        [
+            "property float x",
+            "property float y",
+            "property float z",
+            "property float nx",
+            "property float ny",
+            "property float nz",
+            "property list uchar int vertex_indices"
+        ]
+    );
+    let (nv, nf) = (count("vertex"), count("face"));
+    let mut at = end;
+    let mut verts = Vec::with_capacity(nv);
+    for _ in 0..nv {
+        verts.push(std::array::from_fn(|k| {
+            f32::from_le_bytes(bytes[at + 4 * k..at + 4 * k + 4].try_into().unwrap())
+        }));
+        at += 24;
+    }
+    let mut faces = Vec::with_capacity(nf);
+    for _ in 0..nf {
+        assert_eq!(bytes[at], 3);
+        faces.push(std::array::from_fn(|k| {
+            i32::from_le_bytes(bytes[at + 1 + 4 * k..at + 5 + 4 * k].try_into().unwrap())
+        }));
+        at += 13;
+    }
+    assert_eq!(at, bytes.len(), "trailing bytes");
+    (verts, faces)
+}
+
+#[test]
+fn ply_reads_back() {
+    for mesh in meshes() {
+        let path = dir().join(format!("{}.ply", mesh.name));
+        let (w, plan) = write(&mesh, 5, &path);
+        let (verts, faces) = read_ply(&path);
+        assert_eq!(verts.len(), plan.records);
+        for (r, v) in verts.iter().enumerate() {
+            let p = w.positions[w.record_position[r] as usize];
+            let n = w.normals[r];
+            assert_eq!(v[..3], f32s(p));
+            assert_eq!(v[3..], f32s(n));
+        }
+        let expect: Vec<[i32; 3]> = w.triangles.iter().map(|t| t.map(|i| i as i32)).collect();
+        assert_eq!(faces, expect);
+    }
+}
+
+#[test]
+fn stl_reads_back() {
+    for mesh in meshes() {
+        let path = dir().join(format!("{}.stl", mesh.name));
+        let (w, plan) = write(&mesh, 3, &path);
+        let bytes = std::fs::read(&path).unwrap();
+        assert!(!bytes.starts_with(b"solid"));
+        let n = u32::from_le_bytes(bytes[80..84].try_into().unwrap()) as usize;
+        assert_eq!(n, plan.triangles);
+        assert_eq!(bytes.len(), 84 + 50 * n);
+        let f = |at: usize| f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+        for (i, t) in w.position_triangles().iter().enumerate() {
+            let base = 84 + 50 * i;
+            let normal = [f(base), f(base + 4), f(base + 8)];
+            let p = t.map(|k| w.positions[k as usize]);
+            for (c, q) in p.iter().enumerate() {
+                let at = base + 12 + 12 * c;
+                assert_eq!([f(at), f(at + 4), f(at + 8)], f32s(*q));
+            }
+            let flat = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+            assert_eq!(normal, f32s(flat));
+        }
+    }
+}
+
+#[test]
+fn glb_reads_back() {
+    for mesh in meshes() {
+        let path = dir().join(format!("{}.glb", mesh.name));
+        let (w, plan) = write(&mesh, 4, &path);
+        let (doc, buffers, _) = gltf::import(&path).unwrap();
+        let prim = doc.meshes().next().unwrap().primitives().next().unwrap();
+        // Read each accessor through its buffer view (offset, stride, component type).
+        let read = |acc: gltf::Accessor<'_>, width: usize| -> Vec<[u8; 4]> {
+            let view = acc.view().unwrap();
+            let data = &buffers[view.buffer().index()].0;
+            let stride = view.stride().unwrap_or(4 * width);
+            let mut out = Vec::new();
+            for i in 0..acc.count() {
+                let at = view.offset() + acc.offset() + i * stride;
+                for k in 0..width {
+                    out.push(data[at + 4 * k..at + 4 * k + 4].try_into().unwrap());
+                }
+            }
+            out
+        };
+        let vec3 = |acc: gltf::Accessor<'_>| -> Vec<[f32; 3]> {
+            assert_eq!(acc.data_type(), gltf::accessor::DataType::F32);
+            assert_eq!(acc.dimensions(), gltf::accessor::Dimensions::Vec3);
+            read(acc, 3)
+                .chunks(3)
+                .map(|c| std::array::from_fn(|k| f32::from_le_bytes(c[k])))
+                .collect()
+        };
+        let pos = vec3(prim.get(&gltf::Semantic::Positions).unwrap());
+        let nrm = vec3(prim.get(&gltf::Semantic::Normals).unwrap());
+        let ia = prim.indices().unwrap();
+        assert_eq!(ia.data_type(), gltf::accessor::DataType::U32);
+        let idx: Vec<u32> = read(ia, 1).into_iter().map(u32::from_le_bytes).collect();
+        assert_eq!(pos.len(), plan.records);
+        let rp = w.record_positions();
+        assert_eq!(pos, rp.iter().map(|p| f32s(*p)).collect::<Vec<_>>());
+        assert_eq!(nrm, w.normals.iter().map(|n| f32s(*n)).collect::<Vec<_>>());
+        assert_eq!(
+            idx,
+            w.triangles.iter().flatten().copied().collect::<Vec<_>>()
+        );
+        // Bounds: the accessor's min/max are those of the f32 positions.
+        let acc = prim.get(&gltf::Semantic::Positions).unwrap();
+        let min: Vec<f32> = serde_json::from_value(acc.min().unwrap()).unwrap();
+        let max: Vec<f32> = serde_json::from_value(acc.max().unwrap()).unwrap();
+        for k in 0..3 {
+            assert_eq!(
+                min[k],
+                pos.iter().map(|p| p[k]).fold(f32::INFINITY, f32::min)
+            );
+            assert_eq!(
+                max[k],
+                pos.iter().map(|p| p[k]).fold(f32::NEG_INFINITY, f32::max)
+            );
+        }
+    }
+}
+
+/// An evaluation that fails half way leaves the previous file as it was and no temporary
+/// file behind.
+#[test]
+fn failed_write_leaves_target_untouched() {
+    let mesh = Mesh::load("sphere320", &LoadOptions::default()).unwrap();
+    let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let plan = WeldPlan::new(&mesh, &mesh.adjacency(), 3).unwrap();
+    let d = dir().join("atomic");
+    std::fs::create_dir_all(&d).unwrap();
+    for ext in ["obj", "ply", "stl", "glb"] {
+        let path = d.join(format!("keep.{ext}"));
+        std::fs::write(&path, b"previous").unwrap();
+        let format = MeshFormat::from_path(&path).unwrap();
+        let err = write_welded(
+            &path,
+            format,
+            &plan,
+            "t",
+            &ProgressBar::hidden(),
+            &mut |sink| {
+                struct Failing<'a>(&'a mut dyn WeldSink, usize);
+                impl WeldSink for Failing<'_> {
+                    fn patch(
+                        &mut self,
+                        out: &g1tess::output::weld::PatchOut<'_>,
+                    ) -> g1tess::Result<()> {
+                        self.1 += 1;
+                        if self.1 > 100 {
+                            return Err(g1tess::Error::Invalid("stopped".into()));
+                        }
+                        self.0.patch(out)
+                    }
+                }
+                let mut f = Failing(sink, 0);
+                weld_into(
+                    &plan,
+                    &table,
+                    &CpuEvaluator { chunk_samples: 50 },
+                    &mut f,
+                    &mut |_| {},
+                )
+                .map(|_| ())
+            },
+        )
+        .unwrap_err();
+        assert_eq!(err.to_string(), "stopped");
+        assert_eq!(std::fs::read(&path).unwrap(), b"previous");
+        let left: Vec<_> = std::fs::read_dir(&d).unwrap().collect();
+        assert_eq!(left.len(), 1, "temporary file left behind");
+        std::fs::remove_file(&path).unwrap();
+    }
+}
+
+fn g1tess(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_g1tess"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn cli_tessellate_json_and_errors() {
+    let out = dir().join("cli.ply");
+    let o = g1tess(&[
+        "tessellate",
+        "sphere320",
+        "--level",
+        "3",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.stderr.is_empty(), "quiet run wrote to stderr");
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    // 162 vertices + 480 edges × 2 + 320 patches × 1 interior point.
+    assert_eq!(j["vertices"], 162 + 480 * 2 + 320);
+    assert_eq!(j["triangles"], 320 * 9);
+    for key in ["output", "mesh", "scheme", "level", "backend"] {
+        assert!(j.get(key).is_some(), "missing {key}");
+    }
+    let (verts, faces) = read_ply(&out);
+    assert_eq!(verts.len(), 162 + 480 * 2 + 320);
+    assert_eq!(faces.len(), 320 * 9);
+
+    let bad = g1tess(&[
+        "tessellate",
+        "sphere320",
+        "-o",
+        dir().join("x.xyz").to_str().unwrap(),
+    ]);
+    assert!(!bad.status.success());
+    let msg = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(msg.lines().count(), 1, "{msg}");
+    assert!(msg.contains("unknown output format"), "{msg}");
+
+    let missing = dir().join("no/such/dir/out.obj");
+    let bad = g1tess(&["tessellate", "sphere320", "-o", missing.to_str().unwrap()]);
+    assert!(!bad.status.success());
+    assert_eq!(String::from_utf8_lossy(&bad.stderr).lines().count(), 1);
+}

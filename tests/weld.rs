@@ -1,0 +1,231 @@
+//! Welded output: counts from the topology, closed manifolds stay closed with the same Euler
+//! characteristic, orientation kept, shared edge samples bitwise identical, boundary and
+//! non-manifold edges kept, streaming independent of the chunk size.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::eval::grid_barycentrics;
+use g1tess::mesh::{LoadOptions, Mesh};
+use g1tess::output::weld::{weld, WeldedMesh};
+use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+
+fn shared(name: &str) -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/meshes")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn load(spec: &str) -> Mesh {
+    Mesh::load(spec, &LoadOptions::default()).unwrap()
+}
+
+/// Directed edge uses of a triangle list: (a, b) → count.
+fn directed(tris: &[[u32; 3]]) -> HashMap<(u32, u32), usize> {
+    let mut m = HashMap::new();
+    for t in tris {
+        for k in 0..3 {
+            *m.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    m
+}
+
+/// Undirected edge → number of triangles using it.
+fn undirected(tris: &[[u32; 3]]) -> HashMap<(u32, u32), usize> {
+    let mut m = HashMap::new();
+    for t in tris {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *m.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    m
+}
+
+fn euler(vertices: usize, tris: &[[u32; 3]]) -> i64 {
+    vertices as i64 - undirected(tris).len() as i64 + tris.len() as i64
+}
+
+fn weld_mesh(mesh: &Mesh, scheme: Scheme, level: u32) -> (WeldedMesh, PatchTable, f64) {
+    let table = PatchTable::build(mesh, scheme, &SchemeOptions::default()).unwrap();
+    let (w, plan, snap) = weld(mesh, &table, &CpuEvaluator::default(), level).unwrap();
+    assert_eq!(w.positions.len(), plan.positions);
+    assert_eq!(w.normals.len(), plan.records);
+    assert_eq!(w.triangles.len(), plan.triangles);
+    (w, table, snap)
+}
+
+#[test]
+fn closed_manifolds_stay_closed() {
+    for spec in ["sphere320", "torus200", "icosphere:1", "torus:7x5:analytic"] {
+        let mesh = load(spec);
+        let adj = mesh.adjacency();
+        assert_eq!(adj.boundary + adj.nonmanifold, 0, "{spec}");
+        let chi_in = euler(mesh.positions.len(), &mesh.triangles);
+        for level in [1u32, 2, 3, 5, 8] {
+            let (w, _, snap) = weld_mesh(&mesh, Scheme::G1, level);
+            let n = level as usize;
+            let (v, e, f) = (mesh.positions.len(), adj.edges.len(), mesh.triangles.len());
+            // Independent count: vertices, edge interiors, patch interiors.
+            assert_eq!(
+                w.positions.len(),
+                v + e * (n - 1) + f * (n - 1) * n.saturating_sub(2) / 2,
+                "{spec} level {level}"
+            );
+            assert_eq!(w.triangles.len(), f * n * n);
+            // Smooth input: one record per position, record i at position i.
+            assert_eq!(w.normals.len(), w.positions.len());
+            let tris = w.position_triangles();
+            let und = undirected(&tris);
+            assert!(
+                und.values().all(|&c| c == 2),
+                "{spec} level {level}: open or non-manifold"
+            );
+            // Consistent orientation: each directed edge once.
+            assert!(
+                directed(&tris).values().all(|&c| c == 1),
+                "{spec}: orientation"
+            );
+            assert_eq!(
+                euler(w.positions.len(), &tris),
+                chi_in,
+                "{spec} level {level}"
+            );
+            // No unused position.
+            let mut used = vec![false; w.positions.len()];
+            tris.iter().flatten().for_each(|&i| used[i as usize] = true);
+            assert!(used.iter().all(|&u| u));
+            // The patches meet: each patch's own edge samples lie on the welded ones.
+            assert!(snap < 1e-14, "{spec} level {level}: snap {snap}");
+            // Orientation kept: the flat normal of each output triangle agrees with the
+            // evaluated normals at its corners.
+            for t in &w.triangles {
+                let p = t.map(|r| w.positions[w.record_position[r as usize] as usize]);
+                let flat = (p[1] - p[0]).cross(p[2] - p[0]);
+                let nsum = t
+                    .iter()
+                    .map(|&r| w.normals[r as usize])
+                    .sum::<glam::DVec3>();
+                assert!(
+                    flat.dot(nsum) > 0.0,
+                    "{spec} level {level}: flipped triangle"
+                );
+            }
+        }
+        assert_eq!(chi_in, if spec.starts_with("torus") { 0 } else { 2 });
+    }
+}
+
+/// Each output vertex on an input edge or corner holds bitwise the owner patch's own
+/// evaluation at that point; patches map their edge samples onto the same ids.
+#[test]
+fn shared_edge_samples_are_the_owners_evaluation() {
+    let mesh = load("torus200");
+    let level = 6;
+    let (w, table, _) = weld_mesh(&mesh, Scheme::G1, level);
+    let per = g1tess::eval::grid_len(level);
+    let bary = grid_barycentrics(level);
+    // Key each position by (input triangle, grid point): collect the position id that
+    // every patch's grid point maps to.
+    let mut by_point: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut first_patch_of: HashMap<u32, usize> = HashMap::new();
+    for (t_out, t) in w.position_triangles().iter().enumerate() {
+        let patch = t_out / (level * level) as usize;
+        for &p in t {
+            first_patch_of.entry(p).or_insert(patch);
+        }
+    }
+    for (pid, p) in w.positions.iter().enumerate() {
+        let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+        assert!(
+            by_point.insert(key, pid as u32).is_none(),
+            "position {pid} duplicated: welding missed a shared sample"
+        );
+    }
+    // The owner's evaluation reproduces the welded positions bitwise.
+    let mut exact = 0;
+    for (&pid, &patch) in &first_patch_of {
+        let p = w.positions[pid as usize];
+        let found = bary
+            .iter()
+            .map(|b| table.eval(patch, *b).p)
+            .any(|q| q.to_array().map(f64::to_bits) == p.to_array().map(f64::to_bits));
+        if found {
+            exact += 1;
+        }
+    }
+    assert_eq!(exact, w.positions.len());
+    assert_eq!(per, bary.len());
+}
+
+#[test]
+fn chunking_does_not_change_the_output() {
+    let mesh = load("sphere320");
+    let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let (a, _, _) = weld(&mesh, &table, &CpuEvaluator::default(), 5).unwrap();
+    for chunk_samples in [1, 21, 100, 1000] {
+        let (b, _, _) = weld(&mesh, &table, &CpuEvaluator { chunk_samples }, 5).unwrap();
+        assert_eq!(a.triangles, b.triangles);
+        assert_eq!(a.record_position, b.record_position);
+        let bits = |v: &[glam::DVec3]| -> Vec<[u64; 3]> {
+            v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
+        };
+        assert_eq!(bits(&a.positions), bits(&b.positions));
+        assert_eq!(bits(&a.normals), bits(&b.normals));
+    }
+}
+
+/// suzanne.obj: 42 boundary edges and one non-manifold edge are kept and reported.
+#[test]
+fn boundary_and_nonmanifold_edges_are_kept() {
+    let mesh = load(&shared("suzanne.obj"));
+    let adj = mesh.adjacency();
+    assert_eq!(adj.boundary, 42);
+    assert_eq!(adj.nonmanifold, 1);
+    let level = 4u32;
+    let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let (w, plan, snap) = weld(&mesh, &table, &CpuEvaluator::default(), level).unwrap();
+    assert_eq!(plan.report.boundary_edges, 42);
+    assert_eq!(plan.report.nonmanifold_edges, 1);
+    let uses = undirected(&w.position_triangles());
+    let count = |n: usize| uses.values().filter(|&&c| c == n).count();
+    // Each input edge becomes `level` output edges with the same number of uses.
+    assert_eq!(count(1), 42 * level as usize);
+    // The non-manifold edge (four uses: suzanne doubles one triangle with the opposite
+    // orientation) becomes `level` output edges with four uses; the doubled triangle's two
+    // patches also share the grid edges that join two of their (shared) edge samples.
+    let nm = adj.edges.iter().find(|e| e.uses.len() > 2).unwrap();
+    assert_eq!(nm.uses.len(), 4);
+    assert_eq!(count(4), level as usize + 3);
+    assert_eq!(uses.len(), count(1) + count(2) + count(4));
+    let (v, e, f) = (mesh.positions.len(), adj.edges.len(), mesh.triangles.len());
+    let n = level as usize;
+    assert_eq!(
+        w.positions.len(),
+        v + e * (n - 1) + f * (n - 1) * (n - 2) / 2
+    );
+    assert!(snap.is_finite());
+    assert!(w.positions.iter().all(|p| p.is_finite()));
+    assert!(w.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-12));
+}
+
+/// Every scheme welds (the flat scheme exactly reproduces the subdivided input).
+#[test]
+fn flat_scheme_welds_onto_the_input_triangles() {
+    let mesh = load("icosphere:1");
+    let (w, _, snap) = weld_mesh(&mesh, Scheme::Flat, 4);
+    assert!(snap < 1e-15);
+    // Every output position lies in the plane of its input triangle.
+    let tris = w.position_triangles();
+    for (i, t) in tris.iter().enumerate() {
+        let input = mesh.triangles[i / 16].map(|v| mesh.positions[v as usize]);
+        let n = (input[1] - input[0]).cross(input[2] - input[0]).normalize();
+        for &p in t {
+            assert!((w.positions[p as usize] - input[0]).dot(n).abs() < 1e-15);
+        }
+    }
+}
