@@ -2,6 +2,7 @@
 //! non-zero; nothing a user can type makes it panic.
 
 mod common;
+mod export_net;
 mod stats;
 mod tessellate;
 
@@ -30,6 +31,8 @@ pub enum Command {
     Tessellate(tessellate::TessellateArgs),
     /// Continuity statistics across shared edges (Table 1 protocol).
     Stats(stats::StatsArgs),
+    /// Write every patch's control points as JSON (for boundary-element solvers).
+    ExportNet(export_net::ExportNetArgs),
 }
 
 /// The default job: `cargo run --release` with no arguments.
@@ -47,6 +50,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Some(Command::Stats(a)) => stats::run(&a),
         Some(Command::Tessellate(a)) => tessellate::run(&a),
+        Some(Command::ExportNet(a)) => export_net::run(&a),
         None => default_run(),
     }
 }
