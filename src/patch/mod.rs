@@ -31,7 +31,8 @@ pub enum Scheme {
     Phong,
     /// Nagata (2005) with ξ = 0: no singularity treatment (the paper's row).
     Nagata,
-    /// Nagata with the near-parallel-normals guard of Neto et al. (2013).
+    /// Nagata with a guard against the ξ = 0 blow-up for nearly parallel normals (see
+    /// `nagata.rs`; in the spirit of Neto et al. 2013, rule stated there).
     NagataGuarded,
     /// NLSA (Barrera, Hast & Bengtsson 2002) as reconstructed in `SCHEMES.md`, quadratic.
     Nlsa,
@@ -200,7 +201,7 @@ impl PatchTable {
             ),
             Scheme::NagataGuarded => (
                 PatchKind::Bezier(2),
-                nagata::build(mesh, nagata::Guard::NearParallel),
+                nagata::build(mesh, nagata::Guard::Bounded),
             ),
             Scheme::Nlsa => (PatchKind::Bezier(2), nlsa::build(mesh)),
             Scheme::Pn => (PatchKind::Bezier(3), pn::build(mesh, false)),
