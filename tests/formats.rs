@@ -83,47 +83,71 @@ fn same(got: &[DVec3], want: &[DVec3], what: &str) {
     }
 }
 
+/// What [`read_obj`] returns: positions, normals, faces as position and normal indices.
+type ObjData = (Vec<DVec3>, Vec<DVec3>, Vec<[u32; 3]>, Vec<[u32; 3]>);
+
+/// A minimal OBJ reader for what the writer emits: `v`, `vn`, `f p//n p//n p//n`.
+fn read_obj(path: &Path) -> ObjData {
+    let text = std::fs::read_to_string(path).unwrap();
+    let (mut v, mut vn, mut fp, mut fr) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let xyz = |rest: &str| -> DVec3 {
+        let c: Vec<f64> = rest.split(' ').map(|x| x.parse().unwrap()).collect();
+        assert_eq!(c.len(), 3);
+        DVec3::from_slice(&c)
+    };
+    for line in text.lines() {
+        if let Some(rest) = line.strip_prefix("v ") {
+            v.push(xyz(rest));
+        } else if let Some(rest) = line.strip_prefix("vn ") {
+            vn.push(xyz(rest));
+        } else if let Some(rest) = line.strip_prefix("f ") {
+            let c: Vec<(u32, u32)> = rest
+                .split(' ')
+                .map(|c| {
+                    let (p, n) = c.split_once("//").unwrap();
+                    (p.parse::<u32>().unwrap() - 1, n.parse::<u32>().unwrap() - 1)
+                })
+                .collect();
+            assert_eq!(c.len(), 3);
+            // Faces only refer to lines already read (the file streams).
+            assert!(c
+                .iter()
+                .all(|&(p, n)| (p as usize) < v.len() && (n as usize) < vn.len()));
+            fp.push([c[0].0, c[1].0, c[2].0]);
+            fr.push([c[0].1, c[1].1, c[2].1]);
+        } else {
+            assert!(
+                line.starts_with('#') || line.is_empty(),
+                "unexpected line {line}"
+            );
+        }
+    }
+    (v, vn, fp, fr)
+}
+
 #[test]
 fn obj_reads_back_exactly() {
     for mesh in meshes() {
         let path = dir().join(format!("{}.obj", mesh.name));
         let (w, _) = write(&mesh, 4, &path);
-        let (models, _) = tobj::load_obj(
-            &path,
-            &tobj::LoadOptions {
-                triangulate: false,
-                single_index: false,
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        assert_eq!(models.len(), 1);
-        let m = &models[0].mesh;
-        // tobj is built with f64 here: the text carries every f64 exactly.
-        let pos: Vec<DVec3> = m.positions.chunks(3).map(DVec3::from_slice).collect();
-        let nrm: Vec<DVec3> = m.normals.chunks(3).map(DVec3::from_slice).collect();
-        // tobj renumbers vertices in the order faces first use them: compare the counts
-        // and every face corner's position and normal.
-        assert_eq!(pos.len(), w.positions.len(), "{}", mesh.name);
-        assert_eq!(nrm.len(), w.normals.len());
-        let tris: Vec<u32> = w.position_triangles().into_iter().flatten().collect();
-        let recs: Vec<u32> = w.triangles.iter().flatten().copied().collect();
-        let corner =
-            |v: &[DVec3], i: &[u32]| -> Vec<DVec3> { i.iter().map(|&k| v[k as usize]).collect() };
+        let (pos, nrm, fp, fr) = read_obj(&path);
+        // 17 significant digits: every f64 reads back exactly.
+        same(&pos, &w.positions, &mesh.name);
+        same(&nrm, &w.normals, &mesh.name);
+        assert_eq!(fp, w.position_triangles());
+        assert_eq!(fr, w.triangles);
+        // The project's own reader (which renumbers vertices in order of first use) welds
+        // it back to a mesh with the same positions at every triangle corner.
+        let back = Mesh::load(path.to_str().unwrap(), &LoadOptions::default()).unwrap();
+        assert_eq!(back.positions.len(), w.positions.len());
+        let corners = |tris: &[[u32; 3]], pos: &[DVec3]| -> Vec<DVec3> {
+            tris.iter().flatten().map(|&i| pos[i as usize]).collect()
+        };
         same(
-            &corner(&pos, &m.indices),
-            &corner(&w.positions, &tris),
+            &corners(&back.triangles, &back.positions),
+            &corners(&w.position_triangles(), &w.positions),
             &mesh.name,
         );
-        same(
-            &corner(&nrm, &m.normal_indices),
-            &corner(&w.normals, &recs),
-            &mesh.name,
-        );
-        // The welding survives: as many distinct positions as the file has `v` lines.
-        let distinct: std::collections::HashSet<[u64; 3]> =
-            pos.iter().map(|p| p.to_array().map(f64::to_bits)).collect();
-        assert_eq!(distinct.len(), w.positions.len());
     }
 }
 

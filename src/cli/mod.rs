@@ -2,8 +2,11 @@
 //! non-zero; nothing a user can type makes it panic.
 
 mod common;
+mod compare;
 mod export_net;
+pub mod paper;
 mod stats;
+mod sweep;
 mod tessellate;
 
 use std::process::ExitCode;
@@ -33,17 +36,17 @@ pub enum Command {
     Stats(stats::StatsArgs),
     /// Write every patch's control points as JSON (for boundary-element solvers).
     ExportNet(export_net::ExportNetArgs),
+    /// Table 1: continuity statistics of every scheme on each mesh (markdown or JSON).
+    Compare(compare::CompareArgs),
+    /// Distance to the analytic surface on refined icospheres and tori (figures 17–18):
+    /// CSV, JSON and log–log plots.
+    Sweep(sweep::SweepArgs),
 }
 
-/// The default job: `cargo run --release` with no arguments.
+/// The default job: `cargo run --release` with no arguments reproduces the paper into
+/// `out/paper/` (steps in `paper.rs`).
 fn default_run() -> anyhow::Result<()> {
-    for mesh in ["sphere320", "torus200"] {
-        stats::run(&stats::StatsArgs {
-            input: InputArgs::builtin(mesh),
-            json: false,
-        })?;
-    }
-    Ok(())
+    paper::run(&paper::PaperRun::default())
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -51,6 +54,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Stats(a)) => stats::run(&a),
         Some(Command::Tessellate(a)) => tessellate::run(&a),
         Some(Command::ExportNet(a)) => export_net::run(&a),
+        Some(Command::Compare(a)) => compare::run(&a),
+        Some(Command::Sweep(a)) => sweep::run(&a),
         None => default_run(),
     }
 }

@@ -1,8 +1,11 @@
 //! What leaves the library: continuity statistics, mesh files, pictures and plots.
 
 pub mod atomic;
+pub mod distance;
 pub mod nets;
+pub mod plot;
 pub mod progress;
 pub mod stats;
+pub mod table1;
 pub mod weld;
 pub mod writers;
