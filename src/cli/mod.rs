@@ -5,6 +5,7 @@ mod common;
 mod compare;
 mod export_net;
 pub mod paper;
+mod render;
 mod stats;
 mod sweep;
 mod tessellate;
@@ -36,6 +37,8 @@ pub enum Command {
     Stats(stats::StatsArgs),
     /// Write every patch's control points as JSON (for boundary-element solvers).
     ExportNet(export_net::ExportNetArgs),
+    /// Pictures of the normal field: n_x, n_y, n_z of the evaluated surface (PNG, Vulkan).
+    Render(render::RenderArgs),
     /// Table 1: continuity statistics of every scheme on each mesh (markdown or JSON).
     Compare(compare::CompareArgs),
     /// Distance to the analytic surface on refined icospheres and tori (figures 17–18):
@@ -54,6 +57,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Stats(a)) => stats::run(&a),
         Some(Command::Tessellate(a)) => tessellate::run(&a),
         Some(Command::ExportNet(a)) => export_net::run(&a),
+        Some(Command::Render(a)) => render::run(&a),
         Some(Command::Compare(a)) => compare::run(&a),
         Some(Command::Sweep(a)) => sweep::run(&a),
         None => default_run(),

@@ -49,6 +49,10 @@ pub fn steps() -> Vec<Step> {
             name: "figures 17-18 (distance to the analytic surface)",
             run: sweep,
         },
+        Step {
+            name: "figures 13-16 (normal components as colour)",
+            run: normal_pictures,
+        },
     ]
 }
 
@@ -97,6 +101,38 @@ fn sweep(ctx: &PaperRun) -> anyhow::Result<()> {
     print!("{}", super::sweep::summary(&out.rows));
     for f in &out.files {
         eprintln!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+/// Figures 13–16: n_x, n_y, n_z of G1 and Phong side by side on sphere320 and torus200
+/// (`normals_<mesh>.png`). Without a Vulkan device the step says so and is skipped.
+fn normal_pictures(ctx: &PaperRun) -> anyhow::Result<()> {
+    use crate::output::render::{device, RenderOptions};
+    use crate::patch::Scheme;
+    if let Err(e) = device() {
+        eprintln!("skipped the normal-field pictures: {e}");
+        return Ok(());
+    }
+    for (mesh, view) in [
+        ("sphere320", glam::DVec3::new(0.5, -1.0, 0.7)),
+        ("torus200", glam::DVec3::new(0.5, -1.0, 0.9)),
+    ] {
+        let m = crate::mesh::Mesh::load(mesh, &Default::default())?;
+        let path = ctx.out.join(format!("normals_{mesh}.png"));
+        super::render::render_schemes(
+            &m,
+            &[Scheme::G1, Scheme::Phong],
+            &Default::default(),
+            16,
+            &RenderOptions {
+                panel: 400,
+                view,
+                up: glam::DVec3::Z,
+            },
+            &path,
+        )?;
+        eprintln!("wrote {}", path.display());
     }
     Ok(())
 }

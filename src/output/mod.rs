@@ -5,6 +5,7 @@ pub mod distance;
 pub mod nets;
 pub mod plot;
 pub mod progress;
+pub mod render;
 pub mod stats;
 pub mod table1;
 pub mod weld;
