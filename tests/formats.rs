@@ -397,6 +397,18 @@ fn cli_tessellate_json_and_errors() {
     assert_eq!(verts.len(), 162 + 480 * 2 + 320);
     assert_eq!(faces.len(), 320 * 9);
 
+    // Without --quiet but with stderr not a terminal: no progress bar, one summary line.
+    let o = g1tess(&[
+        "tessellate",
+        "torus200",
+        "-o",
+        dir().join("p.obj").to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("wrote ") && !err.contains('\r'), "{err}");
+
     let bad = g1tess(&[
         "tessellate",
         "sphere320",
