@@ -286,9 +286,24 @@ pub fn render_panels(mesh: &WeldedMesh, opts: &RenderOptions) -> Result<Panels> 
     }
     let gpu = device()?;
     let dev = &gpu.device;
-    let size = opts.panel.clamp(16, 4096);
+    let limits = dev.limits();
+    let size = opts
+        .panel
+        .clamp(16, 4096)
+        .min(limits.max_texture_dimension_2d / 3);
     let width = 3 * size;
     let rows = camera(mesh, opts)?;
+    let bytes = (24 * mesh.normals.len()).max(12 * mesh.triangles.len()) as u64;
+    if bytes > limits.max_buffer_size {
+        return Err(Error::Gpu(format!(
+            "{}: {} vertices and {} triangles exceed the device's buffer size ({} bytes); \
+             use a lower --level",
+            gpu.adapter,
+            mesh.normals.len(),
+            mesh.triangles.len(),
+            limits.max_buffer_size
+        )));
+    }
 
     // Vertices: record positions and normals as f32, interleaved.
     let mut vertices: Vec<f32> = Vec::with_capacity(6 * mesh.normals.len());
