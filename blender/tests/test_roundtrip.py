@@ -352,7 +352,7 @@ def world_space():
     r = bpy.ops.export_mesh.g1tess_pn(filepath=path, use_world_space=False)
     pos, _, _, _ = read_pn(path)
     co = mesh_array(obj.data.vertices, "co", len(obj.data.vertices), 3)
-    assert np.array_equal(pos, co.astype(np.float64))
+    assert np.array_equal(pos, co.astype(np.float64)), "local-space positions are not exact"
 
 
 @check("export operator: sharp edges and flat faces give per-corner normals")
