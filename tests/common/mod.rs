@@ -1,0 +1,53 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use g1tess::mesh::{LoadOptions, Mesh};
+
+/// A mesh of `../shared/meshes`, which sits beside the crate root.
+pub fn shared_mesh(name: &str) -> PathBuf {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/meshes")
+        .join(name);
+    assert!(p.exists(), "test mesh {} is missing", p.display());
+    p
+}
+
+/// Loads a built-in mesh or a shared mesh (estimated angle-weighted normals where the file
+/// has none).
+pub fn load(spec: &str) -> Mesh {
+    let spec = if spec.ends_with(".obj") {
+        shared_mesh(spec).display().to_string()
+    } else {
+        spec.to_string()
+    };
+    Mesh::load(&spec, &LoadOptions::default()).expect("mesh loads")
+}
+
+/// A small deterministic pseudo-random generator (SplitMix64) so tests need no seed files.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    pub fn f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// A random interior barycentric point, each coordinate at least `margin`.
+    pub fn interior_b(&mut self, margin: f64) -> [f64; 3] {
+        loop {
+            let (s, t) = (self.f64(), self.f64());
+            let b = [1.0 - s - t, s, t];
+            if b.iter().all(|&x| x >= margin) {
+                return b;
+            }
+        }
+    }
+}
