@@ -453,6 +453,40 @@ def errors():
         raise AssertionError("no error for a mesh without faces")
 
 
+@check("G1 Smooth imports split normals (welded output with a crease) per corner")
+def split_normals_import():
+    # A stand-in for g1tess that writes a welded square folded along its diagonal, with
+    # one normal per face (the crease splits the normals of vertices 1 and 3).
+    s = 1 / np.sqrt(2)
+    obj_text = (
+        "v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\n"
+        "vn 0 0 1\nvn %r 0 %r\nvn 0 0 2\n"
+        "f 1//1 2//1 3//2\nf 1//1 3//3 4//1\n" % (s, s)
+    )
+    fake = os.path.join(WORK, "fake-welded-g1tess")
+    with open(fake, "w") as f:
+        f.write(
+            "#!%s\nimport json, sys\nout = sys.argv[sys.argv.index('-o') + 1]\n"
+            "open(out, 'w').write(%r)\n"
+            "print(json.dumps({'output': out, 'vertices': 4, 'triangles': 2}))\n"
+            % (sys.executable, obj_text)
+        )
+    os.chmod(fake, 0o755)
+    clear_scene()
+    obj = make_icosphere()
+    activate(obj)
+    set_binary(fake)
+    try:
+        assert bpy.ops.object.g1tess_smooth(level=2) == {"FINISHED"}
+    finally:
+        set_binary(BINARY)
+    me = bpy.context.active_object.data
+    assert (len(me.vertices), len(me.polygons)) == (4, 2)
+    cn = mesh_array(me.corner_normals, "vector", len(me.loops), 3)
+    want = np.array([[0, 0, 1], [0, 0, 1], [s, 0, s], [0, 0, 1], [0, 0, 1], [0, 0, 1]])
+    assert np.abs(cn - want).max() < CUSTOM_NORMAL_TOL, cn
+
+
 def main():
     passed = sum(ok for _, ok in RESULTS)
     failed = len(RESULTS) - passed
