@@ -1,0 +1,404 @@
+//! The GPU backend against the f64 CPU reference, on whatever Vulkan adapter is present
+//! (Mesa's lavapipe in CI). With `CI=true` a missing adapter fails these tests; otherwise
+//! they print a SKIP line and return.
+//!
+//! Every shader file is run for every patch kind it serves: the schemes' own tables
+//! (`Scheme::all()`) and, for the kinds no scheme of this build produces, synthetic tables
+//! (degree-elevated flat triangles lifted along the normal by a smooth bump, and for
+//! PN's normal field the interpolated corner normals).
+
+use std::sync::{Arc, OnceLock};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use g1tess::eval::cpu::{grid_weights, CpuEvaluator};
+use g1tess::eval::gpu::GpuEvaluator;
+use g1tess::eval::{grid_len, Chunk, Evaluator, PatchPoint, Pattern};
+use g1tess::gpu::shaders::{self, ShaderFile};
+use g1tess::gpu::{GpuContext, Precision};
+use g1tess::mesh::{LoadOptions, Mesh};
+use g1tess::output::stats::{continuity, edge_points};
+use g1tess::patch::basis::bezier_powers;
+use g1tess::patch::{PatchKind, PatchTable, Scheme};
+
+const MESHES: [&str; 4] = ["sphere320", "torus200", "spot.obj", "fandisk.obj"];
+const LEVELS: [u32; 3] = [1, 8, 33];
+
+fn ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
+}
+
+/// The shared context, or None (SKIP) without an adapter; with CI=true no adapter panics.
+fn context() -> Option<Arc<GpuContext>> {
+    match GpuContext::shared() {
+        Ok(c) => {
+            eprintln!("GPU test running on: {}", c.describe());
+            Some(c)
+        }
+        Err(e) => {
+            assert!(!ci(), "CI=true and no GPU adapter: {e}");
+            eprintln!("\n======== SKIP: no GPU adapter ({e}); GPU test not run ========\n");
+            None
+        }
+    }
+}
+
+/// One evaluator per precision for the whole test binary (pipelines are cached in it).
+fn evaluator(precision: Precision) -> Option<&'static GpuEvaluator> {
+    static F32: OnceLock<Option<GpuEvaluator>> = OnceLock::new();
+    static F64: OnceLock<Option<GpuEvaluator>> = OnceLock::new();
+    let cell = match precision {
+        Precision::F32 => &F32,
+        Precision::F64 => &F64,
+    };
+    let ctx = context()?;
+    cell.get_or_init(|| {
+        if precision == Precision::F64 && !ctx.supports_f64() {
+            eprintln!(
+                "\n======== NOTE: {} has no SHADER_F64: f64 GPU checks not run ========\n",
+                ctx.info.name
+            );
+            return None;
+        }
+        Some(GpuEvaluator::new(ctx.clone(), precision).expect("GPU evaluator"))
+    })
+    .as_ref()
+}
+
+fn load(name: &str) -> Mesh {
+    let spec = if name.ends_with(".obj") {
+        format!("{}/../shared/meshes/{name}", env!("CARGO_MANIFEST_DIR"))
+    } else {
+        name.to_string()
+    };
+    Mesh::load(&spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// A smooth bump on barycentric powers (0 at the corners).
+fn bump(p: [u32; 3], n: u32) -> f64 {
+    let b = p.map(|x| x as f64 / n as f64);
+    4.0 * (b[0] * b[1] + b[1] * b[2] + 0.5 * b[2] * b[0]) + 0.3 * (b[1] - b[2])
+}
+
+/// A table of `kind` over `mesh` that no scheme of this build produces (see the module
+/// comment); `scheme` is only a label here.
+fn synthetic(mesh: &Mesh, kind: PatchKind) -> PatchTable {
+    let base = PatchTable::build(mesh, Scheme::Flat, &Default::default()).unwrap();
+    let (degree, field) = match kind {
+        PatchKind::Bezier(n) => (n, false),
+        PatchKind::PnNormals => (3, true),
+        PatchKind::Gregory => unreachable!("G1 has its scheme"),
+    };
+    let mut points = Vec::with_capacity(mesh.triangles.len() * kind.stride());
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let q = tri.map(|v| mesh.positions[v as usize]);
+        let h = 0.1 * (q[1] - q[0]).length().max((q[2] - q[0]).length());
+        let f = base.flat_normals[t];
+        for p in bezier_powers(degree) {
+            let x: DVec3 = (0..3).map(|k| p[k] as f64 / degree as f64 * q[k]).sum();
+            points.push(x + h * bump(p, degree) * f);
+        }
+        if field {
+            let n = mesh.corner_normals[t];
+            for p in bezier_powers(2) {
+                let v: DVec3 = (0..3).map(|k| p[k] as f64 / 2.0 * n[k]).sum();
+                points.push(v + 0.05 * bump(p, 2) * f);
+            }
+        }
+    }
+    PatchTable {
+        scheme: Scheme::Flat,
+        kind,
+        stride: kind.stride(),
+        points,
+        flat_normals: base.flat_normals,
+        fallbacks: 0,
+    }
+}
+
+/// (file, table) pairs covering every shader file and every kind it serves on `mesh`.
+fn cases(mesh: &Mesh) -> Vec<(ShaderFile, PatchTable, String)> {
+    let mut out = Vec::new();
+    let mut covered = Vec::new();
+    for scheme in Scheme::all() {
+        let table = PatchTable::build(mesh, scheme, &Default::default()).unwrap();
+        let file = shaders::scheme_file(scheme, table.kind).unwrap();
+        covered.push((file, table.kind));
+        out.push((file, table, format!("scheme {scheme}")));
+    }
+    for (file, kind) in shaders::variants() {
+        if !covered.contains(&(file, kind)) {
+            out.push((
+                file,
+                synthetic(mesh, kind),
+                format!("{} on a synthetic {kind:?} table", file.name),
+            ));
+        }
+    }
+    out
+}
+
+/// Tolerances: (position / bbox diagonal, 1 − dot of normals).
+fn tolerances(precision: Precision) -> (f64, f64) {
+    match precision {
+        Precision::F32 => (1e-5, 1e-5),
+        Precision::F64 => (1e-12, 1e-12),
+    }
+}
+
+#[derive(Default, Debug, Clone, Copy)]
+struct Worst {
+    dp: f64,
+    dn: f64,
+    samples: usize,
+}
+
+impl Worst {
+    fn merge(self, o: Worst) -> Worst {
+        Worst {
+            dp: self.dp.max(o.dp),
+            dn: self.dn.max(o.dn),
+            samples: self.samples + o.samples,
+        }
+    }
+}
+
+/// Largest position distance and 1 − dot over a chunk against reference values.
+fn worst_of(chunk: &Chunk<'_>, reference: impl Fn(usize) -> (DVec3, DVec3) + Sync) -> Worst {
+    (0..chunk.positions.len())
+        .into_par_iter()
+        .map(|k| {
+            let (p, n) = reference(k);
+            assert!(chunk.positions[k].is_finite() && chunk.normals[k].is_finite());
+            Worst {
+                dp: chunk.positions[k].distance(p),
+                dn: 1.0 - chunk.normals[k].dot(n),
+                samples: 1,
+            }
+        })
+        .reduce(Worst::default, Worst::merge)
+}
+
+/// GPU grid vs CPU reference, streamed chunk by chunk.
+fn compare_grid(gpu: &GpuEvaluator, file: ShaderFile, table: &PatchTable, level: u32) -> Worst {
+    let weights = grid_weights(table, level);
+    let per = grid_len(level);
+    let mut worst = Worst::default();
+    gpu.evaluate_with_file(file, table, &Pattern::Grid { level }, &mut |c| {
+        assert_eq!(c.positions.len() % per, 0);
+        let w = worst_of(&c, |k| {
+            let sp = table.eval_weights(c.first + k / per, &weights[k % per]);
+            (sp.p, sp.n)
+        });
+        worst = worst.merge(w);
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(worst.samples, per * table.len());
+    worst
+}
+
+/// GPU explicit points vs CPU reference.
+fn compare_points(
+    gpu: &GpuEvaluator,
+    file: ShaderFile,
+    table: &PatchTable,
+    points: &[PatchPoint],
+) -> Worst {
+    let mut worst = Worst::default();
+    gpu.evaluate_with_file(file, table, &Pattern::Points(points.to_vec()), &mut |c| {
+        let w = worst_of(&c, |k| {
+            let pp = points[c.first + k];
+            let sp = table.eval(pp.patch as usize, pp.b);
+            (sp.p, sp.n)
+        });
+        worst = worst.merge(w);
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(worst.samples, points.len());
+    worst
+}
+
+/// Edge points of every interior edge plus three interior points per patch.
+fn test_points(mesh: &Mesh) -> Vec<PatchPoint> {
+    let mut pts = edge_points(mesh, &mesh.adjacency());
+    for t in 0..mesh.triangles.len() as u32 {
+        for b in [
+            [0.2, 0.3, 0.5],
+            [0.7, 0.2, 0.1],
+            [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
+        ] {
+            pts.push(PatchPoint { patch: t, b });
+        }
+    }
+    pts
+}
+
+fn gpu_matches_cpu(precision: Precision) {
+    let Some(gpu) = evaluator(precision) else {
+        return;
+    };
+    let (tp, tn) = tolerances(precision);
+    for name in MESHES {
+        let mesh = load(name);
+        let diag = mesh.diagonal();
+        let points = test_points(&mesh);
+        for (file, table, what) in cases(&mesh) {
+            for level in LEVELS {
+                let w = compare_grid(gpu, file, &table, level);
+                eprintln!(
+                    "{precision} {name} {what} level {level}: {} samples, max |dp|/diag {:.2e}, max 1-dot {:.2e}",
+                    w.samples,
+                    w.dp / diag,
+                    w.dn
+                );
+                assert!(
+                    w.dp <= tp * diag && w.dn <= tn,
+                    "{precision} {name} {what} level {level}: |dp|/diag {:e}, 1-dot {:e}",
+                    w.dp / diag,
+                    w.dn
+                );
+            }
+            let w = compare_points(gpu, file, &table, &points);
+            eprintln!(
+                "{precision} {name} {what} points: {} samples, max |dp|/diag {:.2e}, max 1-dot {:.2e}",
+                w.samples,
+                w.dp / diag,
+                w.dn
+            );
+            assert!(
+                w.dp <= tp * diag && w.dn <= tn,
+                "{precision} {name} {what} points: |dp|/diag {:e}, 1-dot {:e}",
+                w.dp / diag,
+                w.dn
+            );
+        }
+    }
+}
+
+#[test]
+fn gpu_f32_matches_cpu_on_every_scheme_mesh_and_level() {
+    gpu_matches_cpu(Precision::F32);
+}
+
+#[test]
+fn gpu_f64_matches_cpu_on_every_scheme_mesh_and_level() {
+    gpu_matches_cpu(Precision::F64);
+}
+
+/// Whole-array evaluation through a given evaluator configuration.
+fn run_all(gpu: &GpuEvaluator, table: &PatchTable, pattern: &Pattern) -> (Vec<DVec3>, Vec<DVec3>) {
+    let mut chunks = 0;
+    let mut pos = Vec::new();
+    let mut nrm = Vec::new();
+    gpu.evaluate(table, pattern, &mut |c| {
+        let expect_first = match pattern {
+            Pattern::Grid { level } => pos.len() / grid_len(*level),
+            Pattern::Points(_) => pos.len(),
+        };
+        assert_eq!(c.first, expect_first, "chunks arrive in order");
+        chunks += 1;
+        pos.extend_from_slice(c.positions);
+        nrm.extend_from_slice(c.normals);
+        Ok(())
+    })
+    .unwrap();
+    eprintln!("  {chunks} chunks");
+    (pos, nrm)
+}
+
+#[test]
+fn tiny_chunks_split_dispatches_and_2d_grids_give_identical_results() {
+    for precision in [Precision::F32, Precision::F64] {
+        let Some(whole) = evaluator(precision) else {
+            continue;
+        };
+        let ctx = whole.context().clone();
+        // Tiny chunks: one patch (grid) or 7 points per chunk.
+        let mut tiny = GpuEvaluator::new(ctx.clone(), precision).unwrap();
+        tiny.chunk_samples = 7;
+        // Tiny bindings and 2 workgroups per dimension: a patch's grid at level 33
+        // (595 samples) is split over several dispatches folded into 2-D grids.
+        let mut split = GpuEvaluator::new(ctx, precision).unwrap();
+        split.max_binding_bytes = (200 * 6 * precision.bytes()) as u64 + 8;
+        split.max_workgroups_per_dim = 2;
+        let mesh = load("sphere320");
+        for scheme in Scheme::all() {
+            let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
+            let mut points = test_points(&mesh);
+            points.truncate(5000);
+            for pattern in [Pattern::Grid { level: 33 }, Pattern::Points(points)] {
+                eprintln!(
+                    "{precision} {scheme} {pattern:?}",
+                    pattern = pattern.len(table.len())
+                );
+                let a = run_all(whole, &table, &pattern);
+                let b = run_all(&tiny, &table, &pattern);
+                let c = run_all(&split, &table, &pattern);
+                assert_eq!(a.0.len(), pattern.len(table.len()));
+                assert!(a == b, "{precision} {scheme}: tiny chunks differ");
+                assert!(a == c, "{precision} {scheme}: split dispatches differ");
+            }
+        }
+    }
+}
+
+#[test]
+fn g1_continuity_from_gpu_output() {
+    for precision in [Precision::F32, Precision::F64] {
+        let Some(gpu) = evaluator(precision) else {
+            continue;
+        };
+        let bound = match precision {
+            Precision::F32 => 1e-5,
+            Precision::F64 => 1e-12,
+        };
+        for name in MESHES {
+            let mesh = load(name);
+            let adjacency = mesh.adjacency();
+            let table = PatchTable::build(&mesh, Scheme::G1, &Default::default()).unwrap();
+            let g = continuity(&mesh, &adjacency, &table, gpu).unwrap();
+            let c = continuity(&mesh, &adjacency, &table, &CpuEvaluator::default()).unwrap();
+            eprintln!(
+                "{precision} {name} G1 from GPU: samples {} 1-min cos {:.3e} max 1-|cos| {:.3e} folded {} (CPU: 1-min cos {:.3e}, folded {})",
+                g.samples,
+                1.0 - g.cos.min,
+                g.max_one_minus_abs_cos,
+                g.folded,
+                1.0 - c.cos.min,
+                c.folded
+            );
+            assert_eq!(g.samples, 21 * adjacency.interior);
+            assert_eq!(g.folded, c.folded, "{name}");
+            assert!(
+                1.0 - g.cos.min <= bound,
+                "{precision} {name}: 1 - min cos = {:e}",
+                1.0 - g.cos.min
+            );
+        }
+    }
+}
+
+#[test]
+fn f64_without_the_feature_is_refused_and_bad_points_are_errors() {
+    let Some(gpu) = evaluator(Precision::F32) else {
+        return;
+    };
+    let ctx = gpu.context().clone();
+    if !ctx.supports_f64() {
+        let e = GpuEvaluator::new(ctx.clone(), Precision::F64)
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("SHADER_F64"), "{e}");
+    }
+    let mesh = load("sphere320");
+    let table = PatchTable::build(&mesh, Scheme::G1, &Default::default()).unwrap();
+    let bad = Pattern::Points(vec![PatchPoint {
+        patch: table.len() as u32,
+        b: [1.0, 0.0, 0.0],
+    }]);
+    let e = gpu.evaluate(&table, &bad, &mut |_| Ok(())).unwrap_err();
+    assert!(e.to_string().contains("patch 320"), "{e}");
+}
