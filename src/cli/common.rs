@@ -56,3 +56,61 @@ impl InputArgs {
         Ok((mesh, table))
     }
 }
+
+/// Which evaluator runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Backend {
+    /// The f64 CPU reference (rayon, all threads).
+    Cpu,
+    /// WGSL compute shaders on a Vulkan adapter; fails when there is none.
+    Gpu,
+    /// The GPU, falling back to the CPU (with a message on stderr) when it cannot run.
+    Auto,
+}
+
+/// Backend arguments shared by every command that evaluates patches.
+#[derive(Args, Clone, Debug)]
+pub struct BackendArgs {
+    /// Evaluation backend.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub backend: Backend,
+    /// GPU working precision (f64 needs an adapter with SHADER_F64; the CPU is always f64).
+    #[arg(long, value_enum, default_value = "f32")]
+    pub precision: crate::gpu::Precision,
+}
+
+impl Default for BackendArgs {
+    fn default() -> Self {
+        BackendArgs {
+            backend: Backend::Auto,
+            precision: crate::gpu::Precision::F32,
+        }
+    }
+}
+
+impl BackendArgs {
+    /// The evaluator asked for. The GPU backend names its adapter on stderr; `auto` says
+    /// on stderr when it falls back to the CPU, and why.
+    pub fn evaluator(&self) -> anyhow::Result<Box<dyn crate::eval::Evaluator>> {
+        use crate::eval::cpu::CpuEvaluator;
+        use crate::eval::gpu::GpuEvaluator;
+        use crate::gpu::GpuContext;
+        let gpu = || -> crate::Result<GpuEvaluator> {
+            let ctx = GpuContext::shared()?;
+            let ev = GpuEvaluator::new(ctx.clone(), self.precision)?;
+            eprintln!("gpu: {} ({})", ctx.describe(), self.precision);
+            Ok(ev)
+        };
+        Ok(match self.backend {
+            Backend::Cpu => Box::new(CpuEvaluator::default()),
+            Backend::Gpu => Box::new(gpu()?),
+            Backend::Auto => match gpu() {
+                Ok(ev) => Box::new(ev),
+                Err(e) => {
+                    eprintln!("note: {e}; falling back to the CPU backend (f64)");
+                    Box::new(CpuEvaluator::default())
+                }
+            },
+        })
+    }
+}

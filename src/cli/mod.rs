@@ -9,7 +9,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-pub use common::InputArgs;
+pub use common::{Backend, BackendArgs, InputArgs};
 
 #[derive(Parser)]
 #[command(
@@ -37,6 +37,7 @@ fn default_run() -> anyhow::Result<()> {
     for mesh in ["sphere320", "torus200"] {
         stats::run(&stats::StatsArgs {
             input: InputArgs::builtin(mesh),
+            backend: BackendArgs::default(),
             json: false,
         })?;
     }

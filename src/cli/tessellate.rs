@@ -5,15 +5,16 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 
-use super::InputArgs;
-use crate::eval::cpu::CpuEvaluator;
-use crate::eval::{grid_len, grid_triangles, Evaluator, Pattern};
+use super::{BackendArgs, InputArgs};
+use crate::eval::{grid_len, grid_triangles, Pattern};
 use crate::output::writers::{write_obj, IndexedMesh};
 
 #[derive(Args, Clone, Debug)]
 pub struct TessellateArgs {
     #[command(flatten)]
     pub input: InputArgs,
+    #[command(flatten)]
+    pub backend: BackendArgs,
     /// Grid level: n segments per edge, (n+1)(n+2)/2 points per patch.
     #[arg(long, default_value_t = 8)]
     pub level: u32,
@@ -29,7 +30,7 @@ pub struct TessellateArgs {
 pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     anyhow::ensure!(a.level >= 1, "--level must be at least 1");
     let (mesh, table) = a.input.load()?;
-    let evaluator = CpuEvaluator::default();
+    let evaluator = a.backend.evaluator()?;
     let per = grid_len(a.level);
     let local = grid_triangles(a.level);
     let mut out = IndexedMesh::default();
