@@ -54,6 +54,10 @@ struct Point {
 @group(0) @binding(1) var<storage, read> records: array<real>;
 @group(0) @binding(2) var<storage, read> points: array<Point>;
 @group(0) @binding(3) var<storage, read_write> out: array<real>;
+// Basis values of the grid (grid_table_main): value (j * 3 + k) * per + local is, for
+// grid point `local` and control point j, w (k = 0), ∂w/∂s (k = 1) or ∂w/∂t (k = 2),
+// computed once on the CPU by src/patch/basis.rs (src/eval/cpu.rs: grid_weights).
+@group(0) @binding(4) var<storage, read> grid_w: array<real>;
 
 struct Sample {
     p: vec3<real>,
@@ -245,6 +249,50 @@ fn grid_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let local = q - rec * params.per;
     let b = grid_barycentric(params.level, grid_ij(params.level, local));
     store(t, eval_weights(rec, kind_weights(b)));
+}
+
+// eval_weights with the basis of grid point `local` read from the precomputed table as
+// it is used (no local arrays: drivers that keep them in scratch memory run far slower).
+fn eval_table(i: u32, local: u32) -> Sample {
+    let per = params.per;
+    var p = vec3<real>(0.0);
+    var ds = vec3<real>(0.0);
+    var dt = vec3<real>(0.0);
+    for (var j = 0u; j < GEOMETRY; j++) {
+        let cj = control_point(i, j);
+        p += grid_w[(j * 3u) * per + local] * cj;
+        ds += grid_w[(j * 3u + 1u) * per + local] * cj;
+        dt += grid_w[(j * 3u + 2u) * per + local] * cj;
+    }
+    var n: vec3<real>;
+    if (GEOMETRY < STRIDE) {
+        var field = vec3<real>(0.0);
+        for (var j = GEOMETRY; j < STRIDE; j++) {
+            field += grid_w[(j * 3u) * per + local] * control_point(i, j);
+        }
+        let len = length(field);
+        if (usable(len)) {
+            n = field / len;
+        } else {
+            n = flat_normal(i);
+        }
+    } else {
+        n = unit_normal(ds, dt, flat_normal(i));
+    }
+    return Sample(p, n);
+}
+
+// As grid_main, with the basis read from the precomputed table instead of computed.
+@compute @workgroup_size(64)
+fn grid_table_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let t = thread_index(gid);
+    if (t >= params.count) {
+        return;
+    }
+    let q = params.first_local + t;
+    let rec = q / params.per;
+    let local = q - rec * params.per;
+    store(t, eval_table(rec, local));
 }
 
 @compute @workgroup_size(64)

@@ -203,6 +203,44 @@ fn gpu_matches_cpu(precision: Precision) {
     }
 }
 
+/// The grid path that computes the basis in the shader (used where the basis table would
+/// be too large: very fine levels) against the CPU, forced on by a zero table budget.
+#[test]
+fn in_shader_basis_grids_match_cpu() {
+    for precision in [Precision::F32, Precision::F64] {
+        let Some(shared) = evaluator(precision) else {
+            continue;
+        };
+        let mut gpu = GpuEvaluator::new(shared.context().clone(), precision).unwrap();
+        gpu.max_grid_table_bytes = 0;
+        let (tp, tn) = tolerances(precision);
+        for (name, levels) in [
+            ("sphere320", &[1, 8, 33][..]),
+            ("torus200", &[1, 33]),
+            ("spot.obj", &[8]),
+        ] {
+            let mesh = load(name);
+            let diag = mesh.diagonal();
+            for (file, table, what) in cases(&mesh) {
+                for &level in levels {
+                    let w = compare_grid(&gpu, file, &table, level);
+                    eprintln!(
+                        "{precision} in-shader basis {name} {what} level {level}: max |dp|/diag {:.2e}, max 1-dot {:.2e}",
+                        w.dp / diag,
+                        w.dn
+                    );
+                    assert!(
+                        w.dp <= tp * diag && w.dn <= tn,
+                        "{precision} in-shader {name} {what} level {level}: {:e} {:e}",
+                        w.dp / diag,
+                        w.dn
+                    );
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn gpu_f32_matches_cpu_on_every_scheme_mesh_and_level() {
     gpu_matches_cpu(Precision::F32);
@@ -241,30 +279,38 @@ fn tiny_chunks_split_dispatches_and_2d_grids_give_identical_results() {
             continue;
         };
         let ctx = whole.context().clone();
+        let make = || GpuEvaluator::new(ctx.clone(), precision).unwrap();
         // Tiny chunks: one patch (grid) or 7 points per chunk.
-        let mut tiny = GpuEvaluator::new(ctx.clone(), precision).unwrap();
+        let mut tiny = make();
         tiny.chunk_samples = 7;
-        // Tiny bindings and 2 workgroups per dimension: a patch's grid at level 33
-        // (595 samples) is split over several dispatches folded into 2-D grids.
-        let mut split = GpuEvaluator::new(ctx, precision).unwrap();
-        split.max_binding_bytes = (200 * 6 * precision.bytes()) as u64 + 8;
+        // 2 workgroups per dimension: at most 256 samples per dispatch, so a patch's grid
+        // at level 33 (595 samples) spans several dispatches, each a 2-D grid; bindings
+        // still hold the basis table.
+        let mut split = make();
+        split.max_binding_bytes = 300 << 10;
         split.max_workgroups_per_dim = 2;
+        // Bindings of 200 samples: no basis table fits, so the basis is computed in the
+        // shader; compared with an unsplit run of that path.
+        let mut in_shader = make();
+        in_shader.max_grid_table_bytes = 0;
+        let mut tiny_binding = make();
+        tiny_binding.max_binding_bytes = (200 * 6 * precision.bytes()) as u64 + 8;
         let mesh = load("sphere320");
         for scheme in Scheme::all() {
             let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
             let mut points = test_points(&mesh);
             points.truncate(5000);
             for pattern in [Pattern::Grid { level: 33 }, Pattern::Points(points)] {
-                eprintln!(
-                    "{precision} {scheme} {pattern:?}",
-                    pattern = pattern.len(table.len())
-                );
+                eprintln!("{precision} {scheme} {} samples", pattern.len(table.len()));
                 let a = run_all(whole, &table, &pattern);
-                let b = run_all(&tiny, &table, &pattern);
-                let c = run_all(&split, &table, &pattern);
                 assert_eq!(a.0.len(), pattern.len(table.len()));
+                let b = run_all(&tiny, &table, &pattern);
                 assert!(a == b, "{precision} {scheme}: tiny chunks differ");
+                let c = run_all(&split, &table, &pattern);
                 assert!(a == c, "{precision} {scheme}: split dispatches differ");
+                let d = run_all(&in_shader, &table, &pattern);
+                let e = run_all(&tiny_binding, &table, &pattern);
+                assert!(d == e, "{precision} {scheme}: tiny bindings differ");
             }
         }
     }

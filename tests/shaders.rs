@@ -44,7 +44,12 @@ fn every_shader_validates_in_f32_and_f64() {
                 .iter()
                 .map(|e| e.name.as_str())
                 .collect();
-            assert_eq!(entries, ["grid_main", "points_main"], "{}", file.name);
+            assert_eq!(
+                entries,
+                ["grid_main", "grid_table_main", "points_main"],
+                "{}",
+                file.name
+            );
             // The f64 module really computes in f64 (the f32 one validated without the
             // FLOAT64 capability, so it has none).
             assert_eq!(

@@ -1,6 +1,7 @@
 //! The command line: one file per command. `main` prints errors as one line and exits
 //! non-zero; nothing a user can type makes it panic.
 
+mod bench;
 mod common;
 mod stats;
 mod tessellate;
@@ -30,6 +31,8 @@ pub enum Command {
     Tessellate(tessellate::TessellateArgs),
     /// Continuity statistics across shared edges (Table 1 protocol).
     Stats(stats::StatsArgs),
+    /// Throughput of the CPU and GPU evaluators against the memory write bandwidth.
+    Bench(bench::BenchArgs),
 }
 
 /// The default job: `cargo run --release` with no arguments.
@@ -48,6 +51,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Some(Command::Stats(a)) => stats::run(&a),
         Some(Command::Tessellate(a)) => tessellate::run(&a),
+        Some(Command::Bench(a)) => bench::run(&a),
         None => default_run(),
     }
 }

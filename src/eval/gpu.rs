@@ -70,17 +70,20 @@ pub struct Params {
     pub _pad: [u32; 3],
 }
 
-/// The two compute pipelines of one (shader file, patch kind, precision).
+/// The compute pipelines of one (shader file, patch kind, precision).
 pub struct Pipelines {
     pub file: ShaderFile,
     pub kind: PatchKind,
     pub precision: Precision,
+    /// Grid, basis computed in the shader.
     pub grid: wgpu::ComputePipeline,
+    /// Grid, basis read from the precomputed table.
+    pub grid_table: wgpu::ComputePipeline,
     pub points: wgpu::ComputePipeline,
 }
 
 /// The bind group layout every evaluation shader uses: 0 params (uniform), 1 records,
-/// 2 points (read-only storage), 3 output (storage).
+/// 2 points (read-only storage), 3 output (storage), 4 grid basis table (read-only).
 pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
         binding,
@@ -108,6 +111,7 @@ pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             storage(1, true),
             storage(2, true),
             storage(3, false),
+            storage(4, true),
         ],
     })
 }
@@ -148,6 +152,7 @@ pub fn create_pipelines(
         kind,
         precision,
         grid: make("grid_main"),
+        grid_table: make("grid_table_main"),
         points: make("points_main"),
     })
 }
@@ -159,6 +164,7 @@ pub struct Buffers {
     pub points: wgpu::Buffer,
     pub out: wgpu::Buffer,
     pub staging: wgpu::Buffer,
+    pub grid_weights: wgpu::Buffer,
     pub bind_group: wgpu::BindGroup,
 }
 
@@ -170,6 +176,7 @@ impl Buffers {
         records_bytes: u64,
         points_bytes: u64,
         out_bytes: u64,
+        grid_weights_bytes: u64,
     ) -> Buffers {
         let size = |b: u64| b.max(16).div_ceil(16) * 16;
         let buffer = |label, bytes, usage| {
@@ -190,6 +197,11 @@ impl Buffers {
         let points = buffer("points", points_bytes.max(32), U::STORAGE | U::COPY_DST);
         let out = buffer("out", out_bytes, U::STORAGE | U::COPY_SRC);
         let staging = buffer("staging", out_bytes, U::MAP_READ | U::COPY_DST);
+        let grid_weights = buffer(
+            "grid weights",
+            grid_weights_bytes.max(32),
+            U::STORAGE | U::COPY_DST,
+        );
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("g1tess eval"),
             layout,
@@ -210,6 +222,10 @@ impl Buffers {
                     binding: 3,
                     resource: out.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: grid_weights.as_entire_binding(),
+                },
             ],
         });
         Buffers {
@@ -218,6 +234,7 @@ impl Buffers {
             points,
             out,
             staging,
+            grid_weights,
             bind_group,
         }
     }
@@ -350,6 +367,10 @@ pub struct GpuEvaluator {
     /// Largest workgroup count per dispatch dimension: the adapter's limit; lower it to
     /// force 2-D dispatches.
     pub max_workgroups_per_dim: u32,
+    /// Grids read their basis values from a table computed once on the CPU (as the CPU
+    /// backend does) when it is at most this many bytes; larger tables (very fine levels),
+    /// or 0 here, compute the basis in the shader.
+    pub max_grid_table_bytes: u64,
     layout: wgpu::BindGroupLayout,
     pipelines: Mutex<Vec<Arc<Pipelines>>>,
 }
@@ -369,6 +390,7 @@ impl GpuEvaluator {
             chunk_samples: 1 << 22,
             max_binding_bytes: ctx.max_binding_bytes(),
             max_workgroups_per_dim: ctx.max_workgroups_per_dim(),
+            max_grid_table_bytes: 32 << 20,
             layout,
             pipelines: Mutex::new(Vec::new()),
             ctx,
@@ -486,13 +508,31 @@ impl GpuEvaluator {
             .min((per_dispatch / per).max(1))
             .min(table.len());
         let out_samples = (patches_per_chunk * per).min(per_dispatch);
+        let table_bytes = (per * table.stride * 3 * rb) as u64;
+        let use_table = table_bytes <= self.max_grid_table_bytes.min(self.max_binding_bytes);
         let buffers = Buffers::new(
             device,
             &self.layout,
             (patches_per_chunk * rec_bytes) as u64,
             32,
             (out_samples * sample_bytes) as u64,
+            if use_table { table_bytes } else { 32 },
         );
+        let pipeline = if use_table {
+            let w = super::cpu::grid_weights(table, level);
+            let mut flat: Vec<R> = vec![R::of(0.0); per * table.stride * 3];
+            for (local, w) in w.iter().enumerate() {
+                for j in 0..table.stride {
+                    flat[(j * 3) * per + local] = R::of(w.w[j]);
+                    flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
+                    flat[(j * 3 + 2) * per + local] = R::of(w.wt[j]);
+                }
+            }
+            queue.write_buffer(&buffers.grid_weights, 0, bytemuck::cast_slice(&flat));
+            &pipes.grid_table
+        } else {
+            &pipes.grid
+        };
         let mut records: Vec<R> = Vec::with_capacity(patches_per_chunk * rec_reals);
         let mut origins = Vec::with_capacity(patches_per_chunk);
         let (mut pos, mut nrm) = (Vec::new(), Vec::new());
@@ -528,7 +568,7 @@ impl GpuEvaluator {
                 dispatch(
                     device,
                     queue,
-                    &pipes.grid,
+                    pipeline,
                     &buffers,
                     params,
                     self.max_workgroups_per_dim,
@@ -591,6 +631,7 @@ impl GpuEvaluator {
             (per_chunk * rec_bytes) as u64,
             (per_chunk * point_bytes) as u64,
             (per_chunk * sample_bytes) as u64,
+            32,
         );
         let mut local = vec![u32::MAX; table.len()];
         let mut used: Vec<usize> = Vec::new();
