@@ -48,6 +48,10 @@ pub struct BenchArgs {
     /// Skip the f64 CPU reference (the slowest measurement).
     #[arg(long)]
     pub no_reference: bool,
+    /// Size of the buffer the write bandwidth is measured on, MiB (well above the last-level
+    /// cache for a memory figure).
+    #[arg(long, default_value_t = 1024)]
+    pub bandwidth_mib: usize,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -92,9 +96,10 @@ pub struct Machine {
     /// Why there are no GPU figures, if there are none.
     pub gpu_note: Option<String>,
     /// Memory write bandwidth, all threads / one thread, GB/s (10^9 bytes), best of 3
-    /// fills of a 1 GiB buffer.
+    /// fills of a buffer of `bandwidth_buffer_mib`.
     pub write_bandwidth_gbs: f64,
     pub write_bandwidth_1_thread_gbs: f64,
+    pub bandwidth_buffer_mib: usize,
     /// Samples per second the all-threads bandwidth allows at 24 bytes per sample.
     pub roofline_samples_per_s: f64,
 }
@@ -136,9 +141,9 @@ fn fill_bandwidth(buf: &mut [f32], pool: &rayon::ThreadPool) -> f64 {
     (buf.len() * 4) as f64 / best / 1e9
 }
 
-/// Write bandwidth in GB/s with all threads and with one.
-pub fn write_bandwidth() -> anyhow::Result<(f64, f64)> {
-    let mut buf = vec![0f32; (1usize << 30) / 4];
+/// Write bandwidth in GB/s with all threads and with one, on a buffer of `mib` MiB.
+pub fn write_bandwidth(mib: usize) -> anyhow::Result<(f64, f64)> {
+    let mut buf = vec![0f32; (mib.max(1) << 20) / 4];
     // Fault every page in before timing.
     buf.par_chunks_mut(1024).for_each(|c| c[0] = 1.0);
     let all = rayon::ThreadPoolBuilder::new().build()?;
@@ -210,7 +215,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     );
 
     bar.set_message("memory write bandwidth");
-    let (bw, bw1) = write_bandwidth()?;
+    let (bw, bw1) = write_bandwidth(a.bandwidth_mib)?;
     let roofline = bw * 1e9 / SAMPLE_BYTES;
 
     let (gpu, gpu_note) = if a.no_gpu {
@@ -234,6 +239,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         gpu_note,
         write_bandwidth_gbs: bw,
         write_bandwidth_1_thread_gbs: bw1,
+        bandwidth_buffer_mib: a.bandwidth_mib,
         roofline_samples_per_s: roofline,
     };
 
@@ -334,7 +340,7 @@ pub fn to_text(r: &BenchReport) -> String {
     let mut s = format!(
         "machine: {} · {} threads · {} · CPU kernel {}\n\
          gpu: {}{}\n\
-         memory write bandwidth: {:.2} GB/s all threads, {:.2} GB/s 1 thread → roofline {:.1} M samples/s at 24 B/sample\n\n\
+         memory write bandwidth ({} MiB buffer): {:.2} GB/s all threads, {:.2} GB/s 1 thread → roofline {:.1} M samples/s at 24 B/sample\n\n\
          | mesh | scheme | level | samples | build ms | CPU f32 1 thr M/s (roof) | CPU f32 all M/s (roof) | CPU f64 ref all M/s | GPU dispatch M/s (roof) | GPU +readback M/s (roof) |\n\
          |---|---|---|---|---|---|---|---|---|---|\n",
         m.cpu,
@@ -346,6 +352,7 @@ pub fn to_text(r: &BenchReport) -> String {
             Some(n) => format!(" ({n})"),
             None => format!(" ({})", m.gpu_precision),
         },
+        m.bandwidth_buffer_mib,
         m.write_bandwidth_gbs,
         m.write_bandwidth_1_thread_gbs,
         m.roofline_samples_per_s / 1e6,
