@@ -7,11 +7,11 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// A file could not be read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        /// Shown in the message itself (not as a separate cause, which would print twice).
+        cause: std::io::Error,
     },
     /// A problem at a known line of an input file.
     #[error("{path}:{line}: {message}")]
@@ -37,7 +37,7 @@ impl Error {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
-            source,
+            cause: source,
         }
     }
     pub fn parse(path: impl Into<PathBuf>, line: usize, message: impl Into<String>) -> Self {

@@ -19,7 +19,10 @@ use g1tess::output::stats::{continuity, edge_points};
 use g1tess::patch::{PatchTable, Scheme};
 
 mod common;
-use common::{cases, load, MESHES};
+mod eval_cases;
+use eval_cases::{
+    angle, cases, load, normal_error, regular, EPS32, EPS64, MESHES, ROUNDING_FACTOR,
+};
 
 const LEVELS: [u32; 3] = [1, 8, 33];
 
@@ -64,19 +67,26 @@ fn evaluator(precision: Precision) -> Option<&'static GpuEvaluator> {
     .as_ref()
 }
 
-/// Tolerances: (position / bbox diagonal, 1 − dot of normals).
-fn tolerances(precision: Precision) -> (f64, f64) {
+/// Tolerances: (position / bbox diagonal, 1 − dot of normals), and the unit roundoff.
+fn tolerances(precision: Precision) -> (f64, f64, f64) {
     match precision {
-        Precision::F32 => (1e-5, 1e-5),
-        Precision::F64 => (1e-12, 1e-12),
+        Precision::F32 => (1e-5, 1e-5, EPS32),
+        Precision::F64 => (1e-12, 1e-12, EPS64),
     }
 }
 
 #[derive(Default, Debug, Clone, Copy)]
 struct Worst {
+    /// Largest position distance (every sample).
     dp: f64,
+    /// Largest 1 − dot of normals over the regular samples (see `eval_cases::regular`).
     dn: f64,
     samples: usize,
+    /// Samples near singular points, where the normal is not defined to the working
+    /// precision.
+    singular: usize,
+    /// Largest angle error / (unit roundoff · condition number) over those.
+    ratio: f64,
 }
 
 impl Worst {
@@ -85,21 +95,70 @@ impl Worst {
             dp: self.dp.max(o.dp),
             dn: self.dn.max(o.dn),
             samples: self.samples + o.samples,
+            singular: self.singular + o.singular,
+            ratio: self.ratio.max(o.ratio),
         }
+    }
+
+    /// Checks the tolerances: positions everywhere, 1 − dot on regular samples, the
+    /// rounding bound near singular points.
+    fn check(&self, what: &str, diag: f64, tp: f64, tn: f64) {
+        eprintln!(
+            "{what}: {} samples, max |dp|/diag {:.2e}, max 1-dot {:.2e}{}",
+            self.samples,
+            self.dp / diag,
+            self.dn,
+            if self.singular > 0 {
+                format!(
+                    " ({} samples near singular points: angle error ≤ {:.2} × predicted rounding error)",
+                    self.singular, self.ratio
+                )
+            } else {
+                String::new()
+            }
+        );
+        assert!(
+            self.dp <= tp * diag && self.dn <= tn,
+            "{what}: |dp|/diag {:e}, 1-dot {:e}",
+            self.dp / diag,
+            self.dn
+        );
+        assert!(
+            self.ratio <= ROUNDING_FACTOR,
+            "{what}: angle error {} × predicted rounding error near singular points",
+            self.ratio
+        );
     }
 }
 
-/// Largest position distance and 1 − dot over a chunk against reference values.
-fn worst_of(chunk: &Chunk<'_>, reference: impl Fn(usize) -> (DVec3, DVec3) + Sync) -> Worst {
+/// Position distance and 1 − dot over a chunk against the reference: sample k's reference
+/// position, normal and predicted rounding error of the normal.
+fn worst_of(
+    chunk: &Chunk<'_>,
+    tn: f64,
+    reference: impl Fn(usize) -> (DVec3, DVec3, f64) + Sync,
+) -> Worst {
     (0..chunk.positions.len())
         .into_par_iter()
         .map(|k| {
-            let (p, n) = reference(k);
+            let (p, n, predicted) = reference(k);
             assert!(chunk.positions[k].is_finite() && chunk.normals[k].is_finite());
+            assert!((chunk.normals[k].length() - 1.0).abs() < 1e-12);
+            let ok = regular(predicted, tn);
             Worst {
                 dp: chunk.positions[k].distance(p),
-                dn: 1.0 - chunk.normals[k].dot(n),
+                dn: if ok {
+                    1.0 - chunk.normals[k].dot(n)
+                } else {
+                    0.0
+                },
                 samples: 1,
+                singular: usize::from(!ok),
+                ratio: if ok {
+                    0.0
+                } else {
+                    angle(chunk.normals[k], n) / predicted
+                },
             }
         })
         .reduce(Worst::default, Worst::merge)
@@ -107,14 +166,16 @@ fn worst_of(chunk: &Chunk<'_>, reference: impl Fn(usize) -> (DVec3, DVec3) + Syn
 
 /// GPU grid vs CPU reference, streamed chunk by chunk.
 fn compare_grid(gpu: &GpuEvaluator, file: ShaderFile, table: &PatchTable, level: u32) -> Worst {
+    let (_, tn, eps) = tolerances(gpu.precision());
     let weights = grid_weights(table, level);
     let per = grid_len(level);
     let mut worst = Worst::default();
     gpu.evaluate_with_file(file, table, &Pattern::Grid { level }, &mut |c| {
         assert_eq!(c.positions.len() % per, 0);
-        let w = worst_of(&c, |k| {
-            let sp = table.eval_weights(c.first + k / per, &weights[k % per]);
-            (sp.p, sp.n)
+        let w = worst_of(&c, tn, |k| {
+            let (i, w) = (c.first + k / per, &weights[k % per]);
+            let sp = table.eval_weights(i, w);
+            (sp.p, sp.n, normal_error(table, i, w, eps))
         });
         worst = worst.merge(w);
         Ok(())
@@ -131,12 +192,14 @@ fn compare_points(
     table: &PatchTable,
     points: &[PatchPoint],
 ) -> Worst {
+    let (_, tn, eps) = tolerances(gpu.precision());
     let mut worst = Worst::default();
     gpu.evaluate_with_file(file, table, &Pattern::Points(points.to_vec()), &mut |c| {
-        let w = worst_of(&c, |k| {
+        let w = worst_of(&c, tn, |k| {
             let pp = points[c.first + k];
-            let sp = table.eval(pp.patch as usize, pp.b);
-            (sp.p, sp.n)
+            let w = table.kind.weights(pp.b);
+            let sp = table.eval_weights(pp.patch as usize, &w);
+            (sp.p, sp.n, normal_error(table, pp.patch as usize, &w, eps))
         });
         worst = worst.merge(w);
         Ok(())
@@ -165,46 +228,30 @@ fn gpu_matches_cpu(precision: Precision) {
     let Some(gpu) = evaluator(precision) else {
         return;
     };
-    let (tp, tn) = tolerances(precision);
+    let (tp, tn, _) = tolerances(precision);
     for name in MESHES {
         let mesh = load(name);
         let diag = mesh.diagonal();
         let points = test_points(&mesh);
         for (file, table, what) in cases(&mesh) {
             for level in LEVELS {
-                let w = compare_grid(gpu, file, &table, level);
-                eprintln!(
-                    "{precision} {name} {what} level {level}: {} samples, max |dp|/diag {:.2e}, max 1-dot {:.2e}",
-                    w.samples,
-                    w.dp / diag,
-                    w.dn
-                );
-                assert!(
-                    w.dp <= tp * diag && w.dn <= tn,
-                    "{precision} {name} {what} level {level}: |dp|/diag {:e}, 1-dot {:e}",
-                    w.dp / diag,
-                    w.dn
+                compare_grid(gpu, file, &table, level).check(
+                    &format!("{precision} {name} {what} level {level}"),
+                    diag,
+                    tp,
+                    tn,
                 );
             }
-            let w = compare_points(gpu, file, &table, &points);
-            eprintln!(
-                "{precision} {name} {what} points: {} samples, max |dp|/diag {:.2e}, max 1-dot {:.2e}",
-                w.samples,
-                w.dp / diag,
-                w.dn
-            );
-            assert!(
-                w.dp <= tp * diag && w.dn <= tn,
-                "{precision} {name} {what} points: |dp|/diag {:e}, 1-dot {:e}",
-                w.dp / diag,
-                w.dn
+            compare_points(gpu, file, &table, &points).check(
+                &format!("{precision} {name} {what} points"),
+                diag,
+                tp,
+                tn,
             );
         }
     }
 }
 
-/// The grid path that computes the basis in the shader (used where the basis table would
-/// be too large: very fine levels) against the CPU, forced on by a zero table budget.
 #[test]
 fn in_shader_basis_grids_match_cpu() {
     for precision in [Precision::F32, Precision::F64] {
@@ -213,7 +260,7 @@ fn in_shader_basis_grids_match_cpu() {
         };
         let mut gpu = GpuEvaluator::new(shared.context().clone(), precision).unwrap();
         gpu.max_grid_table_bytes = 0;
-        let (tp, tn) = tolerances(precision);
+        let (tp, tn, _) = tolerances(precision);
         for (name, levels) in [
             ("sphere320", &[1, 8, 33][..]),
             ("torus200", &[1, 33]),
@@ -223,17 +270,11 @@ fn in_shader_basis_grids_match_cpu() {
             let diag = mesh.diagonal();
             for (file, table, what) in cases(&mesh) {
                 for &level in levels {
-                    let w = compare_grid(&gpu, file, &table, level);
-                    eprintln!(
-                        "{precision} in-shader basis {name} {what} level {level}: max |dp|/diag {:.2e}, max 1-dot {:.2e}",
-                        w.dp / diag,
-                        w.dn
-                    );
-                    assert!(
-                        w.dp <= tp * diag && w.dn <= tn,
-                        "{precision} in-shader {name} {what} level {level}: {:e} {:e}",
-                        w.dp / diag,
-                        w.dn
+                    compare_grid(&gpu, file, &table, level).check(
+                        &format!("{precision} in-shader basis {name} {what} level {level}"),
+                        diag,
+                        tp,
+                        tn,
                     );
                 }
             }

@@ -74,24 +74,51 @@ pub struct BackendArgs {
     /// Evaluation backend.
     #[arg(long, value_enum, default_value = "auto")]
     pub backend: Backend,
-    /// GPU working precision (f64 needs an adapter with SHADER_F64; the CPU is always f64).
-    #[arg(long, value_enum, default_value = "f32")]
-    pub precision: crate::gpu::Precision,
+    /// GPU working precision (f64 needs an adapter with SHADER_F64; the CPU is always
+    /// f64). Default: f64 for statistics (stats, compare, the default run), f32 for
+    /// geometry (tessellate).
+    #[arg(long, value_enum)]
+    pub precision: Option<crate::gpu::Precision>,
 }
 
 impl Default for BackendArgs {
     fn default() -> Self {
         BackendArgs {
             backend: Backend::Auto,
-            precision: crate::gpu::Precision::F32,
+            precision: None,
         }
     }
 }
 
 impl BackendArgs {
-    /// The evaluator asked for. The GPU backend names its adapter on stderr; `auto` says
-    /// on stderr when it falls back to the CPU, and why.
-    pub fn evaluator(&self) -> anyhow::Result<Box<dyn crate::eval::Evaluator>> {
+    /// The evaluator asked for, with `default_precision` on the GPU unless `--precision`
+    /// was given. The GPU is opened on the first evaluation (so input errors come first and
+    /// alone); then the GPU backend names its adapter on stderr, and `auto` says on stderr
+    /// when it falls back to the CPU, and why.
+    pub fn evaluator(
+        &self,
+        default_precision: crate::gpu::Precision,
+    ) -> anyhow::Result<Box<dyn crate::eval::Evaluator>> {
+        Ok(match self.backend {
+            Backend::Cpu => Box::new(crate::eval::cpu::CpuEvaluator::default()),
+            backend => Box::new(LazyGpu {
+                backend,
+                precision: self.precision.unwrap_or(default_precision),
+                inner: std::cell::OnceCell::new(),
+            }),
+        })
+    }
+}
+
+/// The GPU (or, for `auto`, the CPU fallback), opened on first use.
+struct LazyGpu {
+    backend: Backend,
+    precision: crate::gpu::Precision,
+    inner: std::cell::OnceCell<Box<dyn crate::eval::Evaluator>>,
+}
+
+impl LazyGpu {
+    fn open(&self) -> crate::Result<Box<dyn crate::eval::Evaluator>> {
         use crate::eval::cpu::CpuEvaluator;
         use crate::eval::gpu::GpuEvaluator;
         use crate::gpu::GpuContext;
@@ -101,16 +128,39 @@ impl BackendArgs {
             eprintln!("gpu: {} ({})", ctx.describe(), self.precision);
             Ok(ev)
         };
-        Ok(match self.backend {
-            Backend::Cpu => Box::new(CpuEvaluator::default()),
-            Backend::Gpu => Box::new(gpu()?),
-            Backend::Auto => match gpu() {
-                Ok(ev) => Box::new(ev),
-                Err(e) => {
-                    eprintln!("note: {e}; falling back to the CPU backend (f64)");
-                    Box::new(CpuEvaluator::default())
-                }
-            },
+        Ok(match (self.backend, gpu()) {
+            (_, Ok(ev)) => Box::new(ev),
+            (Backend::Auto, Err(e)) => {
+                eprintln!("note: {e}; falling back to the CPU backend (f64)");
+                Box::new(CpuEvaluator::default())
+            }
+            (_, Err(e)) => return Err(e),
         })
+    }
+
+    fn get(&self) -> crate::Result<&dyn crate::eval::Evaluator> {
+        if self.inner.get().is_none() {
+            let ev = self.open()?;
+            let _ = self.inner.set(ev);
+        }
+        Ok(self.inner.get().expect("set above").as_ref())
+    }
+}
+
+impl crate::eval::Evaluator for LazyGpu {
+    fn describe(&self) -> String {
+        match self.get() {
+            Ok(ev) => ev.describe(),
+            Err(e) => format!("gpu unavailable ({e})"),
+        }
+    }
+
+    fn evaluate(
+        &self,
+        table: &crate::patch::PatchTable,
+        pattern: &crate::eval::Pattern,
+        sink: &mut dyn FnMut(crate::eval::Chunk<'_>) -> crate::Result<()>,
+    ) -> crate::Result<()> {
+        self.get()?.evaluate(table, pattern, sink)
     }
 }

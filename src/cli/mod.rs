@@ -3,7 +3,10 @@
 
 mod bench;
 mod common;
+mod compare;
+pub mod paper;
 mod stats;
+mod sweep;
 mod tessellate;
 
 use std::process::ExitCode;
@@ -31,26 +34,32 @@ pub enum Command {
     Tessellate(tessellate::TessellateArgs),
     /// Continuity statistics across shared edges (Table 1 protocol).
     Stats(stats::StatsArgs),
+    /// Table 1: continuity statistics of every scheme on each mesh (markdown or JSON).
+    Compare(compare::CompareArgs),
+    /// Distance to the analytic surface on refined icospheres and tori (figures 17–18):
+    /// CSV, JSON and log–log plots.
+    Sweep(sweep::SweepArgs),
     /// Throughput of the CPU and GPU evaluators against the memory write bandwidth.
     Bench(bench::BenchArgs),
 }
 
-/// The default job: `cargo run --release` with no arguments.
+/// The default job: `cargo run --release` with no arguments reproduces the paper into
+/// `out/paper/` (steps in `paper.rs`).
 fn default_run() -> anyhow::Result<()> {
-    for mesh in ["sphere320", "torus200"] {
-        stats::run(&stats::StatsArgs {
-            input: InputArgs::builtin(mesh),
-            backend: BackendArgs::default(),
-            json: false,
-        })?;
-    }
-    Ok(())
+    // `--backend auto` in f64: the GPU where it has f64, else the CPU (saying so).
+    let evaluator = BackendArgs::default().evaluator(crate::gpu::Precision::F64)?;
+    paper::run(&paper::PaperRun {
+        evaluator,
+        ..Default::default()
+    })
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Some(Command::Stats(a)) => stats::run(&a),
         Some(Command::Tessellate(a)) => tessellate::run(&a),
+        Some(Command::Compare(a)) => compare::run(&a),
+        Some(Command::Sweep(a)) => sweep::run(&a),
         Some(Command::Bench(a)) => bench::run(&a),
         None => default_run(),
     }

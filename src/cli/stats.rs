@@ -19,7 +19,7 @@ pub struct StatsArgs {
 pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
     let (mesh, table) = a.input.load()?;
     let adjacency = mesh.adjacency();
-    let evaluator = a.backend.evaluator()?;
+    let evaluator = a.backend.evaluator(crate::gpu::Precision::F64)?;
     let c = continuity(&mesh, &adjacency, &table, evaluator.as_ref())?;
     let report = StatsReport::new(&mesh, &adjacency, &table, c, evaluator.describe());
     if a.json {

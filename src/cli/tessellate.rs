@@ -30,7 +30,7 @@ pub struct TessellateArgs {
 pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     anyhow::ensure!(a.level >= 1, "--level must be at least 1");
     let (mesh, table) = a.input.load()?;
-    let evaluator = a.backend.evaluator()?;
+    let evaluator = a.backend.evaluator(crate::gpu::Precision::F32)?;
     let per = grid_len(a.level);
     let local = grid_triangles(a.level);
     let mut out = IndexedMesh::default();

@@ -1,5 +1,9 @@
-//! OBJ input through `tobj`, preceded by a line-by-line check that turns every defect a
-//! user can make into an error naming the file and the line.
+//! Wavefront OBJ input.
+//!
+//! A parser of its own rather than `tobj`: `tobj` silently invents a normal (the previous
+//! corner's) for face corners that give none when other faces do, and its errors carry no
+//! line number. Here every defect names the file and the line, and a corner without a
+//! normal gets an estimated one.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -9,243 +13,247 @@ use glam::DVec3;
 use super::{normals, LoadOptions, LoadReport, Mesh};
 use crate::{Error, Result};
 
-/// What the line check counted.
-#[derive(Debug, Default)]
-struct ObjCounts {
-    polygons: usize,
+/// One face corner: position index and optional normal index (0-based, resolved).
+#[derive(Clone, Copy)]
+struct Corner {
+    v: usize,
+    vn: Option<usize>,
 }
 
-/// Reads a Wavefront OBJ file: polygons triangulated (fan), every face form (`v`, `v/vt`,
-/// `v//vn`, `v/vt/vn`), negative indices, all objects and groups merged, positions welded
-/// by exact coordinates, unused vertices dropped, per-corner normals kept (renormalised),
-/// missing normals estimated.
+/// A face as read, with its line for errors found after the whole file is read.
+struct Face {
+    line: usize,
+    corners: Vec<Corner>,
+}
+
+/// Reads a Wavefront OBJ file: polygons triangulated as fans, every face form (`v`,
+/// `v/vt`, `v//vn`, `v/vt/vn`), negative (relative) indices, all objects and groups merged,
+/// positions welded by exact coordinates, unused vertices dropped, per-corner normals kept
+/// (renormalised), missing normals estimated with `opts.weighting`.
 pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let text = String::from_utf8(text).map_err(|e| {
-        Error::parse(
-            path,
-            line_of_byte(e.as_bytes(), e.utf8_error().valid_up_to()),
-            "not UTF-8 text",
-        )
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
+        Error::parse(path, line, "not UTF-8 text")
     })?;
-    let counts = check_lines(path, &text)?;
 
-    let load = tobj::LoadOptions {
-        triangulate: true,
-        single_index: false,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &load, |_| {
-        Err(tobj::LoadError::OpenFileFailed)
-    })
-    .map_err(|e| Error::mesh(path.display().to_string(), format!("OBJ parse error: {e}")))?;
-
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| path.display().to_string());
-    let mut report = LoadReport {
-        polygons_triangulated: counts.polygons,
-        ..Default::default()
-    };
-
-    // Weld positions by exact coordinates; only referenced positions get an id.
-    let mut weld: HashMap<[u64; 3], u32> = HashMap::new();
     let mut positions: Vec<DVec3> = Vec::new();
-    let mut triangles: Vec<[u32; 3]> = Vec::new();
-    let mut normals_in: Vec<[Option<DVec3>; 3]> = Vec::new();
-    let mut referenced = 0usize;
-    for model in &models {
-        let m = &model.mesh;
-        let pos = |i: u32| {
-            let i = i as usize * 3;
-            DVec3::new(m.positions[i], m.positions[i + 1], m.positions[i + 2])
-        };
-        let has_normals = !m.normal_indices.is_empty() && m.normal_indices.len() == m.indices.len();
-        let mut local: HashMap<u32, u32> = HashMap::new();
-        for (f, tri) in m.indices.chunks_exact(3).enumerate() {
-            let mut t = [0u32; 3];
-            for k in 0..3 {
-                t[k] = *local.entry(tri[k]).or_insert_with(|| {
-                    referenced += 1;
-                    let p = pos(tri[k]);
-                    let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
-                    *weld.entry(key).or_insert_with(|| {
-                        positions.push(p);
-                        (positions.len() - 1) as u32
-                    })
-                });
-            }
-            if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
-                report.degenerate_triangles_dropped += 1;
-                continue;
-            }
-            let n = if has_normals {
-                std::array::from_fn(|k| {
-                    let i = m.normal_indices[f * 3 + k] as usize * 3;
-                    m.normals
-                        .get(i..i + 3)
-                        .map(|v| DVec3::new(v[0], v[1], v[2]).normalize())
-                })
-            } else {
-                [None; 3]
-            };
-            triangles.push(t);
-            normals_in.push(n);
+    let mut normals_in: Vec<DVec3> = Vec::new();
+    let mut texcoords = 0usize;
+    let mut faces: Vec<Face> = Vec::new();
+    let mut report = LoadReport::default();
+
+    let mut pending = String::new();
+    let mut start_line = 0;
+    for (i, raw) in text.lines().enumerate() {
+        // Backslash continues a statement on the next line.
+        if pending.is_empty() {
+            start_line = i + 1;
         }
-    }
-    let total_vertices = text
-        .lines()
-        .filter(|l| l.trim_start().starts_with("v "))
-        .count();
-    report.unused_vertices_dropped = total_vertices.saturating_sub(referenced);
-    report.vertices_welded = referenced - positions.len();
-
-    let missing = normals_in.iter().flatten().filter(|n| n.is_none()).count();
-    report.normals_estimated = missing;
-    let estimated = if missing > 0 {
-        normals::vertex_normals(&positions, &triangles, opts.weighting)
-    } else {
-        Vec::new()
-    };
-    let corner_normals = triangles
-        .iter()
-        .zip(&normals_in)
-        .map(|(t, n)| std::array::from_fn(|k| n[k].unwrap_or_else(|| estimated[t[k] as usize])))
-        .collect();
-    let mesh = Mesh {
-        name,
-        positions,
-        triangles,
-        corner_normals,
-        load_report: report,
-    };
-    if mesh.triangles.is_empty() {
-        return Err(Error::mesh(
-            path.display().to_string(),
-            "empty mesh: no triangles (no usable 'f' lines)",
-        ));
-    }
-    Ok(mesh)
-}
-
-fn line_of_byte(bytes: &[u8], offset: usize) -> usize {
-    1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count()
-}
-
-/// Checks every `v`, `vn`, `vt` and `f` line: numbers parse and are finite, normals are not
-/// zero, face indices are in range and not zero, faces have at least three corners.
-fn check_lines(path: &Path, text: &str) -> Result<ObjCounts> {
-    let mut counts = ObjCounts::default();
-    let (mut nv, mut nt, mut nn) = (0i64, 0i64, 0i64);
-    // Positive indices may only be checked once every element has been counted.
-    let mut forward: Vec<(usize, i64, usize)> = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let lineno = i + 1;
+        if let Some(body) = raw.strip_suffix('\\') {
+            pending.push_str(body);
+            pending.push(' ');
+            continue;
+        }
+        pending.push_str(raw);
+        let line = std::mem::take(&mut pending);
+        let lineno = start_line;
         let err = |msg: String| Error::parse(path, lineno, msg);
-        let line = line.split('#').next().unwrap_or("");
-        let mut tok = line.split_whitespace();
+        let content = line.split('#').next().unwrap_or("");
+        let mut tok = content.split_whitespace();
         let Some(kw) = tok.next() else { continue };
-        let floats =
-            |tok: std::str::SplitWhitespace, need: usize, what: &str| -> Result<Vec<f64>> {
+        let numbers =
+            |tok: std::str::SplitWhitespace, need: usize, what: &str| -> Result<[f64; 3]> {
                 let vals: Vec<&str> = tok.collect();
                 if vals.len() < need {
                     return Err(err(format!(
-                        "'{kw}' needs {need} numbers, found {}",
+                        "{what} needs {need} numbers, found {}",
                         vals.len()
                     )));
                 }
-                vals.iter()
-                    .take(need)
-                    .map(|s| {
-                        let x: f64 = s
-                            .parse()
-                            .map_err(|_| err(format!("{what}: '{s}' is not a number")))?;
-                        if x.is_finite() {
-                            Ok(x)
-                        } else {
-                            Err(err(format!("{what}: non-finite coordinate '{s}'")))
-                        }
-                    })
-                    .collect()
+                let mut out = [0.0; 3];
+                for (k, s) in vals.iter().take(need).enumerate() {
+                    let x: f64 = s
+                        .parse()
+                        .map_err(|_| err(format!("{what}: '{s}' is not a number")))?;
+                    if !x.is_finite() {
+                        return Err(err(format!("{what}: non-finite coordinate '{s}'")));
+                    }
+                    out[k] = x;
+                }
+                Ok(out)
             };
         match kw {
-            "v" => {
-                floats(tok, 3, "vertex")?;
-                nv += 1;
-            }
-            "vt" => {
-                floats(tok, 1, "texture coordinate")?;
-                nt += 1;
-            }
+            "v" => positions.push(DVec3::from_array(numbers(tok, 3, "vertex")?)),
             "vn" => {
-                let n = floats(tok, 3, "normal")?;
-                if n.iter().all(|&x| x == 0.0) {
+                let n = DVec3::from_array(numbers(tok, 3, "normal")?);
+                let len = n.length();
+                if len == 0.0 || !len.is_finite() {
                     return Err(err("zero-length normal".into()));
                 }
-                nn += 1;
+                normals_in.push(n / len);
+            }
+            "vt" => {
+                numbers(tok, 1, "texture coordinate")?;
+                texcoords += 1;
             }
             "f" => {
-                let corners: Vec<&str> = tok.collect();
+                let mut corners = Vec::new();
+                for c in tok {
+                    let parts: Vec<&str> = c.split('/').collect();
+                    if parts.len() > 3 || parts[0].is_empty() {
+                        return Err(err(format!("malformed face corner '{c}'")));
+                    }
+                    let mut idx = [None; 3];
+                    for (slot, s) in parts.iter().enumerate() {
+                        if s.is_empty() {
+                            continue;
+                        }
+                        let (what, have) = match slot {
+                            0 => ("vertex", positions.len()),
+                            1 => ("texture coordinate", texcoords),
+                            _ => ("normal", normals_in.len()),
+                        };
+                        let k: i64 = s.parse().map_err(|_| {
+                            err(format!("face corner '{c}': '{s}' is not an index"))
+                        })?;
+                        let resolved = if k > 0 {
+                            (k - 1) as usize
+                        } else if k < 0 && (-k) as usize <= have {
+                            (have as i64 + k) as usize
+                        } else if k == 0 {
+                            return Err(err(format!(
+                                "face corner '{c}': index 0 (OBJ counts from 1)"
+                            )));
+                        } else {
+                            return Err(err(format!(
+                                "face corner '{c}': {what} index {k} out of range (only {have} {what}s so far)"
+                            )));
+                        };
+                        idx[slot] = Some(resolved);
+                    }
+                    corners.push(Corner {
+                        v: idx[0].unwrap_or_default(),
+                        vn: idx[2],
+                    });
+                }
                 if corners.len() < 3 {
                     return Err(err(format!(
                         "face needs at least 3 corners, found {}",
                         corners.len()
                     )));
                 }
-                if corners.len() > 3 {
-                    counts.polygons += 1;
-                }
-                for c in corners {
-                    let parts: Vec<&str> = c.split('/').collect();
-                    if parts.len() > 3 || parts[0].is_empty() {
-                        return Err(err(format!("malformed face corner '{c}'")));
-                    }
-                    for (slot, s) in parts.iter().enumerate() {
-                        if s.is_empty() {
-                            continue;
-                        }
-                        let (what, have) = match slot {
-                            0 => ("vertex", nv),
-                            1 => ("texture coordinate", nt),
-                            _ => ("normal", nn),
-                        };
-                        let idx: i64 = s.parse().map_err(|_| {
-                            err(format!("face corner '{c}': '{s}' is not an index"))
-                        })?;
-                        if idx == 0 {
-                            return Err(err(format!(
-                                "face corner '{c}': index 0 (OBJ counts from 1)"
-                            )));
-                        }
-                        if idx < 0 && -idx > have {
-                            return Err(err(format!(
-                                "face corner '{c}': {what} index {idx} out of range (only {have} {what}s so far)"
-                            )));
-                        }
-                        if idx > 0 {
-                            forward.push((lineno, idx, slot));
-                        }
-                    }
-                }
+                faces.push(Face {
+                    line: lineno,
+                    corners,
+                });
             }
             _ => {}
         }
     }
-    for (lineno, idx, slot) in forward {
-        let (what, have) = match slot {
-            0 => ("vertex", nv),
-            1 => ("texture coordinate", nt),
-            _ => ("normal", nn),
-        };
-        if idx > have {
-            return Err(Error::parse(
-                path,
-                lineno,
-                format!("{what} index {idx} out of range (the file has {have} {what}s)"),
-            ));
+
+    // Positive indices may point forward; check them against the final counts.
+    for f in &faces {
+        for c in &f.corners {
+            if c.v >= positions.len() {
+                return Err(Error::parse(
+                    path,
+                    f.line,
+                    format!(
+                        "vertex index {} out of range (the file has {} vertices)",
+                        c.v + 1,
+                        positions.len()
+                    ),
+                ));
+            }
+            if let Some(n) = c.vn.filter(|&n| n >= normals_in.len()) {
+                return Err(Error::parse(
+                    path,
+                    f.line,
+                    format!(
+                        "normal index {} out of range (the file has {} normals)",
+                        n + 1,
+                        normals_in.len()
+                    ),
+                ));
+            }
         }
     }
-    Ok(counts)
+
+    // Weld referenced positions by exact coordinates; unreferenced ones are dropped.
+    let mut weld: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut welded_of: Vec<Option<u32>> = vec![None; positions.len()];
+    let mut out_pos: Vec<DVec3> = Vec::new();
+    let mut referenced = 0usize;
+    let mut triangles: Vec<[u32; 3]> = Vec::new();
+    let mut corner_in: Vec<[Option<DVec3>; 3]> = Vec::new();
+    for f in &faces {
+        if f.corners.len() > 3 {
+            report.polygons_triangulated += 1;
+        }
+        let ids: Vec<u32> = f
+            .corners
+            .iter()
+            .map(|c| {
+                *welded_of[c.v].get_or_insert_with(|| {
+                    referenced += 1;
+                    let p = positions[c.v];
+                    *weld
+                        .entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+                        .or_insert_with(|| {
+                            out_pos.push(p);
+                            (out_pos.len() - 1) as u32
+                        })
+                })
+            })
+            .collect();
+        for k in 1..f.corners.len() - 1 {
+            let (a, b, c) = (0, k, k + 1);
+            let t = [ids[a], ids[b], ids[c]];
+            if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
+                report.degenerate_triangles_dropped += 1;
+                continue;
+            }
+            triangles.push(t);
+            corner_in.push([a, b, c].map(|i| f.corners[i].vn.map(|n| normals_in[n])));
+        }
+    }
+    report.unused_vertices_dropped = positions.len() - referenced;
+    report.vertices_welded = referenced - out_pos.len();
+
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string());
+    if triangles.is_empty() {
+        return Err(Error::mesh(
+            path.display().to_string(),
+            if faces.is_empty() {
+                "empty mesh: no faces ('f' lines)"
+            } else {
+                "empty mesh: every face is degenerate"
+            },
+        ));
+    }
+
+    let missing = corner_in.iter().flatten().filter(|n| n.is_none()).count();
+    report.normals_estimated = missing;
+    let estimated = if missing > 0 {
+        normals::vertex_normals(&out_pos, &triangles, opts.weighting)
+    } else {
+        Vec::new()
+    };
+    let corner_normals = triangles
+        .iter()
+        .zip(&corner_in)
+        .map(|(t, n)| std::array::from_fn(|k| n[k].unwrap_or_else(|| estimated[t[k] as usize])))
+        .collect();
+    Ok(Mesh {
+        name,
+        positions: out_pos,
+        triangles,
+        corner_normals,
+        load_report: report,
+    })
 }

@@ -13,6 +13,14 @@ use crate::mesh::Mesh;
 /// The Walton–Meek cubic between (qa, na) and (qb, nb) (Theorem 2.1, Γ the unit edge
 /// vector). Normals must be unit vectors.
 pub fn walton_meek(qa: DVec3, na: DVec3, qb: DVec3, nb: DVec3) -> [DVec3; 4] {
+    let [t0, t1] = walton_meek_offsets(qa, na, qb, nb);
+    [qa, qa + t0, qb - t1, qb]
+}
+
+/// The offsets V1 − V0 and V3 − V2 of the Walton–Meek cubic, as the construction defines
+/// them (one third of the end tangents): perpendicular to `na` and `nb` respectively up to
+/// rounding of these short vectors, before any addition to the far larger positions.
+pub fn walton_meek_offsets(qa: DVec3, na: DVec3, qb: DVec3, nb: DVec3) -> [DVec3; 2] {
     let e = qb - qa;
     let d = e.length();
     let g = e / d;
@@ -22,9 +30,10 @@ pub fn walton_meek(qa: DVec3, na: DVec3, qb: DVec3, nb: DVec3) -> [DVec3; 4] {
     let den = 4.0 - a * a;
     let zeta = 6.0 * (2.0 * a0 + a * a1) / den;
     let theta = 6.0 * (2.0 * a1 + a * a0) / den;
-    let v1 = qa + d * (6.0 * g - 2.0 * zeta * na + theta * nb) / 18.0;
-    let v2 = qb - d * (6.0 * g + zeta * na - 2.0 * theta * nb) / 18.0;
-    [qa, v1, v2, qb]
+    [
+        d * (6.0 * g - 2.0 * zeta * na + theta * nb) / 18.0,
+        d * (6.0 * g + zeta * na - 2.0 * theta * nb) / 18.0,
+    ]
 }
 
 /// Per-edge data of one patch, with the edge run from corner k to corner k + 1.

@@ -5,7 +5,13 @@
 //! (`stride` points per patch, patch-major) so a GPU can take it as it is.
 
 pub mod basis;
+pub mod flat;
 pub mod g1;
+pub mod nagata;
+pub mod nlsa;
+pub mod phong;
+pub mod pn;
+pub mod quadratic;
 
 use glam::DVec3;
 
@@ -20,6 +26,20 @@ pub enum Scheme {
     /// Bézier G1 (Walton & Meek 1996): quartic boundary, Gregory interior, shared tangent
     /// planes across edges.
     G1,
+    /// Phong tessellation (Boubekeur & Alexa 2008), quadratic, shape factor α
+    /// (`--phong-alpha`, default 3/4).
+    Phong,
+    /// Nagata (2005) with ξ = 0: no singularity treatment (the paper's row).
+    Nagata,
+    /// Nagata with a guard against the ξ = 0 blow-up for nearly parallel normals (see
+    /// `nagata.rs`; in the spirit of Neto et al. 2013, rule stated there).
+    NagataGuarded,
+    /// NLSA (Barrera, Hast & Bengtsson 2002) as reconstructed in `SCHEMES.md`, quadratic.
+    Nlsa,
+    /// PN triangles (Vlachos et al. 2001): cubic geometry, exact normal (Table 1's row).
+    Pn,
+    /// PN triangles with their quadratic normal field as the reported normal.
+    PnNormals,
     /// The flat triangle (degree-1 Bézier), the baseline.
     Flat,
 }
@@ -27,13 +47,28 @@ pub enum Scheme {
 impl Scheme {
     /// Every scheme, in the order reports list them.
     pub fn all() -> Vec<Scheme> {
-        vec![Scheme::G1, Scheme::Flat]
+        vec![
+            Scheme::G1,
+            Scheme::Phong,
+            Scheme::Nagata,
+            Scheme::NagataGuarded,
+            Scheme::Nlsa,
+            Scheme::Pn,
+            Scheme::PnNormals,
+            Scheme::Flat,
+        ]
     }
 
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
             Scheme::G1 => "g1",
+            Scheme::Phong => "phong",
+            Scheme::Nagata => "nagata",
+            Scheme::NagataGuarded => "nagata-guarded",
+            Scheme::Nlsa => "nlsa",
+            Scheme::Pn => "pn",
+            Scheme::PnNormals => "pn-normals",
             Scheme::Flat => "flat",
         }
     }
@@ -149,20 +184,29 @@ pub struct PatchTable {
 impl PatchTable {
     /// Builds the table of `scheme` for every triangle of `mesh`.
     pub fn build(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<PatchTable> {
-        let _ = opts;
-        let (kind, points, fallbacks) = match scheme {
-            Scheme::G1 => {
-                let (p, f) = g1::build(mesh);
-                (PatchKind::Gregory, p, f)
+        let (kind, (points, fallbacks)) = match scheme {
+            Scheme::G1 => (PatchKind::Gregory, g1::build(mesh)),
+            Scheme::Phong => {
+                if !opts.phong_alpha.is_finite() {
+                    return Err(Error::Invalid(format!(
+                        "phong: shape factor α must be finite, got {}",
+                        opts.phong_alpha
+                    )));
+                }
+                (PatchKind::Bezier(2), phong::build(mesh, opts.phong_alpha))
             }
-            Scheme::Flat => (
-                PatchKind::Bezier(1),
-                mesh.triangles
-                    .iter()
-                    .flat_map(|t| t.map(|v| mesh.positions[v as usize]))
-                    .collect(),
-                0,
+            Scheme::Nagata => (
+                PatchKind::Bezier(2),
+                nagata::build(mesh, nagata::Guard::None),
             ),
+            Scheme::NagataGuarded => (
+                PatchKind::Bezier(2),
+                nagata::build(mesh, nagata::Guard::Bounded),
+            ),
+            Scheme::Nlsa => (PatchKind::Bezier(2), nlsa::build(mesh)),
+            Scheme::Pn => (PatchKind::Bezier(3), pn::build(mesh, false)),
+            Scheme::PnNormals => (PatchKind::PnNormals, pn::build(mesh, true)),
+            Scheme::Flat => (PatchKind::Bezier(1), flat::build(mesh)),
         };
         let flat_normals = mesh
             .triangles

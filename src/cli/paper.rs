@@ -1,0 +1,102 @@
+//! The default run (`cargo run --release` with no arguments): reproduces the paper into
+//! `out/paper/`. It is a list of steps; to add one, write a `fn(&PaperRun) ->
+//! anyhow::Result<()>` and append it to [`steps`].
+
+use std::path::PathBuf;
+
+use crate::eval::cpu::CpuEvaluator;
+use crate::eval::Evaluator;
+use crate::output::atomic::{ensure_dir, write_atomic};
+use crate::output::distance::SweepPlan;
+use crate::output::table1;
+
+use super::compare::CompareArgs;
+
+/// Shared state of the default run's steps.
+pub struct PaperRun {
+    /// Where every step writes (`out/paper`).
+    pub out: PathBuf,
+    /// The backend that evaluates the patches.
+    pub evaluator: Box<dyn Evaluator>,
+    /// No progress bars.
+    pub quiet: bool,
+}
+
+impl Default for PaperRun {
+    fn default() -> Self {
+        PaperRun {
+            out: PathBuf::from("out/paper"),
+            evaluator: Box::new(CpuEvaluator::default()),
+            quiet: false,
+        }
+    }
+}
+
+/// One step of the default run.
+pub struct Step {
+    pub name: &'static str,
+    pub run: fn(&PaperRun) -> anyhow::Result<()>,
+}
+
+/// The steps, in order.
+pub fn steps() -> Vec<Step> {
+    vec![
+        Step {
+            name: "table 1 (continuity across edges)",
+            run: table,
+        },
+        Step {
+            name: "figures 17-18 (distance to the analytic surface)",
+            run: sweep,
+        },
+    ]
+}
+
+/// Runs every step.
+pub fn run(ctx: &PaperRun) -> anyhow::Result<()> {
+    ensure_dir(&ctx.out)?;
+    for step in steps() {
+        let t = std::time::Instant::now();
+        (step.run)(ctx).map_err(|e| e.context(step.name))?;
+        eprintln!("{}: {:.1} s", step.name, t.elapsed().as_secs_f64());
+    }
+    Ok(())
+}
+
+/// Table 1: markdown (also printed) and JSON.
+fn table(ctx: &PaperRun) -> anyhow::Result<()> {
+    let args = CompareArgs::paper();
+    let reports = table1::compare(
+        &args.meshes,
+        &Default::default(),
+        &args.schemes(),
+        &Default::default(),
+        ctx.evaluator.as_ref(),
+    )?;
+    let md = table1::to_markdown(&reports);
+    println!("{md}");
+    let md_path = ctx.out.join("table1.md");
+    write_atomic(&md_path, |w| std::io::Write::write_all(w, md.as_bytes()))?;
+    let json = serde_json::to_string_pretty(&reports)?;
+    let json_path = ctx.out.join("table1.json");
+    write_atomic(&json_path, |w| {
+        std::io::Write::write_all(w, json.as_bytes())
+    })?;
+    eprintln!("wrote {} and {}", md_path.display(), json_path.display());
+    Ok(())
+}
+
+/// Figures 17–18: sweep CSV/JSON and both plots.
+fn sweep(ctx: &PaperRun) -> anyhow::Result<()> {
+    let out = super::sweep::sweep_into(
+        &ctx.out,
+        &SweepPlan::default(),
+        ctx.evaluator.as_ref(),
+        ctx.quiet,
+    )?;
+    print!("{}", super::sweep::summary(&out.rows));
+    for f in &out.files {
+        eprintln!("wrote {}", f.display());
+    }
+    Ok(())
+}

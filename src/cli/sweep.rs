@@ -1,0 +1,155 @@
+//! `g1tess sweep`: the distance study of figures 17–18 — every scheme on refined
+//! icospheres and tori, distance to the analytic surface, convergence order, CSV + JSON +
+//! log–log plots.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::eval::cpu::CpuEvaluator;
+use crate::eval::Evaluator;
+use crate::output::atomic::{ensure_dir, write_atomic};
+use crate::output::distance::{self, Series, SweepPlan, SweepRow};
+use crate::output::plot;
+use crate::patch::SchemeOptions;
+
+#[derive(Args, Clone, Debug)]
+pub struct SweepArgs {
+    /// Output folder for distance.csv, distance.json and the plots.
+    #[arg(long, default_value = "out/sweep")]
+    pub out: PathBuf,
+    /// Print the JSON document on stdout instead of the text summary.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Segments per patch edge of the sampling grid.
+    #[arg(long, default_value_t = distance::STUDY_LEVEL)]
+    pub level: u32,
+    /// Phong tessellation's shape factor α.
+    #[arg(long, default_value_t = 0.75)]
+    pub phong_alpha: f64,
+}
+
+/// What `sweep` wrote.
+pub struct SweepOutput {
+    pub rows: Vec<SweepRow>,
+    pub json: serde_json::Value,
+    pub files: Vec<PathBuf>,
+}
+
+fn progress_bar(len: usize, quiet: bool) -> ProgressBar {
+    let target = if quiet || !std::io::stderr().is_terminal() {
+        ProgressDrawTarget::hidden()
+    } else {
+        ProgressDrawTarget::stderr()
+    };
+    let pb = ProgressBar::with_draw_target(Some(len as u64), target);
+    if let Ok(style) = ProgressStyle::with_template("{msg:>28} [{bar:30}] {pos}/{len} {elapsed}") {
+        pb.set_style(style.progress_chars("=> "));
+    }
+    pb
+}
+
+/// Runs the study and writes its files into `out`.
+pub fn sweep_into(
+    out: &Path,
+    plan: &SweepPlan,
+    evaluator: &dyn Evaluator,
+    quiet: bool,
+) -> anyhow::Result<SweepOutput> {
+    anyhow::ensure!(plan.level >= 1, "--level must be at least 1");
+    ensure_dir(out)?;
+    let pb = progress_bar(plan.jobs(), quiet);
+    let rows = distance::sweep(plan, evaluator, &mut |r| {
+        pb.set_message(format!("{} {}", r.mesh, r.scheme));
+        pb.inc(1);
+    })?;
+    pb.finish_and_clear();
+    let json = serde_json::json!({
+        "level": plan.level,
+        "phong_alpha": plan.options.phong_alpha,
+        "backend": evaluator.describe(),
+        "distance": "mean and max over all grid samples of the distance to the analytic surface",
+        "order": "log(e_prev / e) / log(h_prev / h), h = 1/sqrt(triangles)",
+        "rows": rows,
+    });
+    let csv_path = out.join("distance.csv");
+    let json_path = out.join("distance.json");
+    let csv = distance::to_csv(&rows);
+    write_atomic(&csv_path, |w| std::io::Write::write_all(w, csv.as_bytes()))?;
+    let text = serde_json::to_string_pretty(&json)?;
+    write_atomic(&json_path, |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+    })?;
+    let mut files = vec![csv_path, json_path];
+    files.extend(plot::write_figure(
+        &out.join("sphere_distance"),
+        &plot::sphere_figure(&rows),
+    )?);
+    files.extend(plot::write_figure(
+        &out.join("torus_distance"),
+        &plot::torus_figure(&rows),
+    )?);
+    Ok(SweepOutput { rows, json, files })
+}
+
+/// Text summary: per series and scheme, the mean distance on the smallest and largest mesh
+/// and the observed order over the last refinement and over the whole series.
+pub fn summary(rows: &[SweepRow]) -> String {
+    let mut s = String::new();
+    for series in Series::all() {
+        let of: Vec<&SweepRow> = rows.iter().filter(|r| r.series == series).collect();
+        if of.is_empty() {
+            continue;
+        }
+        s += &format!(
+            "{series}\n  {:<15} {:>10} {:>12} {:>10} {:>12} {:>11} {:>13}\n",
+            "scheme", "triangles", "mean", "triangles", "mean", "last order", "overall order"
+        );
+        let mut schemes: Vec<_> = of.iter().map(|r| r.scheme).collect();
+        schemes.dedup();
+        schemes.sort_by_key(|x| crate::patch::Scheme::all().iter().position(|y| y == x));
+        schemes.dedup();
+        for sc in schemes {
+            let rs: Vec<&&SweepRow> = of.iter().filter(|r| r.scheme == sc).collect();
+            let (a, b) = (rs[0], rs[rs.len() - 1]);
+            let overall = distance::observed_order(a.h, a.mean, b.h, b.mean);
+            let f = |o: Option<f64>| o.map(|x| format!("{x:.2}")).unwrap_or("-".into());
+            s += &format!(
+                "  {:<15} {:>10} {:>12.4e} {:>10} {:>12.4e} {:>11} {:>13}\n",
+                sc.name(),
+                a.triangles,
+                a.mean,
+                b.triangles,
+                b.mean,
+                f(b.order_mean),
+                f(overall)
+            );
+        }
+    }
+    s
+}
+
+pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
+    let plan = SweepPlan {
+        level: a.level,
+        options: SchemeOptions {
+            phong_alpha: a.phong_alpha,
+        },
+        ..SweepPlan::default()
+    };
+    let out = sweep_into(&a.out, &plan, &CpuEvaluator::default(), a.quiet)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&out.json)?);
+    } else {
+        print!("{}", summary(&out.rows));
+    }
+    for f in &out.files {
+        eprintln!("wrote {}", f.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,290 @@
+//! Log–log line plots (PNG and SVG) with plotters, text in the DejaVu Sans font shipped in
+//! `assets/` (registered once as "sans-serif" through plotters' ab_glyph support, so no
+//! system font is needed).
+
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use super::atomic::write_atomic;
+use super::distance::{Series, SweepRow};
+use crate::patch::Scheme;
+use crate::{Error, Result};
+
+static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+static REGISTER: Once = Once::new();
+
+/// Registers the shipped font under "sans-serif" (idempotent).
+pub fn register_font() {
+    REGISTER.call_once(|| {
+        // The font is compiled in and valid; a failure would show as missing text, and
+        // `render` checks for it below.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// One line of a plot.
+#[derive(Clone, Debug)]
+pub struct Line {
+    pub label: String,
+    pub color: RGBColor,
+    /// Drawn thicker (the scheme the study is about).
+    pub bold: bool,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// One log–log panel.
+#[derive(Clone, Debug)]
+pub struct Panel {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub lines: Vec<Line>,
+}
+
+/// A figure: panels side by side under a common caption.
+#[derive(Clone, Debug)]
+pub struct Figure {
+    pub caption: String,
+    pub panels: Vec<Panel>,
+    /// Pixel size of one panel.
+    pub panel_size: (u32, u32),
+}
+
+fn plot_err(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::io(path, std::io::Error::other(format!("plotting failed: {e}")))
+}
+
+/// Log range covering `values` with some margin, on whole-ish decades.
+fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if !lo.is_finite() || hi <= 0.0 {
+        return (1e-3, 1.0);
+    }
+    (lo / 1.6, hi * 1.6)
+}
+
+/// Label of a log-axis key point: only 1, 2 and 5 × 10^k are written (plotters offers every
+/// integer mantissa, which overlap).
+fn round_label(v: &f64) -> String {
+    let e = v.log10().floor();
+    let m = v / 10f64.powf(e);
+    if [1.0, 2.0, 5.0].iter().any(|k| (m - k).abs() < 1e-6) {
+        format!("{v:.0}")
+    } else {
+        String::new()
+    }
+}
+
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    fig: &Figure,
+) -> std::result::Result<(), String>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let root = root
+        .titled(&fig.caption, ("sans-serif", 26))
+        .map_err(|e| e.to_string())?;
+    let areas = root.split_evenly((1, fig.panels.len().max(1)));
+    // All panels share the y range so they compare at a glance.
+    let ys = log_range(
+        fig.panels
+            .iter()
+            .flat_map(|p| p.lines.iter().flat_map(|l| l.points.iter().map(|q| q.1))),
+    );
+    for (area, panel) in areas.iter().zip(&fig.panels) {
+        let xs = log_range(
+            panel
+                .lines
+                .iter()
+                .flat_map(|l| l.points.iter().map(|q| q.0)),
+        );
+        let mut chart = ChartBuilder::on(area)
+            .caption(&panel.title, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(78)
+            .build_cartesian_2d((xs.0..xs.1).log_scale(), (ys.0..ys.1).log_scale())
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .x_desc(&panel.x_label)
+            .y_desc(&panel.y_label)
+            .axis_desc_style(("sans-serif", 17))
+            .label_style(("sans-serif", 14))
+            .x_label_formatter(&round_label)
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .light_line_style(RGBColor(235, 235, 235))
+            .bold_line_style(RGBColor(200, 200, 200))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        for line in &panel.lines {
+            let width = if line.bold { 3 } else { 2 };
+            let style = ShapeStyle::from(line.color).stroke_width(width);
+            let color = line.color;
+            chart
+                .draw_series(LineSeries::new(line.points.iter().copied(), style))
+                .map_err(|e| e.to_string())?
+                .label(&line.label)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 22, y)], color.stroke_width(width))
+                });
+            chart
+                .draw_series(
+                    line.points
+                        .iter()
+                        .map(|&p| Circle::new(p, 3, color.filled())),
+                )
+                .map_err(|e| e.to_string())?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
+            .label_font(("sans-serif", 15))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    root.present().map_err(|e| e.to_string())
+}
+
+/// Writes `fig` as `stem.png` and `stem.svg` (each atomically); returns both paths.
+pub fn write_figure(stem: &Path, fig: &Figure) -> Result<[PathBuf; 2]> {
+    register_font();
+    let size = (
+        fig.panel_size.0 * fig.panels.len().max(1) as u32,
+        fig.panel_size.1,
+    );
+    let png = stem.with_extension("png");
+    let svg = stem.with_extension("svg");
+
+    // SVG: render to a string, then write atomically.
+    let mut text = String::new();
+    draw(
+        SVGBackend::with_string(&mut text, size).into_drawing_area(),
+        fig,
+    )
+    .map_err(|e| plot_err(&svg, e))?;
+    if !text.contains("<text") {
+        return Err(plot_err(&svg, "no text was drawn (font not registered)"));
+    }
+    write_atomic(&svg, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+
+    // PNG: plotters writes the file itself, so render beside the target and rename.
+    let dir = match png.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = png
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp-{}.png", std::process::id()));
+    let drawn = draw(BitMapBackend::new(&tmp, size).into_drawing_area(), fig);
+    if let Err(e) = drawn {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(plot_err(&png, e));
+    }
+    std::fs::rename(&tmp, &png).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::io(&png, e)
+    })?;
+    Ok([png, svg])
+}
+
+/// Colour of a scheme, the same in every plot.
+pub fn scheme_color(s: Scheme) -> RGBColor {
+    match s {
+        Scheme::G1 => RGBColor(214, 39, 40),
+        Scheme::Nagata => RGBColor(31, 119, 180),
+        Scheme::NagataGuarded => RGBColor(23, 190, 207),
+        Scheme::Nlsa => RGBColor(44, 160, 44),
+        Scheme::Pn => RGBColor(255, 127, 14),
+        Scheme::PnNormals => RGBColor(188, 189, 34),
+        Scheme::Phong => RGBColor(148, 103, 189),
+        Scheme::Flat => RGBColor(110, 110, 110),
+    }
+}
+
+/// The lines of one series of the distance study: mean distance against triangles, one
+/// line per scheme. Schemes whose values are identical to an earlier scheme's (same
+/// geometry, e.g. `pn` and `pn-normals`) share its line, labelled "pn = pn-normals".
+pub fn distance_lines(rows: &[SweepRow], series: Series) -> Vec<Line> {
+    let mut schemes: Vec<Scheme> = Vec::new();
+    for r in rows.iter().filter(|r| r.series == series) {
+        if !schemes.contains(&r.scheme) {
+            schemes.push(r.scheme);
+        }
+    }
+    // Schemes sharing a line, and the line.
+    type Merged = (Vec<Scheme>, Vec<(f64, f64)>);
+    let mut lines: Vec<Merged> = Vec::new();
+    for s in schemes {
+        let pts: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| r.series == series && r.scheme == s)
+            .map(|r| (r.triangles as f64, r.mean))
+            .collect();
+        match lines.iter_mut().find(|(_, p)| *p == pts) {
+            Some((names, _)) => names.push(s),
+            None => lines.push((vec![s], pts)),
+        }
+    }
+    lines
+        .into_iter()
+        .map(|(names, points)| Line {
+            label: names
+                .iter()
+                .map(|s| s.name())
+                .collect::<Vec<_>>()
+                .join(" = "),
+            color: scheme_color(names[0]),
+            bold: names[0] == Scheme::G1,
+            points,
+        })
+        .collect()
+}
+
+/// Figure 17: mean distance to the unit sphere on icospheres.
+pub fn sphere_figure(rows: &[SweepRow]) -> Figure {
+    Figure {
+        caption: "Distance to the sphere (icospheres, exact normals, 16 segments per edge)".into(),
+        panels: vec![Panel {
+            title: "unit sphere".into(),
+            x_label: "triangles".into(),
+            y_label: "mean distance to the sphere".into(),
+            lines: distance_lines(rows, Series::Icosphere),
+        }],
+        panel_size: (900, 680),
+    }
+}
+
+/// Figure 18: mean distance to the torus, analytic and averaged normals side by side.
+pub fn torus_figure(rows: &[SweepRow]) -> Figure {
+    let panel = |series: Series, title: &str| Panel {
+        title: title.into(),
+        x_label: "triangles".into(),
+        y_label: "mean distance to the torus".into(),
+        lines: distance_lines(rows, series),
+    };
+    Figure {
+        caption:
+            "Distance to the torus R = 1, r = 0.5 (n × n grids, n = 5…30, 16 segments per edge)"
+                .into(),
+        panels: vec![
+            panel(Series::TorusAnalytic, "analytic normals"),
+            panel(Series::TorusAveraged, "averaged normals"),
+        ],
+        panel_size: (820, 680),
+    }
+}

@@ -1,0 +1,24 @@
+//! NLSA triangles ("near least squares acceleration", Barrera, Hast & Bengtsson 2002) —
+//! a **reconstruction**: the original text could not be consulted.
+//!
+//! The form used here (`../shared/spec/SCHEMES.md`) is a quadratic Bézier triangle with
+//! corners P_i and edge points
+//! C_ij = (P_i + P_j)/2 − ¼[((P_j − P_i)·n_i) n_i − ((P_j − P_i)·n_j) n_j].
+//! It reproduces the paper's NLSA rows of Table 1 to every printed digit, which is the
+//! evidence it is the scheme the paper measured. It coincides with Phong tessellation at
+//! α = 1/2 (`tests/schemes.rs` checks that). The normal is the exact normal of the geometry.
+
+use glam::DVec3;
+
+use crate::mesh::Mesh;
+
+/// Edge point of the edge from (pi, ni) to (pj, nj).
+pub fn edge_point(pi: DVec3, ni: DVec3, pj: DVec3, nj: DVec3) -> DVec3 {
+    let e = pj - pi;
+    0.5 * (pi + pj) - 0.25 * (e.dot(ni) * ni - e.dot(nj) * nj)
+}
+
+/// Control points of every triangle (quadratic, 6 per triangle) and the fallbacks (none).
+pub fn build(mesh: &Mesh) -> (Vec<DVec3>, usize) {
+    super::quadratic::build(mesh, &|pi, ni, pj, nj| (edge_point(pi, ni, pj, nj), false))
+}

@@ -1,0 +1,26 @@
+//! Phong tessellation (Boubekeur & Alexa 2008), `../shared/spec/SCHEMES.md`.
+//!
+//! The linear triangle p(b) = Σ b_i P_i is projected onto the tangent plane of each corner,
+//! π_i(q) = q − ((q − P_i)·n_i) n_i, and blended back with shape factor α:
+//! S(b) = (1 − α) p(b) + α Σ b_i π_i(p(b)). That is a quadratic Bézier triangle with corners
+//! P_i and edge points
+//! C_ij = (P_i + P_j)/2 − (α/2)[((P_j − P_i)·n_i) n_i + ((P_i − P_j)·n_j) n_j].
+//! α = 3/4 is the paper's value (Table 1 matches only with it); α = 0 is the flat triangle.
+//! The normal reported is the exact normal of this geometry, not an interpolated one.
+
+use glam::DVec3;
+
+use crate::mesh::Mesh;
+
+/// Edge point of the edge from (pi, ni) to (pj, nj).
+pub fn edge_point(pi: DVec3, ni: DVec3, pj: DVec3, nj: DVec3, alpha: f64) -> DVec3 {
+    let e = pj - pi;
+    0.5 * (pi + pj) - (0.5 * alpha) * (e.dot(ni) * ni + (-e).dot(nj) * nj)
+}
+
+/// Control points of every triangle (quadratic, 6 per triangle) and the fallbacks (none).
+pub fn build(mesh: &Mesh, alpha: f64) -> (Vec<DVec3>, usize) {
+    super::quadratic::build(mesh, &|pi, ni, pj, nj| {
+        (edge_point(pi, ni, pj, nj, alpha), false)
+    })
+}

@@ -1,0 +1,228 @@
+//! Every bad input gets a one-line error naming the file and the problem, a non-zero exit,
+//! and no panic.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn tmp(name: &str, text: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cli_errors");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Runs `g1tess stats FILE` and returns stderr, asserting failure without a panic.
+fn fails(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+        .args(args)
+        .output()
+        .unwrap();
+    // Drop the backend's information lines ("gpu: ADAPTER", "note: ... falling back").
+    let err: String = String::from_utf8_lossy(&out.stderr)
+        .lines()
+        .filter(|l| !l.starts_with("gpu: ") && !l.starts_with("note: "))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert!(!out.status.success(), "{args:?} should fail");
+    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.starts_with("error: "), "{err}");
+    err
+}
+
+fn stats_error(name: &str, text: &str) -> (String, String) {
+    let p = tmp(name, text);
+    let err = fails(&["stats", p.to_str().unwrap()]);
+    assert!(err.contains(name), "names the file: {err}");
+    (err, p.display().to_string())
+}
+
+const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+
+#[test]
+fn missing_file() {
+    let err = fails(&["stats", "no/such/mesh.obj"]);
+    assert!(
+        err.contains("no/such/mesh.obj") && err.contains("no such file"),
+        "{err}"
+    );
+}
+
+#[test]
+fn parse_error_names_the_line() {
+    let (err, p) = stats_error("parse.obj", "v 0 0 0\nv 1 0 0\nv 0 one 0\nf 1 2 3\n");
+    assert!(err.contains(&format!("{p}:3:")), "{err}");
+    assert!(err.contains("'one' is not a number"), "{err}");
+    let (err, p) = stats_error("short.obj", "v 0 0\n");
+    assert!(
+        err.contains(&format!("{p}:1:")) && err.contains("needs 3 numbers"),
+        "{err}"
+    );
+    let (err, _) = stats_error("corner.obj", &format!("{TRI}f 1 2\n"));
+    assert!(
+        err.contains(":4:") && err.contains("at least 3 corners"),
+        "{err}"
+    );
+    let (err, _) = stats_error("slash.obj", &format!("{TRI}f 1/2/3/4 2 3\n"));
+    assert!(
+        err.contains(":4:") && err.contains("malformed face corner"),
+        "{err}"
+    );
+}
+
+#[test]
+fn index_out_of_range() {
+    let (err, p) = stats_error("range.obj", &format!("{TRI}f 1 2 4\n"));
+    assert!(err.contains(&format!("{p}:4:")), "{err}");
+    assert!(err.contains("vertex index 4 out of range"), "{err}");
+    let (err, _) = stats_error("negative.obj", &format!("{TRI}f -1 -2 -4\n"));
+    assert!(
+        err.contains(":4:") && err.contains("index -4 out of range"),
+        "{err}"
+    );
+    let (err, _) = stats_error("zero.obj", &format!("{TRI}f 0 1 2\n"));
+    assert!(err.contains(":4:") && err.contains("index 0"), "{err}");
+    let (err, _) = stats_error("normal.obj", &format!("{TRI}vn 0 0 1\nf 1//1 2//1 3//2\n"));
+    assert!(
+        err.contains(":5:") && err.contains("normal index 2 out of range"),
+        "{err}"
+    );
+}
+
+#[test]
+fn non_finite_coordinates() {
+    for (name, bad) in [("nan.obj", "nan"), ("inf.obj", "inf"), ("big.obj", "1e999")] {
+        let (err, _) = stats_error(name, &format!("v 0 0 0\nv 1 0 {bad}\nv 0 1 0\nf 1 2 3\n"));
+        assert!(
+            err.contains(":2:") && err.contains("non-finite coordinate"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn zero_normals() {
+    let (err, _) = stats_error("zeron.obj", &format!("{TRI}vn 0 0 0\nf 1//1 2//1 3//1\n"));
+    assert!(
+        err.contains(":4:") && err.contains("zero-length normal"),
+        "{err}"
+    );
+}
+
+#[test]
+fn empty_mesh() {
+    let (err, _) = stats_error("empty.obj", "# nothing here\n");
+    assert!(err.contains("empty mesh"), "{err}");
+    let (err, _) = stats_error("points.obj", TRI);
+    assert!(err.contains("empty mesh"), "{err}");
+    let (err, _) = stats_error("degenerate.obj", &format!("{TRI}f 1 1 2\n"));
+    assert!(
+        err.contains("empty mesh") && err.contains("degenerate"),
+        "{err}"
+    );
+}
+
+#[test]
+fn not_utf8() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cli_errors");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("binary.obj");
+    std::fs::write(&p, b"v 0 0 0\n\xff\xfe\n").unwrap();
+    let err = fails(&["stats", p.to_str().unwrap()]);
+    assert!(err.contains(":2:") && err.contains("not UTF-8"), "{err}");
+}
+
+#[test]
+fn bad_builtin_and_arguments() {
+    let err = fails(&["stats", "icosphere:x"]);
+    assert!(err.contains("bad built-in mesh 'icosphere:x'"), "{err}");
+    let err = fails(&["stats", "torus:3"]);
+    assert!(err.contains("torus:NxM"), "{err}");
+    let err = fails(&["tessellate", "sphere320", "--level", "0", "-o", "x.obj"]);
+    assert!(err.contains("--level"), "{err}");
+}
+
+#[test]
+fn unwritable_output_is_an_error_not_a_panic() {
+    let err = fails(&[
+        "tessellate",
+        "sphere320",
+        "--level",
+        "2",
+        "-o",
+        "/nonexistent-dir/out.obj",
+    ]);
+    assert!(err.contains("/nonexistent-dir/out.obj"), "{err}");
+}
+
+#[test]
+fn stats_json_has_the_documented_fields() {
+    let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+        .args(["stats", "sphere320", "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in [
+        "mesh",
+        "scheme",
+        "triangles",
+        "interior_edges",
+        "boundary_edges",
+        "nonmanifold_edges",
+        "samples",
+        "cos",
+        "max_one_minus_abs_cos",
+        "max_gap",
+        "folded",
+        "backend",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}: {v}");
+    }
+    for key in ["min", "max", "mean", "std"] {
+        assert!(v["cos"][key].is_f64(), "cos.{key}");
+    }
+    assert_eq!(v["triangles"], 320);
+    assert_eq!(v["interior_edges"], 480);
+    assert_eq!(v["samples"], 480 * 21);
+    assert!(1.0 - v["cos"]["min"].as_f64().unwrap() <= 1e-12);
+}
+
+#[test]
+fn tessellate_writes_a_readable_obj() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cli_tess");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("sphere.obj");
+    let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+        .args([
+            "tessellate",
+            "sphere320",
+            "--level",
+            "4",
+            "-o",
+            p.to_str().unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let text = std::fs::read_to_string(&p).unwrap();
+    let nv = text.lines().filter(|l| l.starts_with("v ")).count();
+    let nf = text.lines().filter(|l| l.starts_with("f ")).count();
+    assert_eq!(v["vertices"].as_u64().unwrap() as usize, nv);
+    assert_eq!(v["triangles"].as_u64().unwrap() as usize, nf);
+    assert_eq!(nf, 320 * 16);
+    // Every written point lies within the G1 sphere's accuracy of the unit sphere.
+    for l in text.lines().filter(|l| l.starts_with("v ")) {
+        let c: Vec<f64> = l[2..].split(' ').map(|x| x.parse().unwrap()).collect();
+        let r = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        assert!((r - 1.0).abs() < 2e-4, "{l}");
+    }
+}

@@ -1,0 +1,360 @@
+//! Properties every scheme must have, checked against independent expectations: central
+//! finite differences for the derivatives, the input points (and normals, where the scheme
+//! interpolates them) at the corners, watertight shared edges, and the identities between
+//! schemes that `SCHEMES.md` states.
+
+use std::path::PathBuf;
+
+use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::mesh::{generators, LoadOptions, Mesh};
+use g1tess::output::distance::{distance, Surface};
+use g1tess::output::stats::continuity;
+use g1tess::patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
+use glam::DVec3;
+
+fn shared_mesh(name: &str) -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/meshes")
+        .join(name)
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// Meshes for the checks: exact, analytic and averaged normals, estimated normals on an
+/// organic and a CAD mesh (sharp creases).
+fn meshes() -> Vec<Mesh> {
+    let mut out = vec![
+        generators::icosphere(2),
+        generators::from_spec("torus:7x9:analytic")
+            .unwrap()
+            .unwrap(),
+        generators::from_spec("torus200").unwrap().unwrap(),
+    ];
+    for f in ["spot.obj", "fandisk.obj"] {
+        out.push(Mesh::load(&shared_mesh(f), &LoadOptions::default()).unwrap());
+    }
+    out
+}
+
+/// Deterministic pseudo-random numbers in [0, 1) (xorshift64*).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// A barycentric point at least `m` inside the triangle.
+    fn interior(&mut self, m: f64) -> [f64; 3] {
+        loop {
+            let (s, t) = (self.next(), self.next());
+            if s >= m && t >= m && 1.0 - s - t >= m {
+                return [1.0 - s - t, s, t];
+            }
+        }
+    }
+}
+
+fn table(mesh: &Mesh, scheme: Scheme) -> PatchTable {
+    PatchTable::build(mesh, scheme, &SchemeOptions::default()).unwrap()
+}
+
+#[test]
+fn every_scheme_is_named_on_the_command_line() {
+    let names: Vec<&str> = Scheme::all().iter().map(|s| s.name()).collect();
+    assert_eq!(
+        names,
+        [
+            "g1",
+            "phong",
+            "nagata",
+            "nagata-guarded",
+            "nlsa",
+            "pn",
+            "pn-normals",
+            "flat"
+        ]
+    );
+    for s in Scheme::all() {
+        assert_eq!(Scheme::parse(s.name()).unwrap(), s);
+        let v = <Scheme as clap::ValueEnum>::from_str(s.name(), false).unwrap();
+        assert_eq!(v, s);
+    }
+    assert!(Scheme::parse("bogus").is_err());
+}
+
+#[test]
+fn patch_kinds_are_the_specified_ones() {
+    let m = generators::icosphere(0);
+    let kinds = [
+        (Scheme::G1, PatchKind::Gregory),
+        (Scheme::Phong, PatchKind::Bezier(2)),
+        (Scheme::Nagata, PatchKind::Bezier(2)),
+        (Scheme::NagataGuarded, PatchKind::Bezier(2)),
+        (Scheme::Nlsa, PatchKind::Bezier(2)),
+        (Scheme::Pn, PatchKind::Bezier(3)),
+        (Scheme::PnNormals, PatchKind::PnNormals),
+        (Scheme::Flat, PatchKind::Bezier(1)),
+    ];
+    for (s, k) in kinds {
+        let t = table(&m, s);
+        assert_eq!(t.kind, k, "{s}");
+        assert_eq!(t.points.len(), k.stride() * m.triangles.len(), "{s}");
+    }
+}
+
+/// ∂S/∂s and ∂S/∂t against central differences of the position, at random interior points
+/// of random patches.
+#[test]
+fn derivatives_match_central_differences() {
+    let h = 1e-5;
+    for mesh in meshes() {
+        for scheme in Scheme::all() {
+            let t = table(&mesh, scheme);
+            let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ t.len() as u64);
+            let mut worst = 0.0f64;
+            for _ in 0..200 {
+                let i = (rng.next() * t.len() as f64) as usize;
+                let b = rng.interior(2e-3);
+                let at = |ds: f64, dt: f64| t.eval(i, [b[0] - ds - dt, b[1] + ds, b[2] + dt]).p;
+                let sp = t.eval(i, b);
+                let fs = (at(h, 0.0) - at(-h, 0.0)) / (2.0 * h);
+                let ft = (at(0.0, h) - at(0.0, -h)) / (2.0 * h);
+                let scale = sp.ds.length().max(sp.dt.length()).max(1e-300);
+                worst = worst
+                    .max((fs - sp.ds).length() / scale)
+                    .max((ft - sp.dt).length() / scale);
+            }
+            assert!(
+                worst < 1e-7,
+                "{} {scheme}: derivative vs finite difference, relative error {worst:e}",
+                mesh.name
+            );
+        }
+    }
+}
+
+/// Every scheme passes through its triangle's corners. G1 and PN (both normals) reproduce
+/// the corner normals exactly; Nagata's corner tangents are orthogonal to the corner normal
+/// (its defining property), so its tangent plane is the input's, but its orientation is not
+/// guaranteed: the tangents dx − c are not orthogonal projections of the edges and can swap
+/// order (on the coarse 7 × 9 torus some corners come out with −N_i: the ξ = 0 patch folds).
+#[test]
+fn corners_interpolate_points_and_normals() {
+    for mesh in meshes() {
+        let scale = mesh.diagonal();
+        for scheme in Scheme::all() {
+            let t = table(&mesh, scheme);
+            let exact = matches!(scheme, Scheme::G1 | Scheme::Pn | Scheme::PnNormals);
+            // Where Nagata took a fallback (a vanishing denominator, or a guarded straight
+            // edge) that edge is not orthogonal to the normals.
+            let plane =
+                matches!(scheme, Scheme::Nagata | Scheme::NagataGuarded) && t.fallbacks == 0;
+            let (mut gap, mut ncos, mut nabs) = (0.0f64, 0.0f64, 0.0f64);
+            for (i, tri) in mesh.triangles.iter().enumerate() {
+                for k in 0..3 {
+                    let mut b = [0.0; 3];
+                    b[k] = 1.0;
+                    let sp = t.eval(i, b);
+                    gap = gap.max((sp.p - mesh.positions[tri[k] as usize]).length());
+                    let c = sp.n.dot(mesh.corner_normals[i][k]);
+                    ncos = ncos.max(1.0 - c);
+                    nabs = nabs.max(1.0 - c.abs());
+                }
+            }
+            assert!(
+                gap <= 1e-14 * scale,
+                "{} {scheme}: corner off by {gap:e}",
+                mesh.name
+            );
+            if exact {
+                assert!(
+                    ncos < 1e-12,
+                    "{} {scheme}: corner normal differs from the input, 1 - cos = {ncos:e}",
+                    mesh.name
+                );
+            }
+            if plane {
+                assert!(
+                    nabs < 1e-12,
+                    "{} {scheme}: corner tangent plane differs from the input, 1 - |cos| = {nabs:e}",
+                    mesh.name
+                );
+            }
+        }
+    }
+}
+
+/// The two patches of every interior edge meet: position gap ≤ 1e-12 × diagonal.
+#[test]
+fn shared_edges_are_watertight() {
+    let ev = CpuEvaluator::default();
+    for mesh in meshes() {
+        let adj = mesh.adjacency();
+        for scheme in Scheme::all() {
+            let t = table(&mesh, scheme);
+            let c = continuity(&mesh, &adj, &t, &ev).unwrap();
+            assert!(c.samples > 0);
+            assert!(
+                c.max_gap <= 1e-12 * mesh.diagonal(),
+                "{} {scheme}: gap {:e} (diagonal {})",
+                mesh.name,
+                c.max_gap,
+                mesh.diagonal()
+            );
+        }
+    }
+}
+
+/// Positions of two tables at random points of every patch.
+fn max_position_difference(a: &PatchTable, b: &PatchTable) -> f64 {
+    let mut rng = Rng(42);
+    let mut worst = 0.0f64;
+    for i in 0..a.len() {
+        for _ in 0..5 {
+            let p = rng.interior(0.0);
+            worst = worst.max((a.eval(i, p).p - b.eval(i, p).p).length());
+        }
+    }
+    worst
+}
+
+#[test]
+fn nlsa_is_phong_at_one_half_and_phong_at_zero_is_flat() {
+    let mesh = generators::from_spec("torus200").unwrap().unwrap();
+    let half =
+        PatchTable::build(&mesh, Scheme::Phong, &SchemeOptions { phong_alpha: 0.5 }).unwrap();
+    let zero =
+        PatchTable::build(&mesh, Scheme::Phong, &SchemeOptions { phong_alpha: 0.0 }).unwrap();
+    assert!(max_position_difference(&table(&mesh, Scheme::Nlsa), &half) < 1e-15);
+    assert!(max_position_difference(&table(&mesh, Scheme::Flat), &zero) < 1e-15);
+    // α changes the surface: 3/4 differs from 1/2.
+    assert!(max_position_difference(&table(&mesh, Scheme::Phong), &half) > 1e-3);
+}
+
+/// Phong tessellation by its definition S = (1 − α) p + α Σ b_i π_i(p), evaluated directly.
+#[test]
+fn phong_matches_its_projection_definition() {
+    let mesh = generators::from_spec("torus:6x5:averaged")
+        .unwrap()
+        .unwrap();
+    let alpha = 0.75;
+    let t = table(&mesh, Scheme::Phong);
+    let mut rng = Rng(7);
+    for (i, tri) in mesh.triangles.iter().enumerate() {
+        let q = tri.map(|v| mesh.positions[v as usize]);
+        let n = mesh.corner_normals[i];
+        let b = rng.interior(0.0);
+        let p: DVec3 = (0..3).map(|k| b[k] * q[k]).sum();
+        let proj: DVec3 = (0..3)
+            .map(|k| b[k] * (p - (p - q[k]).dot(n[k]) * n[k]))
+            .sum();
+        let expect = (1.0 - alpha) * p + alpha * proj;
+        assert!((t.eval(i, b).p - expect).length() < 1e-14);
+    }
+}
+
+/// Nagata's edge curve is orthogonal to both end normals (the defining property), and on a
+/// circle of the sphere it bulges outwards.
+#[test]
+fn nagata_edges_are_orthogonal_to_the_end_normals() {
+    let mesh = generators::icosphere(1);
+    let t = table(&mesh, Scheme::Nagata);
+    for (i, _) in mesh.triangles.iter().enumerate() {
+        let n = mesh.corner_normals[i];
+        for k in 0..3 {
+            let (a, b) = (k, (k + 1) % 3);
+            // Tangent of edge a→b at a: derivative of S(b_a = 1 − u, b_b = u) at u = 0.
+            let mut ba = [0.0; 3];
+            ba[a] = 1.0;
+            let sp = t.eval(i, ba);
+            // Homogeneous derivatives up to a common term: ∂S/∂b0 := 0, ∂S/∂b1 = S_s,
+            // ∂S/∂b2 = S_t.
+            let d = |m: usize| match m {
+                0 => DVec3::ZERO,
+                1 => sp.ds,
+                _ => sp.dt,
+            };
+            let tangent = d(b) - d(a);
+            assert!(tangent.normalize().dot(n[a]).abs() < 1e-13);
+        }
+    }
+}
+
+/// The guard of `nagata-guarded` fires exactly on the two rings of nearly parallel normals
+/// (top and bottom of the tube) of an 8 × 8 torus with averaged normals, where ξ = 0 folds
+/// the surface, and nowhere on the sphere.
+#[test]
+fn nagata_guard_fires_only_where_xi_zero_folds() {
+    let ev = CpuEvaluator::default();
+    let sphere = generators::icosphere(2);
+    let a = table(&sphere, Scheme::Nagata);
+    let b = table(&sphere, Scheme::NagataGuarded);
+    assert_eq!(b.fallbacks, 0);
+    assert_eq!(a.points, b.points);
+
+    let torus = generators::from_spec("torus:8x8:averaged")
+        .unwrap()
+        .unwrap();
+    let adj = torus.adjacency();
+    let bare = table(&torus, Scheme::Nagata);
+    let guarded = table(&torus, Scheme::NagataGuarded);
+    // 2 rings × 8 edges × 2 triangles per edge.
+    assert_eq!(guarded.fallbacks, 32);
+    let cb = continuity(&torus, &adj, &bare, &ev).unwrap();
+    let cg = continuity(&torus, &adj, &guarded, &ev).unwrap();
+    assert!(cb.folded > 0, "xi = 0 should fold here: {cb:?}");
+    assert_eq!(cg.folded, 0, "{cg:?}");
+    // The straightened edges keep a kink (the normals are not those of a straight edge),
+    // but the surface comes back to the torus: far closer than the folded one, and closer
+    // than the flat triangles.
+    let surface = Surface::Torus { big_r: 1.0, r: 0.5 };
+    let d = |t: &PatchTable| distance(t, &surface, 16, &ev).unwrap().mean;
+    let (db, dg, df) = (d(&bare), d(&guarded), d(&table(&torus, Scheme::Flat)));
+    assert!(
+        dg < db / 3.0 && dg < df / 3.0,
+        "bare {db:e} guarded {dg:e} flat {df:e}"
+    );
+}
+
+/// PN's quadratic normal field: the corner normals at the corners, continuous across edges
+/// (it is built from edge data only), and not the geometry's normal.
+#[test]
+fn pn_normal_field_is_continuous_and_labelled_apart() {
+    let ev = CpuEvaluator::default();
+    let mesh = generators::from_spec("torus200").unwrap().unwrap();
+    let adj = mesh.adjacency();
+    let field = table(&mesh, Scheme::PnNormals);
+    let exact = table(&mesh, Scheme::Pn);
+    let cf = continuity(&mesh, &adj, &field, &ev).unwrap();
+    let ce = continuity(&mesh, &adj, &exact, &ev).unwrap();
+    assert!(1.0 - cf.cos.min < 1e-12, "{cf:?}");
+    assert!(1.0 - ce.cos.min > 1e-3, "{ce:?}");
+    // Same geometry.
+    assert!(max_position_difference(&field, &exact) == 0.0);
+    // Mid-edge: the field is the normalised mix of the corners and the edge coefficient,
+    // and for a sphere with exact normals that is the normalised chord midpoint direction.
+    let sphere = generators::icosphere(1);
+    let t = table(&sphere, Scheme::PnNormals);
+    for (i, tri) in sphere.triangles.iter().enumerate() {
+        let q = tri.map(|v| sphere.positions[v as usize]);
+        let n = t.eval(i, [0.5, 0.5, 0.0]).n;
+        let expect = (q[0] + q[1]).normalize();
+        assert!(1.0 - n.dot(expect) < 1e-14);
+    }
+}
+
+#[test]
+fn bad_phong_alpha_is_an_error_not_a_nan() {
+    let mesh = generators::icosphere(0);
+    let e = PatchTable::build(
+        &mesh,
+        Scheme::Phong,
+        &SchemeOptions {
+            phong_alpha: f64::NAN,
+        },
+    );
+    let msg = e.unwrap_err().to_string();
+    assert!(msg.contains("phong") && msg.contains("finite"), "{msg}");
+}
