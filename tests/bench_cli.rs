@@ -67,6 +67,7 @@ fn bench_json_rows_and_rates_are_consistent() {
         for k in [
             "cpu_f32_1_thread",
             "cpu_f32_all_threads",
+            "cpu_f32_all_threads_whole_output",
             "cpu_f64_reference_all_threads",
         ] {
             check_rate(&r[k], samples, roofline);

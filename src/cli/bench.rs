@@ -2,7 +2,8 @@
 //! memory write bandwidth measured in the same run.
 //!
 //! For each mesh, scheme and level: the patch-table build time, and samples per second of
-//! the CPU f32 fast path (1 thread and all threads), the f64 CPU reference (all threads),
+//! the CPU f32 fast path (1 thread and all threads, streamed in chunks; and all threads
+//! into one pre-faulted array of the whole output), the f64 CPU reference (all threads),
 //! the GPU without readback (uploads + dispatches) and with readback (results in host
 //! memory as f64, chunk by chunk). Each throughput is also given as a fraction of the
 //! write roofline: bandwidth / 24 bytes (an f32 position and normal per sample).
@@ -42,6 +43,10 @@ pub struct BenchArgs {
     /// GPU working precision.
     #[arg(long, value_enum, default_value = "f32")]
     pub precision: Precision,
+    /// Samples per chunk of the CPU evaluators (a chunk's output is one reused buffer: one
+    /// that fits in the last-level cache is never written back to memory).
+    #[arg(long, default_value_t = 1 << 20)]
+    pub cpu_chunk_samples: usize,
     /// Skip the GPU even when an adapter is present.
     #[arg(long)]
     pub no_gpu: bool,
@@ -80,6 +85,8 @@ pub struct Row {
     pub build_s: f64,
     pub cpu_f32_1_thread: Rate,
     pub cpu_f32_all_threads: Rate,
+    /// All threads, the whole output in one pre-faulted array (every byte goes to memory).
+    pub cpu_f32_all_threads_whole_output: Rate,
     pub cpu_f64_reference_all_threads: Option<Rate>,
     pub gpu_dispatch_only: Option<Rate>,
     pub gpu_with_readback: Option<Rate>,
@@ -91,6 +98,8 @@ pub struct Machine {
     pub threads: usize,
     pub os: String,
     pub cpu_kernel: String,
+    /// Samples per chunk of the CPU evaluators.
+    pub cpu_chunk_samples: usize,
     pub gpu: Option<String>,
     pub gpu_precision: String,
     /// Why there are no GPU figures, if there are none.
@@ -234,6 +243,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         threads: rayon::current_num_threads(),
         os: format!("{} {}", std::env::consts::OS, std::env::consts::ARCH),
         cpu_kernel: F32Kernel::Auto.name().to_string(),
+        cpu_chunk_samples: a.cpu_chunk_samples.max(1),
         gpu: gpu.as_ref().map(|g| g.context().describe()),
         gpu_precision: a.precision.to_string(),
         gpu_note,
@@ -244,7 +254,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     };
 
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let cpu = CpuEvaluator::default();
+    let cpu = CpuEvaluator {
+        chunk_samples: a.cpu_chunk_samples.max(1),
+    };
     let min = Duration::from_millis(500);
     let mut rows = Vec::new();
     for spec in &meshes {
@@ -277,6 +289,16 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                 };
                 let cpu1 = best_time(min, || one.install(fast))?;
                 let cpu_all = best_time(min, fast)?;
+                let whole = {
+                    let mut pos = vec![[0f32; 3]; samples];
+                    let mut nrm = vec![[0f32; 3]; samples];
+                    let mut run = || {
+                        cpu.grid_f32_into(&table, &weights, F32Kernel::Auto, &mut pos, &mut nrm)
+                            .map_err(anyhow::Error::from)
+                    };
+                    run()?; // first touch of every page, untimed
+                    best_time(min, run)?
+                };
                 let reference = if a.no_reference {
                     None
                 } else {
@@ -316,6 +338,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                     build_s,
                     cpu_f32_1_thread: rate(cpu1),
                     cpu_f32_all_threads: rate(cpu_all),
+                    cpu_f32_all_threads_whole_output: rate(whole),
                     cpu_f64_reference_all_threads: reference,
                     gpu_dispatch_only: dispatch,
                     gpu_with_readback: readback,
@@ -338,15 +361,16 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
 pub fn to_text(r: &BenchReport) -> String {
     let m = &r.machine;
     let mut s = format!(
-        "machine: {} · {} threads · {} · CPU kernel {}\n\
+        "machine: {} · {} threads · {} · CPU kernel {}, {} samples per chunk\n\
          gpu: {}{}\n\
          memory write bandwidth ({} MiB buffer): {:.2} GB/s all threads, {:.2} GB/s 1 thread → roofline {:.1} M samples/s at 24 B/sample\n\n\
-         | mesh | scheme | level | samples | build ms | CPU f32 1 thr M/s (roof) | CPU f32 all M/s (roof) | CPU f64 ref all M/s | GPU dispatch M/s (roof) | GPU +readback M/s (roof) |\n\
-         |---|---|---|---|---|---|---|---|---|---|\n",
+         | mesh | scheme | level | samples | build ms | CPU f32 1 thr M/s (roof) | CPU f32 all M/s (roof) | CPU f32 all, whole output M/s (roof) | CPU f64 ref all M/s | GPU dispatch M/s (roof) | GPU +readback M/s (roof) |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n",
         m.cpu,
         m.threads,
         m.os,
         m.cpu_kernel,
+        m.cpu_chunk_samples,
         m.gpu.clone().unwrap_or_else(|| "none".into()),
         match &m.gpu_note {
             Some(n) => format!(" ({n})"),
@@ -367,7 +391,7 @@ pub fn to_text(r: &BenchReport) -> String {
     };
     for row in &r.rows {
         s += &format!(
-            "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {} |\n",
             row.mesh,
             row.scheme,
             row.level,
@@ -375,6 +399,7 @@ pub fn to_text(r: &BenchReport) -> String {
             row.build_s * 1e3,
             cell(Some(&row.cpu_f32_1_thread)),
             cell(Some(&row.cpu_f32_all_threads)),
+            cell(Some(&row.cpu_f32_all_threads_whole_output)),
             row.cpu_f64_reference_all_threads
                 .map(|r| format!("{:.1}", r.samples_per_s / 1e6))
                 .unwrap_or_else(|| "–".into()),

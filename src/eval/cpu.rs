@@ -447,6 +447,30 @@ impl CpuEvaluator {
         self.grid_f32_with(table, weights, F32Kernel::Auto, sink)
     }
 
+    /// The fast path into caller-owned arrays of `grid_len(level) × table.len()` samples
+    /// (the whole output at once, no chunks).
+    pub fn grid_f32_into(
+        &self,
+        table: &PatchTable,
+        weights: &GridWeightsF32,
+        kernel: F32Kernel,
+        positions: &mut [[f32; 3]],
+        normals: &mut [[f32; 3]],
+    ) -> Result<()> {
+        let n = weights.per * table.len();
+        if weights.kind != table.kind || positions.len() != n || normals.len() != n {
+            return Err(crate::Error::Invalid(format!(
+                "grid_f32_into: {} / {} samples for {n} ({:?} weights, {:?} table)",
+                positions.len(),
+                normals.len(),
+                weights.kind,
+                table.kind
+            )));
+        }
+        run_patches_f32(table, weights, kernel, 0, positions, normals);
+        Ok(())
+    }
+
     /// [`CpuEvaluator::grid_f32`] with a chosen kernel.
     pub fn grid_f32_with(
         &self,
