@@ -34,7 +34,11 @@ fn ci() -> bool {
 fn context() -> Option<Arc<GpuContext>> {
     match GpuContext::shared() {
         Ok(c) => {
-            eprintln!("GPU test running on: {}", c.describe());
+            eprintln!(
+                "GPU test running on: {} ({})",
+                c.describe(),
+                c.limits_summary()
+            );
             Some(c)
         }
         Err(e) => {

@@ -101,6 +101,8 @@ pub struct Machine {
     /// Samples per chunk of the CPU evaluators.
     pub cpu_chunk_samples: usize,
     pub gpu: Option<String>,
+    /// The adapter's limits that matter here.
+    pub gpu_limits: Option<String>,
     pub gpu_precision: String,
     /// Why there are no GPU figures, if there are none.
     pub gpu_note: Option<String>,
@@ -245,6 +247,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         cpu_kernel: F32Kernel::Auto.name().to_string(),
         cpu_chunk_samples: a.cpu_chunk_samples.max(1),
         gpu: gpu.as_ref().map(|g| g.context().describe()),
+        gpu_limits: gpu.as_ref().map(|g| g.context().limits_summary()),
         gpu_precision: a.precision.to_string(),
         gpu_note,
         write_bandwidth_gbs: bw,
@@ -372,9 +375,10 @@ pub fn to_text(r: &BenchReport) -> String {
         m.cpu_kernel,
         m.cpu_chunk_samples,
         m.gpu.clone().unwrap_or_else(|| "none".into()),
-        match &m.gpu_note {
-            Some(n) => format!(" ({n})"),
-            None => format!(" ({})", m.gpu_precision),
+        match (&m.gpu_note, &m.gpu_limits) {
+            (Some(n), _) => format!(" ({n})"),
+            (None, Some(l)) => format!(" ({}; {l})", m.gpu_precision),
+            (None, None) => format!(" ({})", m.gpu_precision),
         },
         m.bandwidth_buffer_mib,
         m.write_bandwidth_gbs,

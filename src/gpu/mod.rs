@@ -162,6 +162,19 @@ impl GpuContext {
         )
     }
 
+    /// The limits this crate relies on, for reports: "max storage binding 128 MiB, max
+    /// buffer 2048 MiB, 65535 workgroups per dimension, f64 shaders yes".
+    pub fn limits_summary(&self) -> String {
+        let mib = |b: u64| (b as f64 / (1u64 << 20) as f64).round();
+        format!(
+            "max storage binding {} MiB, max buffer {} MiB, {} workgroups per dimension, f64 shaders {}",
+            mib(self.limits.max_storage_buffer_binding_size),
+            mib(self.limits.max_buffer_size),
+            self.limits.max_compute_workgroups_per_dimension,
+            if self.supports_f64() { "yes" } else { "no" }
+        )
+    }
+
     /// Whether the device can run f64 shaders.
     pub fn supports_f64(&self) -> bool {
         self.features.contains(wgpu::Features::SHADER_F64)
