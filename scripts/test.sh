@@ -24,3 +24,6 @@ fi
 
 echo "== cargo test --release"
 cargo test --release 2>&1
+
+echo "== blender add-on integration test"
+scripts/blender_test.sh

@@ -7,7 +7,7 @@ use crate::patch::{PatchTable, Scheme, SchemeOptions};
 
 #[derive(Args, Clone, Debug)]
 pub struct InputArgs {
-    /// Mesh file (.obj) or built-in mesh: sphere320, torus200, icosphere:L,
+    /// Mesh file (.obj, or .pn point-normal) or built-in mesh: sphere320, torus200, icosphere:L,
     /// torus:NxM[:analytic|:averaged].
     pub mesh: String,
     /// Surface scheme.

@@ -5,6 +5,7 @@ pub mod adjacency;
 pub mod generators;
 pub mod normals;
 pub mod obj;
+pub mod pn;
 
 use glam::DVec3;
 use std::path::Path;
@@ -77,7 +78,12 @@ impl Mesh {
                     generators::BUILTIN_HELP
                 )));
             }
-            obj::load_obj(path, opts)?
+            let ext = path.extension().map(|e| e.to_ascii_lowercase());
+            if ext.as_deref() == Some(std::ffi::OsStr::new("pn")) {
+                pn::load_pn(path)?
+            } else {
+                obj::load_obj(path, opts)?
+            }
         };
         if opts.recompute_normals {
             let n = normals::vertex_normals(&mesh.positions, &mesh.triangles, opts.weighting);
