@@ -8,6 +8,7 @@
 pub mod cli;
 pub mod error;
 pub mod eval;
+pub mod gpu;
 pub mod mesh;
 pub mod output;
 pub mod patch;

@@ -18,7 +18,12 @@ fn fails(args: &[&str]) -> String {
         .args(args)
         .output()
         .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    // Drop the backend's information lines ("gpu: ADAPTER", "note: ... falling back").
+    let err: String = String::from_utf8_lossy(&out.stderr)
+        .lines()
+        .filter(|l| !l.starts_with("gpu: ") && !l.starts_with("note: "))
+        .map(|l| format!("{l}\n"))
+        .collect();
     assert!(!out.status.success(), "{args:?} should fail");
     assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
     assert!(!err.contains("panicked"), "{args:?} panicked: {err}");

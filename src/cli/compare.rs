@@ -2,7 +2,7 @@
 
 use clap::Args;
 
-use crate::eval::cpu::CpuEvaluator;
+use super::BackendArgs;
 use crate::mesh::{LoadOptions, NormalWeighting};
 use crate::output::table1;
 use crate::patch::{Scheme, SchemeOptions};
@@ -28,6 +28,8 @@ pub struct CompareArgs {
     /// Phong tessellation's shape factor α.
     #[arg(long, default_value_t = 0.75)]
     pub phong_alpha: f64,
+    #[command(flatten)]
+    pub backend: BackendArgs,
 }
 
 impl CompareArgs {
@@ -40,6 +42,7 @@ impl CompareArgs {
             normals: NormalWeighting::Angle,
             recompute_normals: false,
             phong_alpha: 0.75,
+            backend: BackendArgs::default(),
         }
     }
 
@@ -51,7 +54,7 @@ impl CompareArgs {
         }
     }
 
-    /// Runs the comparison on the CPU reference.
+    /// Runs the comparison on the chosen backend (GPU in f64 by default, else the CPU).
     pub fn reports(&self) -> anyhow::Result<Vec<crate::output::stats::StatsReport>> {
         Ok(table1::compare(
             &self.meshes,
@@ -64,7 +67,7 @@ impl CompareArgs {
             &SchemeOptions {
                 phong_alpha: self.phong_alpha,
             },
-            &CpuEvaluator::default(),
+            self.backend.evaluator(crate::gpu::Precision::F64)?.as_ref(),
         )?)
     }
 }

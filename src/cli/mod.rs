@@ -1,6 +1,7 @@
 //! The command line: one file per command. `main` prints errors as one line and exits
 //! non-zero; nothing a user can type makes it panic.
 
+mod bench;
 mod common;
 mod compare;
 mod export_net;
@@ -14,7 +15,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-pub use common::InputArgs;
+pub use common::{Backend, BackendArgs, InputArgs};
 
 #[derive(Parser)]
 #[command(
@@ -44,12 +45,19 @@ pub enum Command {
     /// Distance to the analytic surface on refined icospheres and tori (figures 17–18):
     /// CSV, JSON and log–log plots.
     Sweep(sweep::SweepArgs),
+    /// Throughput of the CPU and GPU evaluators against the memory write bandwidth.
+    Bench(bench::BenchArgs),
 }
 
 /// The default job: `cargo run --release` with no arguments reproduces the paper into
 /// `out/paper/` (steps in `paper.rs`).
 fn default_run() -> anyhow::Result<()> {
-    paper::run(&paper::PaperRun::default())
+    // `--backend auto` in f64: the GPU where it has f64, else the CPU (saying so).
+    let evaluator = BackendArgs::default().evaluator(crate::gpu::Precision::F64)?;
+    paper::run(&paper::PaperRun {
+        evaluator,
+        ..Default::default()
+    })
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -60,6 +68,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Render(a)) => render::run(&a),
         Some(Command::Compare(a)) => compare::run(&a),
         Some(Command::Sweep(a)) => sweep::run(&a),
+        Some(Command::Bench(a)) => bench::run(&a),
         None => default_run(),
     }
 }

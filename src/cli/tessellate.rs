@@ -4,9 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::InputArgs;
-use crate::eval::cpu::CpuEvaluator;
-use crate::eval::Evaluator;
+use super::{BackendArgs, InputArgs};
 use crate::output::progress;
 use crate::output::weld::{weld_into, WeldPlan};
 use crate::output::writers::{write_welded, MeshFormat};
@@ -15,6 +13,8 @@ use crate::output::writers::{write_welded, MeshFormat};
 pub struct TessellateArgs {
     #[command(flatten)]
     pub input: InputArgs,
+    #[command(flatten)]
+    pub backend: BackendArgs,
     /// Grid level: n segments per edge, (n+1)(n+2)/2 points per patch.
     #[arg(long, default_value_t = 8)]
     pub level: u32,
@@ -37,7 +37,11 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     let (mesh, table) = a.input.load()?;
     let adjacency = mesh.adjacency();
     let plan = WeldPlan::new(&mesh, &adjacency, a.level)?;
-    let evaluator = CpuEvaluator::default();
+    let backend = BackendArgs {
+        quiet: a.quiet,
+        ..a.backend.clone()
+    };
+    let evaluator = backend.evaluator(crate::gpu::Precision::F32)?;
     let title = format!(
         "g1tess: {}, scheme {}, level {}",
         mesh.name, table.scheme, a.level
@@ -45,7 +49,9 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     let bar = progress::bar(plan.patches() as u64, "evaluating", "patches", a.quiet);
     let mut snap = 0.0;
     write_welded(&a.output, format, &plan, &title, &bar, &mut |sink| {
-        snap = weld_into(&plan, &table, &evaluator, sink, &mut |k| bar.inc(k as u64))?;
+        snap = weld_into(&plan, &table, evaluator.as_ref(), sink, &mut |k| {
+            bar.inc(k as u64)
+        })?;
         bar.set_position(0);
         bar.set_message("writing faces");
         Ok(())

@@ -2,6 +2,7 @@
 //! GPU backend (wgpu compute). Results stream to the consumer chunk by chunk.
 
 pub mod cpu;
+pub mod gpu;
 pub mod pattern;
 
 use glam::DVec3;

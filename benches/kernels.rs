@@ -1,0 +1,79 @@
+//! Criterion benches of the kernels `g1tess bench` measures, kept quick: the patch-table
+//! build, the CPU f32 fast path, the f64 CPU reference, and the GPU with and without
+//! readback (when a Vulkan adapter is present), for G1 and the flat baseline on spot.obj
+//! at level 16. `cargo bench --bench kernels`.
+
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+
+use g1tess::eval::cpu::{CpuEvaluator, GridWeightsF32};
+use g1tess::eval::gpu::GpuEvaluator;
+use g1tess::eval::{grid_len, Evaluator, Pattern};
+use g1tess::gpu::{GpuContext, Precision};
+use g1tess::mesh::{LoadOptions, Mesh};
+use g1tess::patch::{PatchTable, Scheme};
+
+const LEVEL: u32 = 16;
+
+fn kernels(c: &mut Criterion) {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes/spot.obj");
+    let mesh = Mesh::load(path, &LoadOptions::default()).expect("spot.obj");
+    let gpu = match GpuContext::shared().and_then(|ctx| GpuEvaluator::new(ctx, Precision::F32)) {
+        Ok(g) => Some(g),
+        Err(e) => {
+            eprintln!("no GPU benches: {e}");
+            None
+        }
+    };
+    let cpu = CpuEvaluator::default();
+    for scheme in [Scheme::G1, Scheme::Flat] {
+        let mut g = c.benchmark_group(format!("{scheme}"));
+        g.sample_size(10)
+            .warm_up_time(Duration::from_millis(500))
+            .measurement_time(Duration::from_secs(2));
+        g.bench_function("build", |b| {
+            b.iter(|| PatchTable::build(&mesh, scheme, &Default::default()).unwrap())
+        });
+        let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
+        g.throughput(Throughput::Elements((grid_len(LEVEL) * table.len()) as u64));
+        let weights = GridWeightsF32::new(table.kind, LEVEL);
+        g.bench_function(format!("cpu_f32_level{LEVEL}"), |b| {
+            b.iter(|| {
+                cpu.grid_f32(&table, &weights, &mut |c| {
+                    std::hint::black_box(c.positions.last());
+                    Ok(())
+                })
+                .unwrap()
+            })
+        });
+        let pattern = Pattern::Grid { level: LEVEL };
+        g.bench_function(format!("cpu_f64_level{LEVEL}"), |b| {
+            b.iter(|| {
+                cpu.evaluate(&table, &pattern, &mut |c| {
+                    std::hint::black_box(c.positions.last());
+                    Ok(())
+                })
+                .unwrap()
+            })
+        });
+        if let Some(gpu) = &gpu {
+            g.bench_function(format!("gpu_dispatch_level{LEVEL}"), |b| {
+                b.iter(|| gpu.time_grid(&table, LEVEL).unwrap())
+            });
+            g.bench_function(format!("gpu_readback_level{LEVEL}"), |b| {
+                b.iter(|| {
+                    gpu.evaluate(&table, &pattern, &mut |c| {
+                        std::hint::black_box(c.positions.last());
+                        Ok(())
+                    })
+                    .unwrap()
+                })
+            });
+        }
+        g.finish();
+    }
+}
+
+criterion_group!(benches, kernels);
+criterion_main!(benches);

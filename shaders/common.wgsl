@@ -1,0 +1,307 @@
+// Shared code of every evaluation shader (see src/gpu/shaders.rs, which assembles a module
+// as: a precision header, then the scheme's file, then this file).
+//
+// The header defines:
+//   alias real = f32 | f64;       the working precision
+//   const TINY: real, HUGE: real;  bounds of a usable vector length (else: fallback normal)
+//   const STRIDE: u32;             control points per patch (PatchKind::stride)
+//   const GEOMETRY: u32;           leading points that are geometry (PnNormals: 10)
+// The scheme file defines
+//   fn kind_weights(b: vec3<real>) -> Weights
+// mirroring PatchKind::weights in src/patch/basis.rs.
+//
+// Input: one record per patch, RECORD reals: STRIDE control points (geometry points
+// relative to the patch's first control point, so f32 keeps its digits far from the
+// origin), then the patch's flat unit normal. Output: 6 reals per sample, position
+// (relative to the same first point) then unit normal.
+
+const MAX_POINTS: u32 = 18u;
+const WORKGROUP: u32 = 64u;
+const RECORD: u32 = 3u * (STRIDE + 1u);
+const OUT_REALS: u32 = 6u;
+
+// Basis values and tangent-direction derivatives (src/patch/basis.rs: Weights).
+struct Weights {
+    w: array<real, 18>,
+    ws: array<real, 18>,
+    wt: array<real, 18>,
+}
+
+// One dispatch. Grid: thread t evaluates sample first_local + t counted from the first
+// point of record 0 (per samples per patch). Points: thread t evaluates points[t].
+struct Params {
+    count: u32,
+    first_local: u32,
+    level: u32,
+    per: u32,
+    // Workgroups along x: dispatches wider than the adapter's per-dimension limit are
+    // folded into y.
+    groups_x: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// An explicit evaluation point: barycentrics and the record it refers to.
+struct Point {
+    b0: real,
+    b1: real,
+    b2: real,
+    record: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> records: array<real>;
+@group(0) @binding(2) var<storage, read> points: array<Point>;
+@group(0) @binding(3) var<storage, read_write> out: array<real>;
+// Basis values of the grid (grid_table_main): value (j * 3 + k) * per + local is, for
+// grid point `local` and control point j, w (k = 0), ∂w/∂s (k = 1) or ∂w/∂t (k = 2),
+// computed once on the CPU by src/patch/basis.rs (src/eval/cpu.rs: grid_weights).
+@group(0) @binding(4) var<storage, read> grid_w: array<real>;
+
+struct Sample {
+    p: vec3<real>,
+    n: vec3<real>,
+}
+
+// ---- Bernstein helpers (src/patch/basis.rs) ----
+
+fn factorial(n: u32) -> real {
+    var f = real(1.0);
+    for (var x = 2u; x <= n; x++) {
+        f *= real(x);
+    }
+    return f;
+}
+
+// x^e by repeated products (basis.rs: pw), 1 for e = 0.
+fn ipow(x: real, e: u32) -> real {
+    var r = real(1.0);
+    for (var k = 0u; k < e; k++) {
+        r *= x;
+    }
+    return r;
+}
+
+// d/dx x^e (0 for e = 0).
+fn dpow(x: real, e: u32) -> real {
+    if (e == 0u) {
+        return real(0.0);
+    }
+    return real(e) * ipow(x, e - 1u);
+}
+
+struct Mono {
+    v: real,
+    g: vec3<real>,
+}
+
+// Value and homogeneous gradient of c · b0^p0 b1^p1 b2^p2 (basis.rs: monomial).
+fn monomial(c: real, p: vec3<u32>, b: vec3<real>) -> Mono {
+    let v = vec3<real>(ipow(b.x, p.x), ipow(b.y, p.y), ipow(b.z, p.z));
+    let d = vec3<real>(dpow(b.x, p.x), dpow(b.y, p.y), dpow(b.z, p.z));
+    return Mono(
+        c * v.x * v.y * v.z,
+        vec3<real>(c * d.x * v.y * v.z, c * v.x * d.y * v.z, c * v.x * v.y * d.z),
+    );
+}
+
+// Bernstein basis of degree n with tangent derivatives, points in bezier_powers order:
+// i (power on b0) from n down to 0, then j from n - i down to 0 (basis.rs: bezier).
+fn bezier(n: u32, b: vec3<real>) -> Weights {
+    var out: Weights;
+    let nf = factorial(n);
+    var idx = 0u;
+    for (var i = i32(n); i >= 0; i--) {
+        for (var j = i32(n) - i; j >= 0; j--) {
+            let p = vec3<u32>(u32(i), u32(j), n - u32(i) - u32(j));
+            let c = nf / (factorial(p.x) * factorial(p.y) * factorial(p.z));
+            let m = monomial(c, p, b);
+            out.w[idx] = m.v;
+            out.ws[idx] = m.g.y - m.g.x;
+            out.wt[idx] = m.g.z - m.g.x;
+            idx++;
+        }
+    }
+    return out;
+}
+
+// PatchKind::PnNormals: cubic basis with derivatives in slots 0..10, quadratic basis
+// values (the normal field) in slots 10..16 (basis.rs: pn_normals).
+fn pn_normals(b: vec3<real>) -> Weights {
+    let quad = bezier(2u, b);
+    var out = bezier(3u, b);
+    for (var k = 0u; k < 6u; k++) {
+        out.w[10u + k] = quad.w[k];
+    }
+    return out;
+}
+
+// ---- patch evaluation (src/patch/mod.rs) ----
+
+fn control_point(rec: u32, j: u32) -> vec3<real> {
+    let o = rec * RECORD + 3u * j;
+    return vec3<real>(records[o], records[o + 1u], records[o + 2u]);
+}
+
+fn flat_normal(rec: u32) -> vec3<real> {
+    return control_point(rec, STRIDE);
+}
+
+// Usable length: neither tiny nor infinite nor NaN.
+fn usable(len: real) -> bool {
+    return len > TINY && len < HUGE;
+}
+
+// patch/mod.rs: unit_normal. S_s × S_t normalised, the flat normal where it vanishes.
+fn unit_normal(ds: vec3<real>, dt: vec3<real>, fallback: vec3<real>) -> vec3<real> {
+    let c = cross(ds, dt);
+    let len = length(c);
+    if (usable(len)) {
+        return c / len;
+    }
+    return fallback;
+}
+
+// patch/mod.rs: PatchTable::eval_weights.
+fn eval_weights(i: u32, w: Weights) -> Sample {
+    var p = vec3<real>(0.0);
+    var ds = vec3<real>(0.0);
+    var dt = vec3<real>(0.0);
+    for (var j = 0u; j < GEOMETRY; j++) {
+        let cj = control_point(i, j);
+        p += w.w[j] * cj;
+        ds += w.ws[j] * cj;
+        dt += w.wt[j] * cj;
+    }
+    var n: vec3<real>;
+    if (GEOMETRY < STRIDE) {
+        var field = vec3<real>(0.0);
+        for (var j = GEOMETRY; j < STRIDE; j++) {
+            field += w.w[j] * control_point(i, j);
+        }
+        let len = length(field);
+        if (usable(len)) {
+            n = field / len;
+        } else {
+            n = flat_normal(i);
+        }
+    } else {
+        n = unit_normal(ds, dt, flat_normal(i));
+    }
+    return Sample(p, n);
+}
+
+// ---- sample layout ----
+
+// Thread index of a dispatch folded into x and y.
+fn thread_index(gid: vec3<u32>) -> u32 {
+    return gid.y * params.groups_x * WORKGROUP + gid.x;
+}
+
+// First grid index of row j (pattern.rs: grid_index(n, 0, j)).
+fn row_start(n: u32, j: u32) -> u32 {
+    return j * (n + 1u) - j * select(0u, j - 1u, j > 0u) / 2u;
+}
+
+// Grid index -> (i, j) with b1 = i/n, b2 = j/n: rows of constant j, i increasing.
+fn grid_ij(n: u32, k: u32) -> vec2<u32> {
+    // Solve row_start(j) <= k in floating point, then settle exactly in integers.
+    let a = f32(2u * n + 3u);
+    var j = u32(max(floor((a - sqrt(max(a * a - 8.0 * f32(k), 0.0))) * 0.5), 0.0));
+    j = min(j, n);
+    loop {
+        if (j > 0u && row_start(n, j) > k) {
+            j -= 1u;
+        } else if (j < n && row_start(n, j + 1u) <= k) {
+            j += 1u;
+        } else {
+            break;
+        }
+    }
+    return vec2<u32>(k - row_start(n, j), j);
+}
+
+// Barycentrics of grid point (i, j): ((n − i − j)/n, i/n, j/n) (pattern.rs).
+fn grid_barycentric(n: u32, ij: vec2<u32>) -> vec3<real> {
+    let nf = real(n);
+    return vec3<real>(real(n - ij.x - ij.y) / nf, real(ij.x) / nf, real(ij.y) / nf);
+}
+
+fn store(t: u32, s: Sample) {
+    let o = t * OUT_REALS;
+    out[o] = s.p.x;
+    out[o + 1u] = s.p.y;
+    out[o + 2u] = s.p.z;
+    out[o + 3u] = s.n.x;
+    out[o + 4u] = s.n.y;
+    out[o + 5u] = s.n.z;
+}
+
+@compute @workgroup_size(64)
+fn grid_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let t = thread_index(gid);
+    if (t >= params.count) {
+        return;
+    }
+    let q = params.first_local + t;
+    let rec = q / params.per;
+    let local = q - rec * params.per;
+    let b = grid_barycentric(params.level, grid_ij(params.level, local));
+    store(t, eval_weights(rec, kind_weights(b)));
+}
+
+// eval_weights with the basis of grid point `local` read from the precomputed table as
+// it is used (no local arrays: drivers that keep them in scratch memory run far slower).
+fn eval_table(i: u32, local: u32) -> Sample {
+    let per = params.per;
+    var p = vec3<real>(0.0);
+    var ds = vec3<real>(0.0);
+    var dt = vec3<real>(0.0);
+    for (var j = 0u; j < GEOMETRY; j++) {
+        let cj = control_point(i, j);
+        p += grid_w[(j * 3u) * per + local] * cj;
+        ds += grid_w[(j * 3u + 1u) * per + local] * cj;
+        dt += grid_w[(j * 3u + 2u) * per + local] * cj;
+    }
+    var n: vec3<real>;
+    if (GEOMETRY < STRIDE) {
+        var field = vec3<real>(0.0);
+        for (var j = GEOMETRY; j < STRIDE; j++) {
+            field += grid_w[(j * 3u) * per + local] * control_point(i, j);
+        }
+        let len = length(field);
+        if (usable(len)) {
+            n = field / len;
+        } else {
+            n = flat_normal(i);
+        }
+    } else {
+        n = unit_normal(ds, dt, flat_normal(i));
+    }
+    return Sample(p, n);
+}
+
+// As grid_main, with the basis read from the precomputed table instead of computed.
+@compute @workgroup_size(64)
+fn grid_table_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let t = thread_index(gid);
+    if (t >= params.count) {
+        return;
+    }
+    let q = params.first_local + t;
+    let rec = q / params.per;
+    let local = q - rec * params.per;
+    store(t, eval_table(rec, local));
+}
+
+@compute @workgroup_size(64)
+fn points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let t = thread_index(gid);
+    if (t >= params.count) {
+        return;
+    }
+    let pt = points[t];
+    let b = vec3<real>(pt.b0, pt.b1, pt.b2);
+    store(t, eval_weights(pt.record, kind_weights(b)));
+}

@@ -1,0 +1,221 @@
+//! GPU device set-up, kept apart from the work done on it (the split of the wgpu examples).
+//!
+//! [`GpuContext`] opens a **Vulkan** adapter (never another backend, never silently GL),
+//! requests its full limits and [`wgpu::Features::SHADER_F64`] where offered, and records
+//! the adapter's name and driver for reports. Work is done by free functions taking
+//! `(&Device, &Queue, ...)` (see [`crate::eval::gpu`]), so tests and other modules (picture
+//! rendering) can reuse one context:
+//!
+//! ```no_run
+//! let ctx = g1tess::gpu::GpuContext::shared()?;
+//! eprintln!("gpu: {}", ctx.describe());
+//! let (device, queue) = (&ctx.device, &ctx.queue);
+//! # let _ = (device, queue);
+//! # Ok::<(), g1tess::Error>(())
+//! ```
+//!
+//! Validation errors that wgpu reports outside an error scope are collected (instead of
+//! wgpu's default panic) and turned into [`Error::Gpu`] by [`GpuContext::check`].
+
+pub mod shaders;
+
+use std::sync::{Arc, Mutex, OnceLock};
+
+use crate::{Error, Result};
+
+/// Working precision of the GPU shaders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Precision {
+    /// 32-bit floats: every adapter.
+    F32,
+    /// 64-bit floats: adapters with `SHADER_F64` (lavapipe has it).
+    F64,
+}
+
+impl Precision {
+    /// Bytes of one real.
+    pub fn bytes(self) -> usize {
+        match self {
+            Precision::F32 => 4,
+            Precision::F64 => 8,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        }
+    }
+}
+
+impl std::fmt::Display for Precision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// An open Vulkan device with its queue, the adapter's description and limits.
+pub struct GpuContext {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// Name, driver and backend of the adapter.
+    pub info: wgpu::AdapterInfo,
+    /// The limits the device was opened with (the adapter's own).
+    pub limits: wgpu::Limits,
+    /// The features the device was opened with.
+    pub features: wgpu::Features,
+    errors: Arc<Mutex<Vec<String>>>,
+}
+
+impl std::fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuContext")
+            .field("adapter", &self.describe())
+            .finish()
+    }
+}
+
+impl GpuContext {
+    /// Opens the first Vulkan adapter (high-performance preference). Errors when there is
+    /// none: callers decide whether falling back to the CPU is allowed.
+    pub fn new() -> Result<GpuContext> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<GpuContext> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        // Vulkan only, whatever WGPU_BACKEND says: no silent GL.
+        desc.backends = wgpu::Backends::VULKAN;
+        let instance = wgpu::Instance::new(desc);
+        let adapter = instance
+            .request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                force_fallback_adapter: false,
+                compatible_surface: None,
+                ..Default::default()
+            })
+            .await
+            .map_err(|e| {
+                Error::Gpu(format!(
+                    "no Vulkan adapter ({e}); install a Vulkan driver (e.g. Mesa's lavapipe, \
+                     package mesa-vulkan-drivers) or use --backend cpu"
+                ))
+            })?;
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let features = adapter.features() & wgpu::Features::SHADER_F64;
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("g1tess"),
+                required_features: features,
+                required_limits: limits.clone(),
+                experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                memory_hints: wgpu::MemoryHints::Performance,
+                trace: wgpu::Trace::Off,
+            })
+            .await
+            .map_err(|e| Error::Gpu(format!("{}: cannot open the device: {e}", info.name)))?;
+        let errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(e.to_string().replace('\n', " "));
+            }
+        }));
+        Ok(GpuContext {
+            instance,
+            adapter,
+            device,
+            queue,
+            info,
+            limits,
+            features,
+            errors,
+        })
+    }
+
+    /// One context per process, opened on first use (tests and commands share it; Vulkan
+    /// device creation is slow on software drivers). The error, if any, is remembered.
+    pub fn shared() -> Result<Arc<GpuContext>> {
+        static SHARED: OnceLock<std::result::Result<Arc<GpuContext>, String>> = OnceLock::new();
+        SHARED
+            .get_or_init(|| {
+                GpuContext::new().map(Arc::new).map_err(|e| match e {
+                    Error::Gpu(m) => m,
+                    other => other.to_string(),
+                })
+            })
+            .clone()
+            .map_err(Error::Gpu)
+    }
+
+    /// "NAME (Vulkan, DRIVER DRIVER_INFO, TYPE)", for reports.
+    pub fn describe(&self) -> String {
+        let i = &self.info;
+        format!(
+            "{} ({:?}, {} {}, {:?})",
+            i.name, i.backend, i.driver, i.driver_info, i.device_type
+        )
+    }
+
+    /// The limits this crate relies on, for reports: "max storage binding 128 MiB, max
+    /// buffer 2048 MiB, 65535 workgroups per dimension, f64 shaders yes".
+    pub fn limits_summary(&self) -> String {
+        let mib = |b: u64| (b as f64 / (1u64 << 20) as f64).round();
+        format!(
+            "max storage binding {} MiB, max buffer {} MiB, {} workgroups per dimension, f64 shaders {}",
+            mib(self.limits.max_storage_buffer_binding_size),
+            mib(self.limits.max_buffer_size),
+            self.limits.max_compute_workgroups_per_dimension,
+            if self.supports_f64() { "yes" } else { "no" }
+        )
+    }
+
+    /// Whether the device can run f64 shaders.
+    pub fn supports_f64(&self) -> bool {
+        self.features.contains(wgpu::Features::SHADER_F64)
+    }
+
+    /// Largest size of one storage binding (and of one buffer), in bytes.
+    pub fn max_binding_bytes(&self) -> u64 {
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
+    }
+
+    /// Largest workgroup count of one dispatch dimension.
+    pub fn max_workgroups_per_dim(&self) -> u32 {
+        self.limits.max_compute_workgroups_per_dimension
+    }
+
+    /// Fails with the validation errors wgpu reported since the last check, if any.
+    pub fn check(&self) -> Result<()> {
+        let mut v = self
+            .errors
+            .lock()
+            .map_err(|_| Error::Gpu("error log poisoned".into()))?;
+        if v.is_empty() {
+            return Ok(());
+        }
+        let msg = v.join("; ");
+        v.clear();
+        Err(Error::Gpu(format!("{}: {msg}", self.info.name)))
+    }
+
+    /// Blocks until every submitted command has finished.
+    pub fn wait(&self) -> Result<()> {
+        wait(&self.device)
+    }
+}
+
+/// Blocks until every submitted command of `device` has finished.
+pub fn wait(device: &wgpu::Device) -> Result<()> {
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map(|_| ())
+        .map_err(|e| Error::Gpu(format!("device poll: {e}")))
+}

@@ -1,0 +1,135 @@
+//! The CPU's f32-output fast path (`CpuEvaluator::grid_f32`) against the f64 reference, for
+//! every patch kind, on the test meshes at levels 1, 8 and 32, with both kernels (AVX2+FMA
+//! where the CPU has it, and the portable one), and chunked runs identical to whole ones.
+
+mod common;
+mod eval_cases;
+use eval_cases::{angle, cases, load, normal_error, regular, EPS32, MESHES, ROUNDING_FACTOR};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use g1tess::eval::cpu::{grid_weights, CpuEvaluator, F32Kernel, GridWeightsF32};
+use g1tess::eval::grid_len;
+use g1tess::patch::PatchTable;
+
+/// Normals are held to 1 − dot ≤ this where they are defined to f32 precision.
+const TN: f64 = 1e-5;
+
+/// Max |dp| / diag, max 1 − dot over the regular samples (see `eval_cases::regular`), the
+/// number of samples near singular points and their largest angle error / (eps · κ).
+fn compare(table: &PatchTable, level: u32, kernel: F32Kernel, diag: f64) -> (f64, f64, usize, f64) {
+    let reference = grid_weights(table, level);
+    let fast = GridWeightsF32::new(table.kind, level);
+    let per = grid_len(level);
+    let (mut dp, mut dn, mut singular, mut ratio, mut samples) = (0f64, 0f64, 0, 0f64, 0);
+    CpuEvaluator::default()
+        .grid_f32_with(table, &fast, kernel, &mut |c| {
+            assert_eq!(c.positions.len(), c.normals.len());
+            let (p, n, s, ns) = (0..c.positions.len())
+                .into_par_iter()
+                .map(|k| {
+                    let (i, w) = (c.first + k / per, &reference[k % per]);
+                    let sp = table.eval_weights(i, w);
+                    let q = DVec3::from(c.positions[k].map(f64::from));
+                    let m = DVec3::from(c.normals[k].map(f64::from));
+                    assert!(q.is_finite() && m.is_finite());
+                    assert!((m.length() - 1.0).abs() < 1e-6, "unit normal {m}");
+                    let predicted = normal_error(table, i, w, EPS32);
+                    if regular(predicted, TN) {
+                        (q.distance(sp.p), 1.0 - m.dot(sp.n), 0, 0.0)
+                    } else {
+                        (q.distance(sp.p), 0.0, 1, angle(m, sp.n) / predicted)
+                    }
+                })
+                .reduce(
+                    || (0.0, 0.0, 0, 0.0),
+                    |a, b| (a.0.max(b.0), a.1.max(b.1), a.2 + b.2, a.3.max(b.3)),
+                );
+            dp = dp.max(p);
+            dn = dn.max(n);
+            singular += s;
+            ratio = ratio.max(ns);
+            samples += c.positions.len();
+            Ok(())
+        })
+        .unwrap();
+    assert_eq!(samples, per * table.len());
+    (dp / diag, dn, singular, ratio)
+}
+
+#[test]
+fn f32_fast_path_matches_the_f64_reference() {
+    eprintln!("fast path kernel here: {}", F32Kernel::Auto.name());
+    for name in MESHES {
+        let mesh = load(name);
+        let diag = mesh.diagonal();
+        for (_, table, what) in cases(&mesh) {
+            for level in [1, 8, 32] {
+                for kernel in [F32Kernel::Auto, F32Kernel::Portable] {
+                    let (dp, dn, singular, dns) = compare(&table, level, kernel, diag);
+                    eprintln!(
+                        "{name} {what} level {level} {}: max |dp|/diag {dp:.2e}, max 1-dot {dn:.2e}{}",
+                        kernel.name(),
+                        if singular > 0 {
+                            format!(" ({singular} samples near singular points: angle error ≤ {dns:.2} × predicted rounding error)")
+                        } else {
+                            String::new()
+                        }
+                    );
+                    assert!(
+                        dp <= 1e-5 && dn <= TN && dns <= ROUNDING_FACTOR,
+                        "{name} {what} level {level} {}: {dp:e} {dn:e} {dns}",
+                        kernel.name()
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn f32_fast_path_chunks_and_threads_do_not_change_results() {
+    let mesh = load("spot.obj");
+    for (_, table, what) in cases(&mesh) {
+        let g = GridWeightsF32::new(table.kind, 9);
+        let run = |ev: &CpuEvaluator| {
+            let (mut p, mut n, mut firsts) = (Vec::new(), Vec::new(), Vec::new());
+            ev.grid_f32(&table, &g, &mut |c| {
+                firsts.push(c.first);
+                p.extend_from_slice(c.positions);
+                n.extend_from_slice(c.normals);
+                Ok(())
+            })
+            .unwrap();
+            (p, n, firsts)
+        };
+        let whole = run(&CpuEvaluator::default());
+        let tiny = run(&CpuEvaluator { chunk_samples: 1 });
+        assert_eq!(tiny.2, (0..table.len()).collect::<Vec<_>>(), "{what}");
+        assert!(
+            whole.0 == tiny.0 && whole.1 == tiny.1,
+            "{what}: chunking changed results"
+        );
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let single = one.install(|| run(&CpuEvaluator::default()));
+        assert!(
+            whole.0 == single.0 && whole.1 == single.1,
+            "{what}: threads changed results"
+        );
+    }
+}
+
+#[test]
+fn f32_fast_path_refuses_weights_of_another_kind() {
+    let mesh = load("sphere320");
+    let table = PatchTable::build(&mesh, g1tess::patch::Scheme::G1, &Default::default()).unwrap();
+    let g = GridWeightsF32::new(g1tess::patch::PatchKind::Bezier(1), 4);
+    let e = CpuEvaluator::default()
+        .grid_f32(&table, &g, &mut |_| Ok(()))
+        .unwrap_err();
+    assert!(e.to_string().contains("Gregory"), "{e}");
+}

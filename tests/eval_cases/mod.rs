@@ -1,0 +1,84 @@
+//! Tables every evaluator is checked on (used by `tests/gpu.rs` and `tests/cpu_fast.rs`).
+//!
+//! `cases` gives, for a mesh, every scheme's own table (`Scheme::all()`) with the shader
+//! file that evaluates it.
+#![allow(dead_code)]
+
+use glam::DVec3;
+
+use g1tess::gpu::shaders::{self, ShaderFile};
+use g1tess::mesh::Mesh;
+use g1tess::patch::basis::Weights;
+use g1tess::patch::{PatchKind, PatchTable, Scheme};
+
+pub use crate::common::load;
+
+pub const MESHES: [&str; 4] = ["sphere320", "torus200", "spot.obj", "fandisk.obj"];
+
+/// (shader file, table, label) for every scheme on `mesh`; together they cover every
+/// (shader file, patch kind) pair the GPU can run (checked here).
+pub fn cases(mesh: &Mesh) -> Vec<(ShaderFile, PatchTable, String)> {
+    let mut out = Vec::new();
+    for scheme in Scheme::all() {
+        let table = PatchTable::build(mesh, scheme, &Default::default())
+            .unwrap_or_else(|e| panic!("{}: {scheme}: {e}", mesh.name));
+        let file = shaders::scheme_file(scheme, table.kind).unwrap();
+        out.push((file, table, format!("scheme {scheme}")));
+    }
+    for (file, kind) in shaders::variants() {
+        assert!(
+            out.iter().any(|(f, t, _)| *f == file && t.kind == kind),
+            "no scheme runs shaders/{} for {kind:?}",
+            file.name
+        );
+    }
+    out
+}
+
+/// Unit roundoff of f32 and f64.
+pub const EPS32: f64 = 5.97e-8;
+pub const EPS64: f64 = 1.12e-16;
+
+/// Predicted rounding error (radians) of patch `i`'s unit normal at basis values `w` when
+/// an evaluator rounds with unit roundoff `eps`, working relative to the patch's first
+/// control point (as the fast evaluators do), compared with the f64 reference, which works
+/// on absolute coordinates. It is moderate on a regular surface and unbounded where the
+/// parametrisation is singular (S_s × S_t → 0, e.g. Nagata on creased meshes), where the
+/// normal is not defined to the working precision.
+pub fn normal_error(table: &PatchTable, i: usize, w: &Weights, eps: f64) -> f64 {
+    let c = table.patch(i);
+    if table.kind == PatchKind::PnNormals {
+        // The normal is the quadratic field Σ w_j c_j over slots 10..16.
+        let field: DVec3 = (10..16).map(|j| w.w[j] * c[j]).sum();
+        let scale: f64 = (10..16).map(|j| w.w[j].abs() * c[j].length()).sum();
+        return (eps + EPS64) * scale / field.length();
+    }
+    let extent = c.iter().map(|p| p.distance(c[0])).fold(0.0, f64::max);
+    let magnitude = c.iter().map(|p| p.length()).fold(0.0, f64::max);
+    let (mut ds, mut dt, mut ns, mut nt) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0);
+    for (j, p) in c.iter().enumerate() {
+        ds += w.ws[j] * *p;
+        dt += w.wt[j] * *p;
+        ns += w.ws[j].abs();
+        nt += w.wt[j].abs();
+    }
+    (eps * extent + EPS64 * magnitude) * (ns * dt.length() + nt * ds.length())
+        / ds.cross(dt).length()
+}
+
+/// Angle between two normals, accurate for small angles.
+pub fn angle(a: DVec3, b: DVec3) -> f64 {
+    2.0 * ((a - b).length() / 2.0).min(1.0).asin()
+}
+
+/// How many times the predicted rounding error ([`normal_error`]) a normal's error may be.
+pub const ROUNDING_FACTOR: f64 = 16.0;
+
+/// Whether a sample is regular: `ROUNDING_FACTOR` times its predicted rounding error is
+/// within the angle that 1 − dot ≤ `tn` allows. Regular samples are held to `tn`; the
+/// others (near singular points of the parametrisation, where the normal is not defined to
+/// the working precision) to an angle of `ROUNDING_FACTOR` × the prediction, and are
+/// counted in the report.
+pub fn regular(predicted: f64, tn: f64) -> bool {
+    ROUNDING_FACTOR * predicted <= (2.0 * tn).sqrt()
+}
