@@ -7,13 +7,14 @@
 //! [`device`].
 
 use std::path::Path;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::Arc;
 
 use glam::DVec3;
 use plotters::prelude::*;
 
 use super::plot::register_font;
 use super::weld::WeldedMesh;
+use crate::gpu::GpuContext;
 use crate::{Error, Result};
 
 /// Background of the panels (white).
@@ -84,91 +85,10 @@ impl Panels {
     }
 }
 
-/// A Vulkan device and queue, with the adapter's description and the validation errors
-/// wgpu reported outside error scopes.
-pub struct RenderDevice {
-    pub device: wgpu::Device,
-    pub queue: wgpu::Queue,
-    pub adapter: String,
-    errors: Arc<Mutex<Vec<String>>>,
-}
-
-impl RenderDevice {
-    fn check(&self) -> Result<()> {
-        let mut v = self
-            .errors
-            .lock()
-            .map_err(|_| Error::Gpu("error log poisoned".into()))?;
-        if v.is_empty() {
-            return Ok(());
-        }
-        let msg = v.join("; ");
-        v.clear();
-        Err(Error::Gpu(format!("{}: {msg}", self.adapter)))
-    }
-}
-
-/// The process's render device: the first Vulkan adapter, opened on first use (an error,
-/// such as no Vulkan driver, is remembered and returned every time).
-pub fn device() -> Result<Arc<RenderDevice>> {
-    static SHARED: OnceLock<std::result::Result<Arc<RenderDevice>, String>> = OnceLock::new();
-    SHARED
-        .get_or_init(|| {
-            pollster::block_on(open_device())
-                .map(Arc::new)
-                .map_err(|e| match e {
-                    Error::Gpu(m) => m,
-                    other => other.to_string(),
-                })
-        })
-        .clone()
-        .map_err(Error::Gpu)
-}
-
-async fn open_device() -> Result<RenderDevice> {
-    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-    desc.backends = wgpu::Backends::VULKAN;
-    let instance = wgpu::Instance::new(desc);
-    let adapter = instance
-        .request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: None,
-            ..Default::default()
-        })
-        .await
-        .map_err(|e| {
-            Error::Gpu(format!(
-                "no Vulkan adapter ({e}); install a Vulkan driver (e.g. Mesa's lavapipe, \
-                 package mesa-vulkan-drivers)"
-            ))
-        })?;
-    let info = adapter.get_info();
-    let name = format!("{} ({:?}, {})", info.name, info.backend, info.driver);
-    let (device, queue) = adapter
-        .request_device(&wgpu::DeviceDescriptor {
-            label: Some("g1tess render"),
-            required_features: wgpu::Features::empty(),
-            required_limits: adapter.limits(),
-            experimental_features: wgpu::ExperimentalFeatures::disabled(),
-            memory_hints: wgpu::MemoryHints::Performance,
-            trace: wgpu::Trace::Off,
-        })
-        .await
-        .map_err(|e| Error::Gpu(format!("{name}: cannot open the device: {e}")))?;
-    let errors = Arc::new(Mutex::new(Vec::new()));
-    let sink = errors.clone();
-    device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
-        if let Ok(mut v) = sink.lock() {
-            v.push(e.to_string().replace('\n', " "));
-        }
-    }));
-    Ok(RenderDevice {
-        device,
-        queue,
-        adapter: name,
-        errors,
-    })
+/// The process's GPU (the shared Vulkan-only [`GpuContext`]), opened on first use; an
+/// error such as no Vulkan driver is remembered and returned every time.
+pub fn device() -> Result<Arc<GpuContext>> {
+    GpuContext::shared()
 }
 
 const SHADER: &str = r#"
@@ -298,7 +218,7 @@ pub fn render_panels(mesh: &WeldedMesh, opts: &RenderOptions) -> Result<Panels> 
         return Err(Error::Gpu(format!(
             "{}: {} vertices and {} triangles exceed the device's buffer size ({} bytes); \
              use a lower --level",
-            gpu.adapter,
+            gpu.describe(),
             mesh.normals.len(),
             mesh.triangles.len(),
             limits.max_buffer_size
