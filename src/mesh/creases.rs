@@ -11,7 +11,7 @@
 
 use glam::DVec3;
 
-use super::normals::{face_normal, NormalWeighting};
+use super::normals::{corner_weights, face_normal, NormalWeighting};
 use super::{Adjacency, EdgeUse, Mesh};
 use crate::{Error, Result};
 
@@ -133,22 +133,11 @@ pub fn split_normals_by_angle(
     let mut fallback = vec![DVec3::ZERO; n];
     for (t, tri) in mesh.triangles.iter().enumerate() {
         let p = tri.map(|v| mesh.positions[v as usize]);
-        let cross = (p[1] - p[0]).cross(p[2] - p[0]);
-        let len = cross.length();
-        if len == 0.0 || !len.is_finite() {
+        let Some((unit, w)) = corner_weights(p, weighting) else {
             continue;
-        }
-        let unit = cross / len;
+        };
         for k in 0..3 {
-            let w = match weighting {
-                NormalWeighting::Unweighted => 1.0,
-                NormalWeighting::Area => 0.5 * len,
-                NormalWeighting::Angle => {
-                    let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
-                    let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
-                    e1.dot(e2).clamp(-1.0, 1.0).acos()
-                }
-            };
+            let w = w[k];
             let r = find(&mut parent, (3 * t + k) as u32) as usize;
             acc[r] += w * unit;
             fallback[r] += unit;

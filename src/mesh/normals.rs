@@ -26,24 +26,11 @@ pub fn vertex_normals(
     let mut acc = vec![DVec3::ZERO; positions.len()];
     let mut fallback = vec![DVec3::ZERO; positions.len()];
     for t in triangles {
-        let p = t.map(|v| positions[v as usize]);
-        let cross = (p[1] - p[0]).cross(p[2] - p[0]);
-        let len = cross.length();
-        if len == 0.0 || !len.is_finite() {
+        let Some((unit, w)) = corner_weights(t.map(|v| positions[v as usize]), weighting) else {
             continue;
-        }
-        let unit = cross / len;
+        };
         for k in 0..3 {
-            let w = match weighting {
-                NormalWeighting::Unweighted => 1.0,
-                NormalWeighting::Area => 0.5 * len,
-                NormalWeighting::Angle => {
-                    let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
-                    let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
-                    e1.dot(e2).clamp(-1.0, 1.0).acos()
-                }
-            };
-            acc[t[k] as usize] += w * unit;
+            acc[t[k] as usize] += w[k] * unit;
             fallback[t[k] as usize] += unit;
         }
     }
@@ -55,6 +42,26 @@ pub fn vertex_normals(
                 .unwrap_or(DVec3::Z)
         })
         .collect()
+}
+
+/// Unit normal of a flat triangle and the weight of each of its corners in a vertex-normal
+/// estimate; `None` for a degenerate (zero-area or non-finite) triangle.
+pub fn corner_weights(p: [DVec3; 3], weighting: NormalWeighting) -> Option<(DVec3, [f64; 3])> {
+    let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+    let len = cross.length();
+    if len == 0.0 || !len.is_finite() {
+        return None;
+    }
+    let w = std::array::from_fn(|k| match weighting {
+        NormalWeighting::Unweighted => 1.0,
+        NormalWeighting::Area => 0.5 * len,
+        NormalWeighting::Angle => {
+            let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
+            let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+            e1.dot(e2).clamp(-1.0, 1.0).acos()
+        }
+    });
+    Some((cross / len, w))
 }
 
 /// Unit normal of a flat triangle (zero for a degenerate one).
