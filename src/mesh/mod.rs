@@ -69,6 +69,13 @@ impl Default for LoadOptions {
     }
 }
 
+/// The name a mesh read from `path` carries in reports: its file name.
+pub(crate) fn display_name(path: &Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
+}
+
 impl Mesh {
     /// Loads a mesh from a built-in spec (see [`generators::from_spec`]) or a file (OBJ, or
     /// the point-normal format `.pn`).

@@ -222,10 +222,7 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
     report.unused_vertices_dropped = positions.len() - referenced;
     report.vertices_welded = referenced - out_pos.len();
 
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| path.display().to_string());
+    let name = super::display_name(path);
     if triangles.is_empty() {
         return Err(Error::mesh(
             path.display().to_string(),

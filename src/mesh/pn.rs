@@ -276,10 +276,7 @@ fn build(path: &Path, raw: Raw) -> Result<Mesh> {
     let triangles: Vec<[u32; 3]> = kept.iter().map(|t| t.map(|v| id[v as usize])).collect();
     report.vertices_welded = (0..nv).filter(|&v| used[v] && rep[v] != v as u32).count();
     report.unused_vertices_dropped = nv - positions.len() - report.vertices_welded;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| path.display().to_string());
+    let name = super::display_name(path);
     if triangles.is_empty() {
         return Err(Error::mesh(
             path.display().to_string(),
