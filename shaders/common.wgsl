@@ -163,6 +163,20 @@ fn unit_normal(ds: vec3<real>, dt: vec3<real>, fallback: vec3<real>) -> vec3<rea
     return fallback;
 }
 
+// patch/mod.rs: the normal of PatchTable::eval_weights. Kinds with a normal field
+// (GEOMETRY < STRIDE) report the normalised field, the others the exact normal; the flat
+// normal where either vanishes.
+fn patch_normal(i: u32, ds: vec3<real>, dt: vec3<real>, field: vec3<real>) -> vec3<real> {
+    if (GEOMETRY < STRIDE) {
+        let len = length(field);
+        if (usable(len)) {
+            return field / len;
+        }
+        return flat_normal(i);
+    }
+    return unit_normal(ds, dt, flat_normal(i));
+}
+
 // patch/mod.rs: PatchTable::eval_weights.
 fn eval_weights(i: u32, w: Weights) -> Sample {
     var p = vec3<real>(0.0);
@@ -174,22 +188,12 @@ fn eval_weights(i: u32, w: Weights) -> Sample {
         ds += w.ws[j] * cj;
         dt += w.wt[j] * cj;
     }
-    var n: vec3<real>;
-    if (GEOMETRY < STRIDE) {
-        var field = vec3<real>(0.0);
-        for (var j = GEOMETRY; j < STRIDE; j++) {
-            field += w.w[j] * control_point(i, j);
-        }
-        let len = length(field);
-        if (usable(len)) {
-            n = field / len;
-        } else {
-            n = flat_normal(i);
-        }
-    } else {
-        n = unit_normal(ds, dt, flat_normal(i));
+    // The PN normal field (slots GEOMETRY..STRIDE), if the kind has one.
+    var field = vec3<real>(0.0);
+    for (var j = GEOMETRY; j < STRIDE; j++) {
+        field += w.w[j] * control_point(i, j);
     }
-    return Sample(p, n);
+    return Sample(p, patch_normal(i, ds, dt, field));
 }
 
 // ---- sample layout ----
@@ -264,22 +268,12 @@ fn eval_table(i: u32, local: u32) -> Sample {
         ds += grid_w[(j * 3u + 1u) * per + local] * cj;
         dt += grid_w[(j * 3u + 2u) * per + local] * cj;
     }
-    var n: vec3<real>;
-    if (GEOMETRY < STRIDE) {
-        var field = vec3<real>(0.0);
-        for (var j = GEOMETRY; j < STRIDE; j++) {
-            field += grid_w[(j * 3u) * per + local] * control_point(i, j);
-        }
-        let len = length(field);
-        if (usable(len)) {
-            n = field / len;
-        } else {
-            n = flat_normal(i);
-        }
-    } else {
-        n = unit_normal(ds, dt, flat_normal(i));
+    // The PN normal field (slots GEOMETRY..STRIDE), if the kind has one.
+    var field = vec3<real>(0.0);
+    for (var j = GEOMETRY; j < STRIDE; j++) {
+        field += grid_w[(j * 3u) * per + local] * control_point(i, j);
     }
-    return Sample(p, n);
+    return Sample(p, patch_normal(i, ds, dt, field));
 }
 
 // As grid_main, with the basis read from the precomputed table instead of computed.
