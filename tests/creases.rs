@@ -1,6 +1,8 @@
 //! Creases: split normals from a file or from `--crease-angle`, one shared boundary curve
 //! per crease edge (no crack), G1 across every other edge, split output normals.
 
+mod common;
+
 use std::collections::HashMap;
 use std::path::PathBuf;
 
@@ -13,14 +15,6 @@ use g1tess::output::stats::{continuity, Continuity};
 use g1tess::output::weld::weld;
 use g1tess::patch::g1::{crease_curve, patch_points, walton_meek};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-
-fn shared(name: &str) -> String {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/meshes")
-        .join(name)
-        .display()
-        .to_string()
-}
 
 fn tmp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("g1tess-creases-{}", std::process::id()));
@@ -132,7 +126,7 @@ fn fandisk_creases_without_cracks() {
         crease_angle: Some(30.0),
         ..Default::default()
     };
-    let mesh = Mesh::load(&shared("fandisk.obj"), &opts).unwrap();
+    let mesh = Mesh::load(&common::shared_spec("fandisk.obj"), &opts).unwrap();
     let diag = mesh.diagonal();
     let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
     let c = stats(&mesh, &table);

@@ -1,6 +1,8 @@
 //! `g1tess export-net`: the JSON control nets, evaluated here from the README's formula
 //! alone, reproduce the library's surface; G1 nets interpolate the mesh vertices.
 
+mod common;
+
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -141,10 +143,7 @@ fn check(mesh_spec: &str, scheme: Scheme, extra: &[&str], opts: LoadOptions) {
 #[test]
 fn g1_nets_reproduce_the_surface() {
     check("sphere320", Scheme::G1, &[], LoadOptions::default());
-    let fandisk = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/meshes/fandisk.obj")
-        .display()
-        .to_string();
+    let fandisk = common::shared_spec("fandisk.obj");
     check(
         &fandisk,
         Scheme::G1,

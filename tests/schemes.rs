@@ -3,7 +3,7 @@
 //! interpolates them) at the corners, watertight shared edges, and the identities between
 //! schemes that `SCHEMES.md` states.
 
-use std::path::PathBuf;
+mod common;
 
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::{generators, LoadOptions, Mesh};
@@ -11,14 +11,6 @@ use g1tess::output::distance::{distance, Surface};
 use g1tess::output::stats::continuity;
 use g1tess::patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
 use glam::DVec3;
-
-fn shared_mesh(name: &str) -> String {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/meshes")
-        .join(name)
-        .to_string_lossy()
-        .into_owned()
-}
 
 /// Meshes for the checks: exact, analytic and averaged normals, estimated normals on an
 /// organic and a CAD mesh (sharp creases).
@@ -31,7 +23,7 @@ fn meshes() -> Vec<Mesh> {
         generators::from_spec("torus200").unwrap().unwrap(),
     ];
     for f in ["spot.obj", "fandisk.obj"] {
-        out.push(Mesh::load(&shared_mesh(f), &LoadOptions::default()).unwrap());
+        out.push(Mesh::load(&common::shared_spec(f), &LoadOptions::default()).unwrap());
     }
     out
 }

@@ -2,22 +2,15 @@
 //! characteristic, orientation kept, shared edge samples bitwise identical, boundary and
 //! non-manifold edges kept, streaming independent of the chunk size.
 
+mod common;
+
 use std::collections::HashMap;
-use std::path::PathBuf;
 
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::eval::grid_barycentrics;
 use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::output::weld::{weld, WeldedMesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-
-fn shared(name: &str) -> String {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/meshes")
-        .join(name)
-        .display()
-        .to_string()
-}
 
 fn load(spec: &str) -> Mesh {
     Mesh::load(spec, &LoadOptions::default()).unwrap()
@@ -182,7 +175,7 @@ fn chunking_does_not_change_the_output() {
 /// suzanne.obj: 42 boundary edges and one non-manifold edge are kept and reported.
 #[test]
 fn boundary_and_nonmanifold_edges_are_kept() {
-    let mesh = load(&shared("suzanne.obj"));
+    let mesh = load(&common::shared_spec("suzanne.obj"));
     let adj = mesh.adjacency();
     assert_eq!(adj.boundary, 42);
     assert_eq!(adj.nonmanifold, 1);

@@ -14,6 +14,11 @@ pub fn shared_mesh(name: &str) -> PathBuf {
     p
 }
 
+/// [`shared_mesh`] as the string `Mesh::load` and the command line take.
+pub fn shared_spec(name: &str) -> String {
+    shared_mesh(name).display().to_string()
+}
+
 /// Loads a built-in mesh or a shared mesh (estimated angle-weighted normals where the file
 /// has none).
 pub fn load(spec: &str) -> Mesh {
