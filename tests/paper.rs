@@ -12,7 +12,7 @@ use g1tess::output::table1::compare_mesh;
 use g1tess::patch::{Scheme, SchemeOptions};
 
 /// Table 1 as printed in the paper (min, max, mean, std), copied from
-/// `../shared/spec/EVALUATION.md` independently of the library's copy.
+/// `spec/EVALUATION.md` independently of the library's copy.
 const PAPER: [(&str, Scheme, [f64; 4]); 8] = [
     (
         "sphere320",

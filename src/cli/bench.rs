@@ -28,11 +28,11 @@ use crate::patch::{PatchTable, Scheme, SchemeOptions};
 pub const SAMPLE_BYTES: f64 = 24.0;
 
 /// The default mesh, relative to the crate root (where `cargo run` runs).
-const DEFAULT_MESH: &str = "../shared/meshes/stanford-bunny.obj";
+const DEFAULT_MESH: &str = "tests/data/stanford-bunny.obj";
 
 #[derive(Args, Clone, Debug)]
 pub struct BenchArgs {
-    /// Meshes (OBJ files or built-ins); default ../shared/meshes/stanford-bunny.obj.
+    /// Meshes (OBJ files or built-ins); default tests/data/stanford-bunny.obj.
     pub meshes: Vec<String>,
     /// Grid levels.
     #[arg(long, value_delimiter = ',', default_values_t = [8u32, 16, 32])]
@@ -186,7 +186,7 @@ fn load_mesh(spec: &str) -> anyhow::Result<Mesh> {
         // Run from elsewhere than the crate root: try the crate root the binary was built in.
         let beside = concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../shared/meshes/stanford-bunny.obj"
+            "/tests/data/stanford-bunny.obj"
         );
         if std::path::Path::new(beside).exists() {
             return Ok(Mesh::load(beside, &opts)?);

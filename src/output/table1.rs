@@ -8,7 +8,7 @@ use crate::patch::{PatchTable, Scheme, SchemeOptions};
 use crate::Result;
 
 /// The values the paper printed (min, max, mean, std) for a built-in mesh and scheme, as
-/// transcribed in `../shared/spec/EVALUATION.md`; `None` where the paper has no row.
+/// transcribed in `spec/EVALUATION.md`; `None` where the paper has no row.
 pub fn paper_row(mesh: &str, scheme: Scheme) -> Option<[f64; 4]> {
     use Scheme::*;
     Some(match (mesh, scheme) {

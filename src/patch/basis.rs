@@ -105,7 +105,7 @@ pub fn g1_boundary_powers() -> [[u32; 3]; 12] {
     out
 }
 
-/// Basis of the G1 patch (`../shared/spec/G1-CONSTRUCTION.md`): 12 quartic Bernstein
+/// Basis of the G1 patch (`spec/G1-CONSTRUCTION.md`): 12 quartic Bernstein
 /// functions on the boundary points, then for m = 0, 1, 2 the Gregory weights
 /// α_m on G_{m,1} (slot 12 + 2m) and β_{m+1} on G_{m,2} (slot 13 + 2m).
 pub fn g1(b: [f64; 3]) -> Weights {

@@ -5,10 +5,11 @@ use std::path::PathBuf;
 
 use g1tess::mesh::{LoadOptions, Mesh};
 
-/// A mesh of `../shared/meshes`, which sits beside the crate root.
+/// A mesh of `tests/data` (copies of the project's shared test meshes, provenance in
+/// `tests/data/PROVENANCE.md`), so the tests pass from a plain clone.
 pub fn shared_mesh(name: &str) -> PathBuf {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/meshes")
+        .join("tests/data")
         .join(name);
     assert!(p.exists(), "test mesh {} is missing", p.display());
     p
@@ -19,7 +20,7 @@ pub fn shared_spec(name: &str) -> String {
     shared_mesh(name).display().to_string()
 }
 
-/// Loads a built-in mesh or a shared mesh (estimated angle-weighted normals where the file
+/// Loads a built-in mesh or a mesh of `tests/data` (estimated angle-weighted normals where the file
 /// has none).
 pub fn load(spec: &str) -> Mesh {
     let spec = if spec.ends_with(".obj") {
