@@ -184,10 +184,7 @@ fn load_mesh(spec: &str) -> anyhow::Result<Mesh> {
     let opts = LoadOptions::default();
     if spec == DEFAULT_MESH && !std::path::Path::new(spec).exists() {
         // Run from elsewhere than the crate root: try the crate root the binary was built in.
-        let beside = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/data/stanford-bunny.obj"
-        );
+        let beside = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/stanford-bunny.obj");
         if std::path::Path::new(beside).exists() {
             return Ok(Mesh::load(beside, &opts)?);
         }

@@ -135,10 +135,7 @@ impl GridWeightsF32 {
         let per = b.len();
         let blocks = per.div_ceil(LANES);
         let stride = kind.stride();
-        let geometry = match kind {
-            crate::patch::PatchKind::PnNormals => 10,
-            _ => stride,
-        };
+        let geometry = kind.geometry();
         let mut data = vec![0f32; blocks * stride * 3 * LANES];
         for (s, b) in b.iter().enumerate() {
             let w = kind.weights(*b);
@@ -342,7 +339,7 @@ fn patch_f32<S: Simd>(
         for l in 0..count {
             pos[l] = [origin[0] + px[l], origin[1] + py[l], origin[2] + pz[l]];
             // Usable length: neither tiny nor infinite nor NaN (else the flat normal).
-            nrm[l] = if len[l] > 1e-30 && len[l] < f32::INFINITY {
+            nrm[l] = if len[l] > crate::patch::MIN_NORMAL_LEN_F32 && len[l] < f32::INFINITY {
                 [nx[l], ny[l], nz[l]]
             } else {
                 flat

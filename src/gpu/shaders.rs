@@ -97,10 +97,7 @@ pub fn scheme_file(scheme: Scheme, kind: PatchKind) -> Result<ShaderFile> {
 
 /// Leading control points that are geometry (the rest: PN's normal field).
 pub fn geometry_points(kind: PatchKind) -> usize {
-    match kind {
-        PatchKind::PnNormals => 10,
-        k => k.stride(),
-    }
+    kind.geometry()
 }
 
 /// The precision header of a module.

@@ -90,11 +90,7 @@ fn kind_name(kind: PatchKind) -> &'static str {
 /// Writes the control nets of `table` (built on `mesh`) to `path`, atomically, one patch
 /// at a time.
 pub fn write_nets(path: &Path, mesh: &Mesh, table: &PatchTable) -> Result<()> {
-    let degree = match table.kind {
-        PatchKind::Bezier(n) => n,
-        PatchKind::Gregory => 4,
-        PatchKind::PnNormals => 3,
-    };
+    let degree = table.kind.layout().degree;
     let header = serde_json::json!({
         "format": "g1tess-control-nets",
         "version": NETS_VERSION,

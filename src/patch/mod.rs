@@ -121,14 +121,83 @@ pub enum PatchKind {
     PnNormals,
 }
 
-impl PatchKind {
+/// Smallest |S_s × S_t| (f64 evaluation) taken as a usable normal; below it, or where it is
+/// not finite, the flat triangle normal is used. The one f64 threshold of every backend.
+pub const MIN_NORMAL_LEN_F64: f64 = 1e-300;
+/// The same threshold for f32 evaluation (CPU SIMD kernel and f32 shaders).
+pub const MIN_NORMAL_LEN_F32: f32 = 1e-30;
+
+/// Layout facts of one [`PatchKind`]: the single source every backend, writer and shader
+/// header reads (see [`PatchKind::layout`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Layout {
     /// Control points per patch.
-    pub fn stride(self) -> usize {
+    pub stride: usize,
+    /// Leading control points that are geometry; the rest (PN's normal field) are not
+    /// positions and are never moved to a patch-relative origin.
+    pub geometry: usize,
+    /// Polynomial degree of the geometry.
+    pub degree: u32,
+    /// The basis is rational (G1's Gregory blend): weights are not polynomials.
+    pub rational: bool,
+    /// Control point that equals corner k of the input triangle (the surface interpolates
+    /// it exactly there).
+    pub corners: [usize; 3],
+}
+
+impl PatchKind {
+    /// The layout of this kind.
+    pub const fn layout(self) -> Layout {
         match self {
-            PatchKind::Bezier(n) => ((n + 1) * (n + 2) / 2) as usize,
-            PatchKind::Gregory => 18,
-            PatchKind::PnNormals => 16,
+            PatchKind::Bezier(n) => {
+                let stride = ((n + 1) * (n + 2) / 2) as usize;
+                Layout {
+                    stride,
+                    geometry: stride,
+                    degree: n,
+                    rational: false,
+                    // bezier_powers order: (n,0,0) first, (0,n,0) opens the last row,
+                    // (0,0,n) closes it.
+                    corners: [0, (n * (n + 1) / 2) as usize, stride - 1],
+                }
+            }
+            PatchKind::Gregory => Layout {
+                stride: 18,
+                geometry: 18,
+                degree: 4,
+                rational: true,
+                // Edge k's boundary cubic starts at corner k: L_{k,0} = point 4k.
+                corners: [0, 4, 8],
+            },
+            PatchKind::PnNormals => Layout {
+                stride: 16,
+                geometry: 10,
+                degree: 3,
+                rational: false,
+                corners: [0, 6, 9],
+            },
         }
+    }
+
+    /// Control points per patch.
+    pub const fn stride(self) -> usize {
+        self.layout().stride
+    }
+
+    /// Leading control points that are geometry (see [`Layout::geometry`]).
+    pub const fn geometry(self) -> usize {
+        self.layout().geometry
+    }
+
+    /// Every kind a table can have, for tests and shader validation.
+    pub fn all() -> Vec<PatchKind> {
+        vec![
+            PatchKind::Bezier(1),
+            PatchKind::Bezier(2),
+            PatchKind::Bezier(3),
+            PatchKind::Gregory,
+            PatchKind::PnNormals,
+        ]
     }
 
     /// Basis values and tangent derivatives at `b`.
@@ -159,7 +228,7 @@ pub struct SurfacePoint {
 pub fn unit_normal(ds: DVec3, dt: DVec3, fallback: DVec3) -> DVec3 {
     let c = ds.cross(dt);
     let len = c.length();
-    if len > 1e-300 && len.is_finite() {
+    if len > MIN_NORMAL_LEN_F64 && len.is_finite() {
         c / len
     } else {
         fallback
@@ -243,6 +312,11 @@ impl PatchTable {
         self.len() == 0
     }
 
+    /// The input position of corner `k` of patch `i` (its corner control point).
+    pub fn corner(&self, i: usize, k: usize) -> DVec3 {
+        self.points[i * self.stride + self.kind.layout().corners[k]]
+    }
+
     /// Control points of patch `i`.
     pub fn patch(&self, i: usize) -> &[DVec3] {
         &self.points[i * self.stride..(i + 1) * self.stride]
@@ -252,10 +326,7 @@ impl PatchTable {
     #[inline]
     pub fn eval_weights(&self, i: usize, w: &Weights) -> SurfacePoint {
         let c = self.patch(i);
-        let geometry = match self.kind {
-            PatchKind::PnNormals => 10,
-            _ => self.stride,
-        };
+        let geometry = self.kind.geometry();
         let (mut p, mut ds, mut dt) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
         for (j, cj) in c[..geometry].iter().enumerate() {
             p += w.w[j] * *cj;
