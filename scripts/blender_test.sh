@@ -35,8 +35,17 @@ if ! have_bpy; then
   have_bpy || unavailable "bpy $BPY_VERSION not importable after installation"
 fi
 
-echo "== cargo build --release (the g1tess binary the add-on runs)"
-cargo build --release 2>&1
+# scripts/test.sh passes the binary `cargo test --release` has just built (G1TESS_BIN), so the
+# heavy crates are compiled once: a plain `cargo build --release` after `cargo test --release`
+# recompiles wgpu and about 60 other crates, because dev-dependencies switch on other features
+# of serde, bitflags and a few more.
+BIN=${G1TESS_BIN:-}
+if [ -z "$BIN" ]; then
+  echo "== cargo build --release (the g1tess binary the add-on runs)"
+  cargo build --release 2>&1
+  BIN=target/release/g1tess
+fi
+[ -x "$BIN" ] || { echo "blender: FAILED: no g1tess binary at $BIN" >&2; exit 1; }
 
 echo "== blender integration test (bpy $BPY_VERSION)"
-PYTHONDONTWRITEBYTECODE=1 "$VENV/bin/python" blender/tests/test_roundtrip.py target/release/g1tess
+PYTHONDONTWRITEBYTECODE=1 "$VENV/bin/python" blender/tests/test_roundtrip.py "$BIN"

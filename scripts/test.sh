@@ -26,4 +26,5 @@ echo "== cargo test --release"
 cargo test --release 2>&1
 
 echo "== blender add-on integration test"
-scripts/blender_test.sh
+# The binary cargo test built above (the heavy crates are compiled once per run).
+G1TESS_BIN=target/release/g1tess scripts/blender_test.sh
