@@ -3,8 +3,19 @@
 //! Data flows one way (see `ARCHITECTURE.md`):
 //! [`mesh`] (load, weld, adjacency, normals, generators) → [`patch`] (one file per scheme,
 //! backend-agnostic f64 control-point tables) → [`eval`] (CPU and GPU evaluators, sample
-//! patterns) → [`output`] (statistics, writers, pictures, plots).
+//! patterns) → [`output`] (statistics, writers, control nets, the distance study) and
+//! [`render`] (the normal field drawn by a GPU render pass).
+//!
+//! # Cargo features
+//!
+//! - `cli` (default): the `g1tess` binary and [`cli`], with what only the command line needs:
+//!   argument parsing (clap), progress bars (indicatif), log–log plots (`output::plot`) and
+//!   composed PNG pictures (`render::compose`), which use plotters.
+//!
+//! Without default features the library builds without any of them and keeps meshes,
+//! patches, the CPU and GPU evaluators (wgpu), statistics, the writers and the render pass.
 
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod error;
 pub mod eval;
@@ -12,5 +23,6 @@ pub mod gpu;
 pub mod mesh;
 pub mod output;
 pub mod patch;
+pub mod render;
 
 pub use error::{Error, Result};

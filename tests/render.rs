@@ -11,9 +11,9 @@ use glam::DVec3;
 
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::render::{device, ramp, render_panels, Panels, RenderOptions, BACKGROUND};
 use g1tess::output::weld::weld;
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+use g1tess::render::{device, ramp, render_panels, Panels, RenderOptions, BACKGROUND};
 
 /// Whether a Vulkan device is there; fails under CI=true when it is not.
 fn gpu_or_skip(test: &str) -> bool {

@@ -108,8 +108,8 @@ fn sweep(ctx: &PaperRun) -> anyhow::Result<()> {
 /// Figures 13–16: n_x, n_y, n_z of G1 and Phong side by side on sphere320 and torus200
 /// (`normals_<mesh>.png`). Without a Vulkan device the step says so and is skipped.
 fn normal_pictures(ctx: &PaperRun) -> anyhow::Result<()> {
-    use crate::output::render::{device, RenderOptions};
     use crate::patch::Scheme;
+    use crate::render::{device, RenderOptions};
     if let Err(e) = device() {
         eprintln!("skipped the normal-field pictures: {e}");
         return Ok(());

@@ -9,9 +9,9 @@ use glam::DVec3;
 use super::InputArgs;
 use crate::eval::cpu::CpuEvaluator;
 use crate::mesh::Mesh;
-use crate::output::render::{render_panels, write_png, RenderOptions, Row};
 use crate::output::weld::weld;
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
+use crate::render::{render_panels, write_png, RenderOptions, Row};
 
 #[derive(Args, Clone, Debug)]
 pub struct RenderArgs {

@@ -1,11 +1,13 @@
-//! What leaves the library: continuity statistics, mesh files, pictures and plots.
+//! What leaves the library: continuity statistics, mesh files, control nets, the distance
+//! study, and (feature `cli`) its plots and progress bars.
 
 pub mod atomic;
 pub mod distance;
 pub mod nets;
+#[cfg(feature = "cli")]
 pub mod plot;
+#[cfg(feature = "cli")]
 pub mod progress;
-pub mod render;
 pub mod stats;
 pub mod table1;
 pub mod weld;

@@ -9,7 +9,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use super::atomic::write_atomic;
+use super::atomic::{write_atomic, write_atomic_with};
 use super::distance::{Series, SweepRow};
 use crate::patch::Scheme;
 use crate::{Error, Result};
@@ -24,6 +24,34 @@ pub fn register_font() {
         // `render` checks for it below.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
     });
+}
+
+/// Writes `rgb` (`width` × `height` pixels, 3 bytes each, rows top to bottom) as an 8-bit
+/// RGB PNG to `path`, atomically.
+pub fn write_png_rgb(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    if rgb.len() != width as usize * height as usize * 3 {
+        return Err(Error::Invalid(format!(
+            "{}: {} bytes are not a {width} x {height} RGB picture",
+            path.display(),
+            rgb.len()
+        )));
+    }
+    let err = |e: png::EncodingError| {
+        Error::io(path, std::io::Error::other(format!("PNG encoding: {e}")))
+    };
+    write_atomic_with(path, |w| {
+        let mut enc = png::Encoder::new(w, width, height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        // What plotters' own PNG output used (through the image crate): fast deflate with
+        // an adaptive filter per row.
+        enc.set_compression(png::Compression::Fast);
+        enc.set_filter(png::FilterType::Sub);
+        enc.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
+        let mut writer = enc.write_header().map_err(err)?;
+        writer.write_image_data(rgb).map_err(err)?;
+        writer.finish().map_err(err)
+    })
 }
 
 /// One line of a plot.
@@ -180,25 +208,14 @@ pub fn write_figure(stem: &Path, fig: &Figure) -> Result<[PathBuf; 2]> {
     }
     write_atomic(&svg, |w| std::io::Write::write_all(w, text.as_bytes()))?;
 
-    // PNG: plotters writes the file itself, so render beside the target and rename.
-    let dir = match png.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = png
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp-{}.png", std::process::id()));
-    let drawn = draw(BitMapBackend::new(&tmp, size).into_drawing_area(), fig);
-    if let Err(e) = drawn {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(plot_err(&png, e));
-    }
-    std::fs::rename(&tmp, &png).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(&png, e)
-    })?;
+    // PNG: drawn into an RGB buffer, then encoded into the file atomically.
+    let mut rgb = vec![255u8; size.0 as usize * size.1 as usize * 3];
+    draw(
+        BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area(),
+        fig,
+    )
+    .map_err(|e| plot_err(&png, e))?;
+    write_png_rgb(&png, size.0, size.1, &rgb)?;
     Ok([png, svg])
 }
 

@@ -1,0 +1,106 @@
+//! Pictures of the normal field (the paper's figures 13–16): the welded surface drawn
+//! headless by a wgpu render pass, coloured by n_x, n_y and n_z in three panels with one
+//! colour ramp, under an orthographic camera fitted to the surface's bounding box.
+//!
+//! - [`camera`]: the orthographic camera (a frame and the map into clip space);
+//! - [`pipeline`]: the render pass on a `wgpu::Device`/`Queue` and the read-back of the
+//!   panels; its WGSL is `shaders/render.wgsl`, headed by constants generated from [`RAMP`];
+//! - `compose` (feature `cli`): titles, legend and the PNG file.
+//!
+//! The device is a Vulkan adapter only (lavapipe in tests), opened once per process by
+//! [`device`].
+
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use crate::gpu::GpuContext;
+use crate::Result;
+
+pub mod camera;
+#[cfg(feature = "cli")]
+pub mod compose;
+pub mod pipeline;
+
+pub use camera::Camera;
+#[cfg(feature = "cli")]
+pub use compose::{write_png, Row};
+pub use pipeline::{render_panels, render_panels_on, shader_source};
+
+/// Background of the panels (white).
+pub const BACKGROUND: [u8; 3] = [255, 255, 255];
+
+/// The colour ramp over [−1, 1]: nine stops, linear in between (turbo-like: dark blue,
+/// blue, cyan, green, yellow-green, yellow, orange, red, dark red). The one copy: the
+/// shader's table is generated from it ([`shader_source`]).
+pub const RAMP: [[u8; 3]; 9] = [
+    [48, 18, 59],
+    [65, 105, 225],
+    [32, 170, 230],
+    [40, 210, 160],
+    [140, 230, 70],
+    [230, 215, 50],
+    [250, 150, 40],
+    [220, 70, 25],
+    [122, 4, 3],
+];
+
+/// Number of linear segments of the ramp (between consecutive stops).
+pub const RAMP_SEGMENTS: usize = RAMP.len() - 1;
+
+/// Colour of value `v` in [−1, 1] (clamped), as the shader computes it (up to rounding).
+pub fn ramp(v: f64) -> [u8; 3] {
+    let segments = RAMP_SEGMENTS as f64;
+    let t = ((v + 1.0) * (0.5 * segments)).clamp(0.0, segments);
+    let i = (t.floor() as usize).min(RAMP_SEGMENTS - 1);
+    let f = t - i as f64;
+    std::array::from_fn(|c| {
+        let a = RAMP[i][c] as f64;
+        let b = RAMP[i + 1][c] as f64;
+        (a + (b - a) * f).round() as u8
+    })
+}
+
+/// How to draw.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    /// Side of one square panel in pixels.
+    pub panel: u32,
+    /// Direction from the surface towards the camera.
+    pub view: DVec3,
+    /// Direction that points up in the picture (projected perpendicular to `view`).
+    pub up: DVec3,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            panel: 512,
+            view: DVec3::Z,
+            up: DVec3::Y,
+        }
+    }
+}
+
+/// Three rendered panels (n_x, n_y, n_z), side by side, RGBA rows top to bottom.
+#[derive(Clone, Debug)]
+pub struct Panels {
+    pub panel: u32,
+    /// Width 3 × panel, height panel, 4 bytes per pixel.
+    pub rgba: Vec<u8>,
+}
+
+impl Panels {
+    /// RGB of pixel (x, y) of panel `c` (0: n_x, 1: n_y, 2: n_z).
+    pub fn pixel(&self, c: usize, x: u32, y: u32) -> [u8; 3] {
+        let w = 3 * self.panel as usize;
+        let i = 4 * (y as usize * w + c * self.panel as usize + x as usize);
+        [self.rgba[i], self.rgba[i + 1], self.rgba[i + 2]]
+    }
+}
+
+/// The process's GPU (the shared Vulkan-only [`GpuContext`]), opened on first use; an
+/// error such as no Vulkan driver is remembered and returned every time.
+pub fn device() -> Result<Arc<GpuContext>> {
+    GpuContext::shared()
+}

@@ -1,0 +1,361 @@
+//! The render pass: the welded surface's triangles (record positions and normals as f32)
+//! drawn three times into one multisampled texture, one viewport per normal component,
+//! then resolved and read back as RGBA rows. Everything here works on a `wgpu::Device` and
+//! `Queue`; [`render_panels`] runs it on the process's shared [`GpuContext`].
+
+use wgpu::util::DeviceExt;
+
+use super::camera::Camera;
+use super::{device, Panels, RenderOptions, BACKGROUND, RAMP, RAMP_SEGMENTS};
+use crate::gpu::GpuContext;
+use crate::output::weld::WeldedMesh;
+use crate::{Error, Result};
+
+/// The render shader's source file, without its generated header.
+pub const RENDER_WGSL: &str = include_str!("../../shaders/render.wgsl");
+
+const SAMPLES: u32 = 4;
+const COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// Bytes of one vertex: position and normal, 3 f32 each.
+const VERTEX_BYTES: u64 = 24;
+
+/// The uniform block of `shaders/render.wgsl` (`struct Uniforms`), byte for byte.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Uniforms {
+    /// Rows of the orthographic map ([`Camera::rows`]).
+    pub rows: [[f32; 4]; 3],
+    /// The normal component drawn: 0, 1 or 2.
+    pub component: u32,
+    pub pad: [u32; 3],
+}
+
+/// The render module's WGSL: the ramp's constants generated from [`RAMP`], then
+/// `shaders/render.wgsl`.
+pub fn shader_source() -> String {
+    let stops: Vec<String> = RAMP
+        .iter()
+        .map(|[r, g, b]| format!("    vec3<f32>({r}.0, {g}.0, {b}.0),\n"))
+        .collect();
+    format!(
+        "// Generated from render::RAMP.\n\
+         var<private> STOPS: array<vec3<f32>, {n}> = array<vec3<f32>, {n}>(\n{stops});\n\
+         const SEGMENTS: f32 = {segments}.0;\n\
+         const LAST_SEGMENT: u32 = {last}u;\n\n{RENDER_WGSL}",
+        n = RAMP.len(),
+        stops = stops.concat(),
+        segments = RAMP_SEGMENTS,
+        last = RAMP_SEGMENTS - 1,
+    )
+}
+
+/// Draws `mesh` (welded, with its record normals) in three panels coloured by n_x, n_y,
+/// n_z, on the process's shared GPU ([`device`]).
+pub fn render_panels(mesh: &WeldedMesh, opts: &RenderOptions) -> Result<Panels> {
+    if mesh.triangles.is_empty() {
+        return Err(Error::Invalid("render: no triangles".into()));
+    }
+    render_panels_on(&*device()?, mesh, opts)
+}
+
+/// [`render_panels`] on a given GPU context.
+pub fn render_panels_on(
+    gpu: &GpuContext,
+    mesh: &WeldedMesh,
+    opts: &RenderOptions,
+) -> Result<Panels> {
+    if mesh.triangles.is_empty() {
+        return Err(Error::Invalid("render: no triangles".into()));
+    }
+    let limits = gpu.device.limits();
+    let size = opts
+        .panel
+        .clamp(16, 4096)
+        .min(limits.max_texture_dimension_2d / 3);
+    let camera = Camera::fit(&mesh.positions, opts.view, opts.up)?;
+    let bytes = (VERTEX_BYTES * mesh.normals.len() as u64).max(12 * mesh.triangles.len() as u64);
+    if bytes > limits.max_buffer_size {
+        return Err(Error::Gpu(format!(
+            "{}: {} vertices and {} triangles exceed the device's buffer size ({} bytes); \
+             evaluate the surface on a coarser grid",
+            gpu.describe(),
+            mesh.normals.len(),
+            mesh.triangles.len(),
+            limits.max_buffer_size
+        )));
+    }
+    // Vertices: record positions and normals as f32, interleaved.
+    let mut vertices: Vec<f32> = Vec::with_capacity(6 * mesh.normals.len());
+    for (r, n) in mesh.record_position.iter().zip(&mesh.normals) {
+        let p = mesh.positions[*r as usize];
+        vertices.extend_from_slice(&[
+            p.x as f32, p.y as f32, p.z as f32, n.x as f32, n.y as f32, n.z as f32,
+        ]);
+    }
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let rgba = draw(
+        &gpu.device,
+        &gpu.queue,
+        &vertices,
+        &indices,
+        &camera.rows(),
+        size,
+    )?;
+    gpu.check()?;
+    Ok(Panels { panel: size, rgba })
+}
+
+/// The render pipeline of `shaders/render.wgsl` and its uniform layout.
+fn pipeline(dev: &wgpu::Device) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout) {
+    let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("render"),
+        source: wgpu::ShaderSource::Wgsl(shader_source().into()),
+    });
+    let bgl = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("render uniforms"),
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<Uniforms>() as u64),
+            },
+            count: None,
+        }],
+    });
+    let layout = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("render"),
+        bind_group_layouts: &[Some(&bgl)],
+        immediate_size: 0,
+    });
+    let pipeline = dev.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("render"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs"),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: VERTEX_BYTES,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
+            })],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: wgpu::MultisampleState {
+            count: SAMPLES,
+            ..Default::default()
+        },
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: COLOR,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    (pipeline, bgl)
+}
+
+/// Draws the triangles `indices` of `vertices` (6 f32 each: position, normal) under the
+/// map `rows` into three `size`-pixel panels side by side; returns their RGBA rows, top to
+/// bottom, 4 bytes per pixel.
+pub fn draw(
+    dev: &wgpu::Device,
+    queue: &wgpu::Queue,
+    vertices: &[f32],
+    indices: &[u32],
+    rows: &[[f32; 4]; 3],
+    size: u32,
+) -> Result<Vec<u8>> {
+    let width = 3 * size;
+    let vbuf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("render vertices"),
+        contents: bytemuck::cast_slice(vertices),
+        usage: wgpu::BufferUsages::VERTEX,
+    });
+    let ibuf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("render indices"),
+        contents: bytemuck::cast_slice(indices),
+        usage: wgpu::BufferUsages::INDEX,
+    });
+    let (pipeline, bgl) = pipeline(dev);
+    let bind_groups: Vec<wgpu::BindGroup> = (0..3u32)
+        .map(|component| {
+            let uniforms = Uniforms {
+                rows: *rows,
+                component,
+                pad: [0; 3],
+            };
+            let buf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("render uniforms"),
+                contents: bytemuck::bytes_of(&uniforms),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            dev.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("render uniforms"),
+                layout: &bgl,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buf.as_entire_binding(),
+                }],
+            })
+        })
+        .collect();
+    let extent = wgpu::Extent3d {
+        width,
+        height: size,
+        depth_or_array_layers: 1,
+    };
+    let texture = |label, format, samples, usage| {
+        dev.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: extent,
+            mip_level_count: 1,
+            sample_count: samples,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+    };
+    let msaa = texture(
+        "render msaa",
+        COLOR,
+        SAMPLES,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    );
+    let resolved = texture(
+        "render resolved",
+        COLOR,
+        1,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+    );
+    let depth = texture(
+        "render depth",
+        DEPTH,
+        SAMPLES,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    );
+    let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+    let (msaa_view, resolved_view, depth_view) = (view(&msaa), view(&resolved), view(&depth));
+    let bg = wgpu::Color {
+        r: BACKGROUND[0] as f64 / 255.0,
+        g: BACKGROUND[1] as f64 / 255.0,
+        b: BACKGROUND[2] as f64 / 255.0,
+        a: 1.0,
+    };
+    let row_bytes = width * 4;
+    let padded =
+        row_bytes.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let staging = dev.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("render readback"),
+        size: padded as u64 * size as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut enc = dev.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("normal components"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &msaa_view,
+                depth_slice: None,
+                resolve_target: Some(&resolved_view),
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(bg),
+                    store: wgpu::StoreOp::Discard,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_vertex_buffer(0, vbuf.slice(..));
+        pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
+        for (c, bind) in bind_groups.iter().enumerate() {
+            pass.set_viewport(
+                (c as u32 * size) as f32,
+                0.0,
+                size as f32,
+                size as f32,
+                0.0,
+                1.0,
+            );
+            pass.set_bind_group(0, bind, &[]);
+            pass.draw_indexed(0..indices.len() as u32, 0, 0..1);
+        }
+    }
+    enc.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture: &resolved,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &staging,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(size),
+            },
+        },
+        extent,
+    );
+    queue.submit([enc.finish()]);
+    let data = read_buffer(dev, &staging)?;
+    let mut rgba = Vec::with_capacity((row_bytes * size) as usize);
+    for row in data.chunks(padded as usize).take(size as usize) {
+        rgba.extend_from_slice(&row[..row_bytes as usize]);
+    }
+    Ok(rgba)
+}
+
+/// The contents of `buffer` (MAP_READ, its copies submitted): mapped, waited for, copied
+/// out and unmapped.
+fn read_buffer(dev: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u8>> {
+    let slice = buffer.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    dev.poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| Error::Gpu(format!("device poll: {e}")))?;
+    rx.recv()
+        .map_err(|_| Error::Gpu("readback never completed".into()))?
+        .map_err(|e| Error::Gpu(format!("readback: {e}")))?;
+    let data = slice
+        .get_mapped_range()
+        .map_err(|e| Error::Gpu(format!("readback: {e}")))?
+        .to_vec();
+    buffer.unmap();
+    Ok(data)
+}
