@@ -26,6 +26,10 @@ use eval_cases::{
 };
 
 const LEVELS: [u32; 3] = [1, 8, 33];
+/// Levels of the f32 output's comparison: its values are the f64 output's rounded once
+/// away from the corners (checked bit for bit by the corner test), so the finest level,
+/// most of the device time on a software adapter, adds nothing there.
+const LEVELS_F32_OUTPUT: [u32; 2] = [1, 8];
 
 fn ci() -> bool {
     std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
@@ -299,7 +303,11 @@ fn gpu_matches_cpu(precision: Precision) {
             for output in [Output::F64, Output::F32] {
                 let (tp, tn, _, _) = output_tolerances(gpu, output);
                 let label = format!("{precision} GPU, {output:?} output, {name} {what}");
-                for level in LEVELS {
+                let levels = match output {
+                    Output::F64 => &LEVELS[..],
+                    Output::F32 => &LEVELS_F32_OUTPUT[..],
+                };
+                for &level in levels {
                     compare_grid(gpu, output, &table, level).check(
                         &format!("{label} level {level}"),
                         diag,
