@@ -1,34 +1,45 @@
 // Shared code of every evaluation shader (see src/gpu/shaders.rs, which assembles a module
-// as: a precision header, then the scheme's file, then this file).
+// as: a generated header, then the kind's file (bezier.wgsl or gregory.wgsl), then this
+// file).
 //
-// The header defines:
-//   alias real = f32 | f64;       the working precision
-//   const TINY: real, HUGE: real;  bounds of a usable vector length (else: fallback normal)
-//   const STRIDE: u32;             control points per patch (PatchKind::stride)
-//   const GEOMETRY: u32;           leading points that are geometry (PnNormals: 10)
-// The scheme file defines
+// mirrors patch::PatchTable::eval_weights, patch::unit_normal
+// mirrors patch::basis::monomial, patch::basis::bezier
+// mirrors eval::pattern::grid_index, eval::pattern::grid_barycentrics
+//
+// The header is generated from PatchKind::layout(), patch::basis::MAX_POINTS and
+// patch::MIN_NORMAL_LEN_F32 / _F64 (never copy those numbers here; tests/shaders.rs checks):
+//   alias real = f32 | f64;            the working precision
+//   const STRIDE, GEOMETRY, DEGREE;    the kind's layout (GEOMETRY < STRIDE: PN's normal
+//                                      field follows the geometry)
+//   const MAX_POINTS;                  slots of Weights (the most control points of a kind)
+//   const WORKGROUP;                   threads per workgroup (eval::gpu::WORKGROUP)
+//   const MIN_NORMAL_LEN, MAX_REAL;    a usable vector length is > MIN_NORMAL_LEN and
+//                                      <= MAX_REAL (finite), else the fallback normal
+//   const PATCH_VECS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO, SLOT_CORNERS: the patch upload
+// The kind's file defines
 //   fn kind_weights(b: vec3<real>) -> Weights
-// mirroring PatchKind::weights in src/patch/basis.rs.
+// mirroring PatchKind::weights in src/patch/mod.rs.
 //
-// Input: one record per patch, RECORD reals: STRIDE control points (geometry points
-// relative to the patch's first control point, so f32 keeps its digits far from the
-// origin), then the patch's flat unit normal. Output: 6 reals per sample, position
-// (relative to the same first point) then unit normal.
+// Input: one patch upload per patch, PATCH_VECS vectors: STRIDE control points (geometry
+// points relative to the patch's first control point, so f32 keeps its digits far from
+// the origin; the normal field as it is), the flat unit normal (SLOT_FLAT_NORMAL), the low
+// part of the first control point (SLOT_ORIGIN_LO: c0 − real(c0), zero in f64), and the
+// three corners in absolute coordinates rounded once to real (SLOT_CORNERS + k; corner 0
+// is also the high part of the origin).
+// Output of a dispatch of `count` samples: positions (absolute: origin + evaluation) in
+// out[0 .. 3 count], unit normals in out[3 count .. 6 count]. Corner samples are the
+// uploaded corners bit for bit.
 
-const MAX_POINTS: u32 = 18u;
-const WORKGROUP: u32 = 64u;
-const RECORD: u32 = 3u * (STRIDE + 1u);
-const OUT_REALS: u32 = 6u;
 
 // Basis values and tangent-direction derivatives (src/patch/basis.rs: Weights).
 struct Weights {
-    w: array<real, 18>,
-    ws: array<real, 18>,
-    wt: array<real, 18>,
+    w: array<real, MAX_POINTS>,
+    ws: array<real, MAX_POINTS>,
+    wt: array<real, MAX_POINTS>,
 }
 
 // One dispatch. Grid: thread t evaluates sample first_local + t counted from the first
-// point of record 0 (per samples per patch). Points: thread t evaluates points[t].
+// point of patch upload 0 (per samples per patch). Points: thread t evaluates points[t].
 struct Params {
     count: u32,
     first_local: u32,
@@ -42,16 +53,16 @@ struct Params {
     _pad2: u32,
 }
 
-// An explicit evaluation point: barycentrics and the record it refers to.
+// An explicit evaluation point: barycentrics and the patch upload it refers to.
 struct Point {
     b0: real,
     b1: real,
     b2: real,
-    record: u32,
+    patch_index: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> records: array<real>;
+@group(0) @binding(1) var<storage, read> patch_data: array<real>;
 @group(0) @binding(2) var<storage, read> points: array<Point>;
 @group(0) @binding(3) var<storage, read_write> out: array<real>;
 // Basis values of the grid (grid_table_main): value (j * 3 + k) * per + local is, for
@@ -126,31 +137,69 @@ fn bezier(n: u32, b: vec3<real>) -> Weights {
     return out;
 }
 
-// PatchKind::PnNormals: cubic basis with derivatives in slots 0..10, quadratic basis
-// values (the normal field) in slots 10..16 (basis.rs: pn_normals).
-fn pn_normals(b: vec3<real>) -> Weights {
-    let quad = bezier(2u, b);
-    var out = bezier(3u, b);
-    for (var k = 0u; k < 6u; k++) {
-        out.w[10u + k] = quad.w[k];
-    }
-    return out;
-}
-
 // ---- patch evaluation (src/patch/mod.rs) ----
 
-fn control_point(rec: u32, j: u32) -> vec3<real> {
-    let o = rec * RECORD + 3u * j;
-    return vec3<real>(records[o], records[o + 1u], records[o + 2u]);
+// Vector `slot` of patch upload i (control point j < STRIDE, then the extra slots).
+fn patch_vec(i: u32, slot: u32) -> vec3<real> {
+    let o = (i * PATCH_VECS + slot) * 3u;
+    return vec3<real>(patch_data[o], patch_data[o + 1u], patch_data[o + 2u]);
 }
 
-fn flat_normal(rec: u32) -> vec3<real> {
-    return control_point(rec, STRIDE);
+fn control_point(i: u32, j: u32) -> vec3<real> {
+    return patch_vec(i, j);
 }
 
-// Usable length: neither tiny nor infinite nor NaN.
+fn flat_normal(i: u32) -> vec3<real> {
+    return patch_vec(i, SLOT_FLAT_NORMAL);
+}
+
+// Usable length: above the threshold, finite, not NaN (patch/mod.rs: unit_normal).
 fn usable(len: real) -> bool {
-    return len > TINY && len < HUGE;
+    return len > MIN_NORMAL_LEN && len <= MAX_REAL;
+}
+
+// No corner: the third of corner_of_b and corner_of_local's answers.
+const NO_CORNER: u32 = 3u;
+
+// Which corner b is (b = the unit vector e_k), or NO_CORNER.
+fn corner_of_b(b: vec3<real>) -> u32 {
+    for (var k = 0u; k < 3u; k++) {
+        var unit = true;
+        for (var m = 0u; m < 3u; m++) {
+            let e = select(real(0.0), real(1.0), m == k);
+            unit = unit && b[m] == e;
+        }
+        if (unit) {
+            return k;
+        }
+    }
+    return NO_CORNER;
+}
+
+// Which corner grid point `local` of level n is: index 0 is b = e_0, index n (i = n, j = 0)
+// is e_1, the last index (j = n) is e_2.
+fn corner_of_local(n: u32, local: u32) -> u32 {
+    if (local == 0u) {
+        return 0u;
+    }
+    if (local == n) {
+        return 1u;
+    }
+    if (local == params.per - 1u) {
+        return 2u;
+    }
+    return NO_CORNER;
+}
+
+// The sample in absolute coordinates: the origin added to the patch-relative position as
+// high part + (low part + position), or the uploaded corner exactly at a corner.
+fn absolute(i: u32, s: Sample, corner: u32) -> Sample {
+    if (corner < NO_CORNER) {
+        return Sample(patch_vec(i, SLOT_CORNERS + corner), s.n);
+    }
+    let hi = patch_vec(i, SLOT_CORNERS);
+    let lo = patch_vec(i, SLOT_ORIGIN_LO);
+    return Sample(hi + (lo + s.p), s.n);
 }
 
 // patch/mod.rs: unit_normal. S_s × S_t normalised, the flat normal where it vanishes.
@@ -232,27 +281,29 @@ fn grid_barycentric(n: u32, ij: vec2<u32>) -> vec3<real> {
     return vec3<real>(real(n - ij.x - ij.y) / nf, real(ij.x) / nf, real(ij.y) / nf);
 }
 
+// Position t in the first half of `out`, normal t in the second.
 fn store(t: u32, s: Sample) {
-    let o = t * OUT_REALS;
+    let o = t * 3u;
     out[o] = s.p.x;
     out[o + 1u] = s.p.y;
     out[o + 2u] = s.p.z;
-    out[o + 3u] = s.n.x;
-    out[o + 4u] = s.n.y;
-    out[o + 5u] = s.n.z;
+    let m = (params.count + t) * 3u;
+    out[m] = s.n.x;
+    out[m + 1u] = s.n.y;
+    out[m + 2u] = s.n.z;
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn grid_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let t = thread_index(gid);
     if (t >= params.count) {
         return;
     }
     let q = params.first_local + t;
-    let rec = q / params.per;
-    let local = q - rec * params.per;
+    let i = q / params.per;
+    let local = q - i * params.per;
     let b = grid_barycentric(params.level, grid_ij(params.level, local));
-    store(t, eval_weights(rec, kind_weights(b)));
+    store(t, absolute(i, eval_weights(i, kind_weights(b)), corner_of_local(params.level, local)));
 }
 
 // eval_weights with the basis of grid point `local` read from the precomputed table as
@@ -277,19 +328,19 @@ fn eval_table(i: u32, local: u32) -> Sample {
 }
 
 // As grid_main, with the basis read from the precomputed table instead of computed.
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn grid_table_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let t = thread_index(gid);
     if (t >= params.count) {
         return;
     }
     let q = params.first_local + t;
-    let rec = q / params.per;
-    let local = q - rec * params.per;
-    store(t, eval_table(rec, local));
+    let i = q / params.per;
+    let local = q - i * params.per;
+    store(t, absolute(i, eval_table(i, local), corner_of_local(params.level, local)));
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let t = thread_index(gid);
     if (t >= params.count) {
@@ -297,5 +348,5 @@ fn points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let pt = points[t];
     let b = vec3<real>(pt.b0, pt.b1, pt.b2);
-    store(t, eval_weights(pt.record, kind_weights(b)));
+    store(t, absolute(pt.patch_index, eval_weights(pt.patch_index, kind_weights(b)), corner_of_b(b)));
 }

@@ -2,21 +2,22 @@
 //! (Mesa's lavapipe in CI). With `CI=true` a missing adapter fails these tests; otherwise
 //! they print a SKIP line and return.
 //!
-//! Every shader file is run for every patch kind it serves (see `common::cases`).
+//! Every scheme's table is run, so every patch kind's module (see `eval_cases::cases`),
+//! through both outputs: `evaluate` (f64) and `evaluate_f32`.
 
 use std::sync::{Arc, OnceLock};
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use g1tess::eval::cpu::{grid_weights, CpuEvaluator};
+use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::eval::gpu::GpuEvaluator;
-use g1tess::eval::{grid_len, Chunk, Evaluator, PatchPoint, Pattern};
-use g1tess::gpu::shaders::ShaderFile;
+use g1tess::eval::{grid_barycentrics, grid_len, Chunk, Evaluator, PatchPoint, Pattern};
 use g1tess::gpu::{GpuContext, Precision};
 use g1tess::mesh::Mesh;
 use g1tess::output::stats::{continuity, edge_points};
-use g1tess::patch::{PatchTable, Scheme};
+use g1tess::patch::basis::Weights;
+use g1tess::patch::{PatchKind, PatchTable, Scheme};
 
 mod common;
 mod eval_cases;
@@ -25,6 +26,10 @@ use eval_cases::{
 };
 
 const LEVELS: [u32; 3] = [1, 8, 33];
+/// Levels of the f32 output's comparison: its values are the f64 output's rounded once
+/// away from the corners (checked bit for bit by the corner test), so the finest level,
+/// most of the device time on a software adapter, adds nothing there.
+const LEVELS_F32_OUTPUT: [u32; 2] = [1, 8];
 
 fn ci() -> bool {
     std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
@@ -71,12 +76,65 @@ fn evaluator(precision: Precision) -> Option<&'static GpuEvaluator> {
     .as_ref()
 }
 
-/// Tolerances: (position / bbox diagonal, 1 − dot of normals), and the unit roundoff.
+/// Tolerances of values computed or handed out in `precision`: (position / bbox diagonal,
+/// 1 − dot of normals), and the unit roundoff. f32: a few hundred roundings of 6e-8 in the
+/// basis sums and normalisation; f64: the same count of 1.1e-16.
 fn tolerances(precision: Precision) -> (f64, f64, f64) {
     match precision {
         Precision::F32 => (1e-5, 1e-5, EPS32),
         Precision::F64 => (1e-12, 1e-12, EPS64),
     }
+}
+
+/// The output a comparison reads: `evaluate` (f64) or `evaluate_f32`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Output {
+    F64,
+    F32,
+}
+
+/// Tolerances of `gpu`'s `output`: the coarser of the working and output precisions, and
+/// the largest | |n| − 1 | (f64 output is renormalised in f64: a few ulps; f32 output is
+/// normalised in f32: a few f32 ulps of 6e-8).
+fn output_tolerances(gpu: &GpuEvaluator, output: Output) -> (f64, f64, f64, f64) {
+    let (tp, tn, eps) = match output {
+        Output::F64 => tolerances(gpu.precision()),
+        Output::F32 => tolerances(Precision::F32),
+    };
+    let unit = match output {
+        Output::F64 => 1e-12,
+        Output::F32 => 1e-6,
+    };
+    (tp, tn, eps, unit)
+}
+
+/// Runs `pattern` through `output`, handing every chunk to `f` widened to f64.
+fn each_chunk(
+    gpu: &GpuEvaluator,
+    output: Output,
+    table: &PatchTable,
+    pattern: &Pattern,
+    mut f: impl FnMut(&Chunk<'_>),
+) {
+    match output {
+        Output::F64 => gpu.evaluate(table, pattern, &mut |c| {
+            f(&c);
+            Ok(())
+        }),
+        Output::F32 => gpu.evaluate_f32(table, pattern, &mut |c| {
+            let widen = |v: &[[f32; 3]]| -> Vec<DVec3> {
+                v.iter().map(|p| DVec3::from(p.map(f64::from))).collect()
+            };
+            let (p, n) = (widen(c.positions), widen(c.normals));
+            f(&Chunk {
+                first: c.first,
+                positions: &p,
+                normals: &n,
+            });
+            Ok(())
+        }),
+    }
+    .unwrap();
 }
 
 #[derive(Default, Debug, Clone, Copy)]
@@ -136,10 +194,11 @@ impl Worst {
 }
 
 /// Position distance and 1 − dot over a chunk against the reference: sample k's reference
-/// position, normal and predicted rounding error of the normal.
+/// position, normal and predicted rounding error of the normal; normals unit within `unit`.
 fn worst_of(
     chunk: &Chunk<'_>,
     tn: f64,
+    unit: f64,
     reference: impl Fn(usize) -> (DVec3, DVec3, f64) + Sync,
 ) -> Worst {
     (0..chunk.positions.len())
@@ -147,7 +206,7 @@ fn worst_of(
         .map(|k| {
             let (p, n, predicted) = reference(k);
             assert!(chunk.positions[k].is_finite() && chunk.normals[k].is_finite());
-            assert!((chunk.normals[k].length() - 1.0).abs() < 1e-12);
+            assert!((chunk.normals[k].length() - 1.0).abs() < unit);
             let ok = regular(predicted, tn);
             Worst {
                 dp: chunk.positions[k].distance(p),
@@ -168,23 +227,29 @@ fn worst_of(
         .reduce(Worst::default, Worst::merge)
 }
 
+/// Basis values at every point of the grid of `level` (the CPU reference's own).
+fn grid_weights(kind: PatchKind, level: u32) -> Vec<Weights> {
+    grid_barycentrics(level)
+        .into_iter()
+        .map(|b| kind.weights(b))
+        .collect()
+}
+
 /// GPU grid vs CPU reference, streamed chunk by chunk.
-fn compare_grid(gpu: &GpuEvaluator, file: ShaderFile, table: &PatchTable, level: u32) -> Worst {
-    let (_, tn, eps) = tolerances(gpu.precision());
-    let weights = grid_weights(table, level);
+fn compare_grid(gpu: &GpuEvaluator, output: Output, table: &PatchTable, level: u32) -> Worst {
+    let (_, tn, eps, unit) = output_tolerances(gpu, output);
+    let weights = grid_weights(table.kind, level);
     let per = grid_len(level);
     let mut worst = Worst::default();
-    gpu.evaluate_with_file(file, table, &Pattern::Grid { level }, &mut |c| {
+    each_chunk(gpu, output, table, &Pattern::Grid { level }, |c| {
         assert_eq!(c.positions.len() % per, 0);
-        let w = worst_of(&c, tn, |k| {
+        let w = worst_of(c, tn, unit, |k| {
             let (i, w) = (c.first + k / per, &weights[k % per]);
             let sp = table.eval_weights(i, w);
             (sp.p, sp.n, normal_error(table, i, w, eps))
         });
         worst = worst.merge(w);
-        Ok(())
-    })
-    .unwrap();
+    });
     assert_eq!(worst.samples, per * table.len());
     worst
 }
@@ -192,23 +257,21 @@ fn compare_grid(gpu: &GpuEvaluator, file: ShaderFile, table: &PatchTable, level:
 /// GPU explicit points vs CPU reference.
 fn compare_points(
     gpu: &GpuEvaluator,
-    file: ShaderFile,
+    output: Output,
     table: &PatchTable,
     points: &[PatchPoint],
 ) -> Worst {
-    let (_, tn, eps) = tolerances(gpu.precision());
+    let (_, tn, eps, unit) = output_tolerances(gpu, output);
     let mut worst = Worst::default();
-    gpu.evaluate_with_file(file, table, &Pattern::Points(points.to_vec()), &mut |c| {
-        let w = worst_of(&c, tn, |k| {
+    each_chunk(gpu, output, table, &Pattern::Points(points.to_vec()), |c| {
+        let w = worst_of(c, tn, unit, |k| {
             let pp = points[c.first + k];
             let w = table.kind.weights(pp.b);
             let sp = table.eval_weights(pp.patch as usize, &w);
             (sp.p, sp.n, normal_error(table, pp.patch as usize, &w, eps))
         });
         worst = worst.merge(w);
-        Ok(())
-    })
-    .unwrap();
+    });
     assert_eq!(worst.samples, points.len());
     worst
 }
@@ -232,26 +295,33 @@ fn gpu_matches_cpu(precision: Precision) {
     let Some(gpu) = evaluator(precision) else {
         return;
     };
-    let (tp, tn, _) = tolerances(precision);
     for name in MESHES {
         let mesh = load(name);
         let diag = mesh.diagonal();
         let points = test_points(&mesh);
-        for (file, table, what) in cases(&mesh) {
-            for level in LEVELS {
-                compare_grid(gpu, file, &table, level).check(
-                    &format!("{precision} {name} {what} level {level}"),
+        for (_, table, what) in cases(&mesh) {
+            for output in [Output::F64, Output::F32] {
+                let (tp, tn, _, _) = output_tolerances(gpu, output);
+                let label = format!("{precision} GPU, {output:?} output, {name} {what}");
+                let levels = match output {
+                    Output::F64 => &LEVELS[..],
+                    Output::F32 => &LEVELS_F32_OUTPUT[..],
+                };
+                for &level in levels {
+                    compare_grid(gpu, output, &table, level).check(
+                        &format!("{label} level {level}"),
+                        diag,
+                        tp,
+                        tn,
+                    );
+                }
+                compare_points(gpu, output, &table, &points).check(
+                    &format!("{label} points"),
                     diag,
                     tp,
                     tn,
                 );
             }
-            compare_points(gpu, file, &table, &points).check(
-                &format!("{precision} {name} {what} points"),
-                diag,
-                tp,
-                tn,
-            );
         }
     }
 }
@@ -272,9 +342,9 @@ fn in_shader_basis_grids_match_cpu() {
         ] {
             let mesh = load(name);
             let diag = mesh.diagonal();
-            for (file, table, what) in cases(&mesh) {
+            for (_, table, what) in cases(&mesh) {
                 for &level in levels {
-                    compare_grid(&gpu, file, &table, level).check(
+                    compare_grid(&gpu, Output::F64, &table, level).check(
                         &format!("{precision} in-shader basis {name} {what} level {level}"),
                         diag,
                         tp,
@@ -317,6 +387,27 @@ fn run_all(gpu: &GpuEvaluator, table: &PatchTable, pattern: &Pattern) -> (Vec<DV
     (pos, nrm)
 }
 
+/// [`run_all`] through `evaluate_f32`.
+fn run_all_f32(gpu: &GpuEvaluator, table: &PatchTable, pattern: &Pattern) -> Vec<[f32; 6]> {
+    let mut out = Vec::new();
+    gpu.evaluate_f32(table, pattern, &mut |c| {
+        let expect_first = match pattern {
+            Pattern::Grid { level } => out.len() / grid_len(*level),
+            Pattern::Points(_) => out.len(),
+        };
+        assert_eq!(c.first, expect_first, "chunks arrive in order");
+        out.extend(
+            c.positions
+                .iter()
+                .zip(c.normals)
+                .map(|(p, n)| [p[0], p[1], p[2], n[0], n[1], n[2]]),
+        );
+        Ok(())
+    })
+    .unwrap();
+    out
+}
+
 #[test]
 fn tiny_chunks_split_dispatches_and_2d_grids_give_identical_results() {
     for precision in [Precision::F32, Precision::F64] {
@@ -351,6 +442,9 @@ fn tiny_chunks_split_dispatches_and_2d_grids_give_identical_results() {
                 assert_eq!(a.0.len(), pattern.len(table.len()));
                 let b = run_all(&tiny, &table, &pattern);
                 assert!(a == b, "{precision} {scheme}: tiny chunks differ");
+                let a32 = run_all_f32(whole, &table, &pattern);
+                let b32 = run_all_f32(&tiny, &table, &pattern);
+                assert!(a32 == b32, "{precision} {scheme}: tiny f32 chunks differ");
                 let c = run_all(&split, &table, &pattern);
                 assert!(a == c, "{precision} {scheme}: split dispatches differ");
                 let d = run_all(&in_shader, &table, &pattern);
@@ -408,6 +502,8 @@ fn f64_without_the_feature_is_refused_and_bad_points_are_errors() {
             .err()
             .unwrap();
         assert!(e.to_string().contains("SHADER_F64"), "{e}");
+        // A library error says what is missing, never a command-line flag.
+        assert!(!e.to_string().contains("--"), "{e}");
     }
     let mesh = load("sphere320");
     let table = PatchTable::build(&mesh, Scheme::G1, &Default::default()).unwrap();
@@ -417,4 +513,198 @@ fn f64_without_the_feature_is_refused_and_bad_points_are_errors() {
     }]);
     let e = gpu.evaluate(&table, &bad, &mut |_| Ok(())).unwrap_err();
     assert!(e.to_string().contains("patch 320"), "{e}");
+}
+
+/// A mesh far from the origin whose vertex 0 has x = 0.313121 (the coordinate the issue saw
+/// come back as 0.3131210001682043).
+fn moved_sphere() -> Mesh {
+    let mut mesh = load("sphere320");
+    let x0 = mesh.positions[0].x * 1.7;
+    let shift = DVec3::new(0.313121 - x0, 1000.25, -3.5);
+    for p in &mut mesh.positions {
+        *p = *p * 1.7 + shift;
+    }
+    mesh.positions[0].x = 0.313121;
+    mesh
+}
+
+fn bits64(v: DVec3) -> [u64; 3] {
+    v.to_array().map(f64::to_bits)
+}
+
+fn bits32(v: [f32; 3]) -> [u32; 3] {
+    v.map(f32::to_bits)
+}
+
+fn round32(v: DVec3) -> [f32; 3] {
+    v.to_array().map(|x| x as f32)
+}
+
+#[test]
+fn corners_are_the_input_bit_for_bit_on_every_kind_precision_and_pattern() {
+    let mesh = moved_sphere();
+    let mut kinds = Vec::new();
+    let mut checked = 0;
+    for precision in [Precision::F32, Precision::F64] {
+        let Some(gpu) = evaluator(precision) else {
+            continue;
+        };
+        for scheme in Scheme::all() {
+            let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
+            if !kinds.contains(&table.kind) {
+                kinds.push(table.kind);
+            }
+            // A patch's corner control points are its triangle's input vertices.
+            for (i, t) in mesh.triangles.iter().enumerate() {
+                for (k, &v) in t.iter().enumerate() {
+                    assert_eq!(
+                        bits64(table.corner(i, k)),
+                        bits64(mesh.positions[v as usize])
+                    );
+                }
+            }
+            let level = 4;
+            let per = grid_len(level);
+            // Every corner of every patch, then one interior point per patch.
+            let mut points = Vec::new();
+            for patch in 0..table.len() as u32 {
+                for b in [
+                    [1.0, 0.0, 0.0],
+                    [0.0, 1.0, 0.0],
+                    [0.0, 0.0, 1.0],
+                    [0.2, 0.3, 0.5],
+                ] {
+                    points.push(PatchPoint { patch, b });
+                }
+            }
+            for pattern in [Pattern::Grid { level }, Pattern::Points(points)] {
+                // Sample index -> (patch, corner) where the sample is a corner.
+                let corner_at = |s: usize| match &pattern {
+                    Pattern::Grid { .. } => {
+                        let local = s % per;
+                        let k = [0, level as usize, per - 1]
+                            .iter()
+                            .position(|&c| c == local);
+                        k.map(|k| (s / per, k))
+                    }
+                    Pattern::Points(p) => {
+                        let k = p[s].b.iter().position(|&x| x == 1.0);
+                        k.map(|k| (p[s].patch as usize, k))
+                    }
+                };
+                let what = format!("{precision} {scheme} {pattern:?}")
+                    .chars()
+                    .take(60)
+                    .collect::<String>();
+                let (pos, _) = gpu.evaluate_all(&table, &pattern).unwrap();
+                let mut pos32 = Vec::new();
+                gpu.evaluate_f32(&table, &pattern, &mut |c| {
+                    pos32.extend_from_slice(c.positions);
+                    Ok(())
+                })
+                .unwrap();
+                assert_eq!(pos.len(), pattern.len(table.len()));
+                assert_eq!(pos32.len(), pos.len());
+                let mut corners = 0;
+                for s in 0..pos.len() {
+                    if let Some((i, k)) = corner_at(s) {
+                        let c = table.corner(i, k);
+                        assert_eq!(bits64(pos[s]), bits64(c), "{what}: sample {s} (f64)");
+                        assert_eq!(
+                            bits32(pos32[s]),
+                            bits32(round32(c)),
+                            "{what}: sample {s} (f32)"
+                        );
+                        if mesh.triangles[i][k] == 0 {
+                            assert_eq!(pos[s].x, 0.313121);
+                            assert_eq!(pos32[s][0], 0.313121f32);
+                        }
+                        corners += 1;
+                    } else {
+                        // Elsewhere the f32 output is the GPU's value rounded to f32 once
+                        // (an f32 GPU's own bits: no f64 round trip).
+                        assert_eq!(
+                            bits32(pos32[s]),
+                            bits32(round32(pos[s])),
+                            "{what}: sample {s}"
+                        );
+                    }
+                }
+                assert_eq!(corners, 3 * table.len(), "{what}");
+                checked += 1;
+            }
+        }
+    }
+    if checked > 0 {
+        let mut all = PatchKind::all();
+        all.sort_by_key(|k| format!("{k:?}"));
+        kinds.sort_by_key(|k| format!("{k:?}"));
+        assert_eq!(kinds, all, "every patch kind was checked");
+    }
+}
+
+#[test]
+fn f32_output_keeps_its_digits_far_from_the_origin() {
+    // y is about 1000 (f32 ulp 6.1e-5 there), x and z about 1. The GPU's f32 output must be
+    // the f64 reference within eps32 · (|p| + 1): one rounding of the result (at most
+    // eps32 · |p|) plus the f32 evaluation of the patch-relative part (patches span about
+    // 0.5, a few roundings of it stay below eps32). Evaluating absolute coordinates in f32
+    // would instead lose several eps32 · |p| in the basis sums.
+    let Some(gpu) = evaluator(Precision::F32) else {
+        return;
+    };
+    let mesh = moved_sphere();
+    let table = PatchTable::build(&mesh, Scheme::G1, &Default::default()).unwrap();
+    let level = 8;
+    let weights = grid_weights(table.kind, level);
+    let per = grid_len(level);
+    let eps = f32::EPSILON as f64;
+    let mut worst: f64 = 0.0;
+    gpu.evaluate_f32(&table, &Pattern::Grid { level }, &mut |c| {
+        for (s, p) in c.positions.iter().enumerate() {
+            let reference = table.eval_weights(c.first + s / per, &weights[s % per]).p;
+            for a in 0..3 {
+                let r = reference[a];
+                worst = worst.max((p[a] as f64 - r).abs() / (eps * (r.abs() + 1.0)));
+            }
+        }
+        Ok(())
+    })
+    .unwrap();
+    eprintln!("f32 GPU output 1000 from the origin: worst error {worst:.3} × eps32 (|p| + 1)");
+    assert!(worst <= 1.0, "{worst}");
+}
+
+#[test]
+fn schemes_of_one_kind_share_one_module_and_pipeline() {
+    let Some(shared) = evaluator(Precision::F32) else {
+        return;
+    };
+    let gpu = GpuEvaluator::new(shared.context().clone(), Precision::F32).unwrap();
+    let mesh = load("sphere320");
+    let mut results = Vec::new();
+    for scheme in [
+        Scheme::Phong,
+        Scheme::Nagata,
+        Scheme::NagataGuarded,
+        Scheme::Nlsa,
+    ] {
+        let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
+        assert_eq!(table.kind, PatchKind::Bezier(2));
+        results.push(
+            gpu.evaluate_all(&table, &Pattern::Grid { level: 2 })
+                .unwrap()
+                .0,
+        );
+        assert_eq!(gpu.cached_pipelines(), 1, "{scheme}");
+    }
+    // One pipeline, four different tables: the surfaces differ.
+    assert!(results[0] != results[1] && results[0] != results[3]);
+    let pn = PatchTable::build(&mesh, Scheme::Pn, &Default::default()).unwrap();
+    gpu.evaluate_all(&pn, &Pattern::Grid { level: 2 }).unwrap();
+    assert_eq!(gpu.cached_pipelines(), 2);
+    assert!(Arc::ptr_eq(
+        &gpu.pipelines(PatchKind::Bezier(2)).unwrap(),
+        &gpu.pipelines(PatchKind::Bezier(2)).unwrap()
+    ));
 }

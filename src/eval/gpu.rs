@@ -1,13 +1,22 @@
 //! The GPU backend: WGSL compute shaders (`shaders/`) through wgpu, f32 or f64.
 //!
-//! Control points are uploaded relative to each patch's first control point (so f32 keeps
-//! its digits on meshes far from the origin) and the shaders return positions relative to
-//! the same point; the CPU adds it back in f64 and renormalises the normals in f64.
+//! The module is chosen by the table's [`PatchKind`] (see [`crate::gpu::shaders`]) and its
+//! pipelines are cached per (kind, precision), so every scheme of one kind shares them.
+//!
+//! Each patch is uploaded as its *patch data* (`shaders/common.wgsl`): control points
+//! relative to its first corner (so f32 keeps its digits on meshes far from the origin),
+//! its flat normal, the corner split into a high and a low part, and its three corners
+//! rounded once. The shaders add the origin back (high + (low + relative)) and write the
+//! corner samples as the uploaded corners, so [`Evaluator::evaluate_f32`] hands the GPU's
+//! f32 values to the sink as they are (corners: the input rounded once), while
+//! [`Evaluator::evaluate`] widens them, renormalises the normals in f64 and puts the input
+//! corners back exactly.
 //!
 //! Work is split so that no storage binding exceeds the adapter's limit and no dispatch
 //! dimension exceeds its workgroup limit, and results stream to the sink chunk by chunk.
 //! The device work is done by free functions on `(&Device, &Queue, ...)`
-//! ([`bind_group_layout`], [`create_pipelines`], [`dispatch`], [`read_back`]).
+//! ([`bind_group_layout`], [`create_pipelines`], [`dispatch`]) and results come back
+//! through [`crate::gpu::read_buffer`].
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -15,14 +24,14 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{grid_len, Chunk, Evaluator, PatchPoint, Pattern};
-use crate::gpu::shaders::{self, ShaderFile};
-use crate::gpu::{GpuContext, Precision};
+use super::{grid_barycentrics, grid_len, Chunk, ChunkF32, Evaluator, PatchPoint, Pattern};
+use crate::gpu::shaders::{self, SLOT_CORNERS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO};
+use crate::gpu::{read_buffer, GpuContext, Precision};
 use crate::patch::{PatchKind, PatchTable};
 use crate::{Error, Result};
 
-/// Threads per workgroup (`WORKGROUP` in `shaders/common.wgsl`).
-pub const WORKGROUP: u32 = 64;
+/// Threads per workgroup (the generated `WORKGROUP` of every evaluation shader).
+pub use crate::gpu::shaders::WORKGROUP;
 
 /// Reals written per sample: position then normal.
 const OUT_REALS: usize = 6;
@@ -32,6 +41,8 @@ pub trait Real: bytemuck::Pod + Send + Sync {
     const PRECISION: Precision;
     fn of(x: f64) -> Self;
     fn get(self) -> f64;
+    /// The vectors in f32: themselves for f32, rounded once into `scratch` for f64.
+    fn as_f32<'a>(v: &'a [[Self; 3]], scratch: &'a mut Vec<[f32; 3]>) -> &'a [[f32; 3]];
 }
 
 impl Real for f32 {
@@ -44,6 +55,9 @@ impl Real for f32 {
     fn get(self) -> f64 {
         self as f64
     }
+    fn as_f32<'a>(v: &'a [[f32; 3]], _: &'a mut Vec<[f32; 3]>) -> &'a [[f32; 3]] {
+        v
+    }
 }
 
 impl Real for f64 {
@@ -55,6 +69,11 @@ impl Real for f64 {
     #[inline]
     fn get(self) -> f64 {
         self
+    }
+    fn as_f32<'a>(v: &'a [[f64; 3]], scratch: &'a mut Vec<[f32; 3]>) -> &'a [[f32; 3]] {
+        scratch.clear();
+        scratch.extend(v.iter().map(|p| p.map(|x| x as f32)));
+        scratch
     }
 }
 
@@ -70,9 +89,8 @@ pub struct Params {
     pub _pad: [u32; 3],
 }
 
-/// The compute pipelines of one (shader file, patch kind, precision).
+/// The compute pipelines of one (patch kind, precision).
 pub struct Pipelines {
-    pub file: ShaderFile,
     pub kind: PatchKind,
     pub precision: Precision,
     /// Grid, basis computed in the shader.
@@ -82,7 +100,7 @@ pub struct Pipelines {
     pub points: wgpu::ComputePipeline,
 }
 
-/// The bind group layout every evaluation shader uses: 0 params (uniform), 1 records,
+/// The bind group layout every evaluation shader uses: 0 params (uniform), 1 patch data,
 /// 2 points (read-only storage), 3 output (storage), 4 grid basis table (read-only).
 pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
@@ -116,18 +134,18 @@ pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
-/// Builds the grid and points pipelines of `file` for `kind`. The source is validated with
+/// Builds the grid and points pipelines of `kind`'s module. The source is validated with
 /// naga first, so a shader error comes back as naga's report.
 pub fn create_pipelines(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
-    file: ShaderFile,
     kind: PatchKind,
     precision: Precision,
 ) -> Result<Pipelines> {
-    let source = shaders::module_source(file, kind, precision);
+    let file = shaders::file_for(kind);
+    let source = shaders::module_source(kind, precision)?;
     shaders::validate(&source, precision)
-        .map_err(|e| Error::Gpu(format!("shaders/{}: {e}", file.name)))?;
+        .map_err(|e| Error::Gpu(format!("shaders/{} ({kind:?}): {e}", file.name)))?;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(file.name),
         source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -148,7 +166,6 @@ pub fn create_pipelines(
         })
     };
     Ok(Pipelines {
-        file,
         kind,
         precision,
         grid: make("grid_main"),
@@ -160,7 +177,7 @@ pub fn create_pipelines(
 /// The buffers of one evaluation, reused chunk after chunk.
 pub struct Buffers {
     pub params: wgpu::Buffer,
-    pub records: wgpu::Buffer,
+    pub patch_data: wgpu::Buffer,
     pub points: wgpu::Buffer,
     pub out: wgpu::Buffer,
     pub staging: wgpu::Buffer,
@@ -173,7 +190,7 @@ impl Buffers {
     pub fn new(
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
-        records_bytes: u64,
+        patch_data_bytes: u64,
         points_bytes: u64,
         out_bytes: u64,
         grid_weights_bytes: u64,
@@ -193,7 +210,7 @@ impl Buffers {
             std::mem::size_of::<Params>() as u64,
             U::UNIFORM | U::COPY_DST,
         );
-        let records = buffer("records", records_bytes, U::STORAGE | U::COPY_DST);
+        let patch_data = buffer("patch data", patch_data_bytes, U::STORAGE | U::COPY_DST);
         let points = buffer("points", points_bytes.max(32), U::STORAGE | U::COPY_DST);
         let out = buffer("out", out_bytes, U::STORAGE | U::COPY_SRC);
         let staging = buffer("staging", out_bytes, U::MAP_READ | U::COPY_DST);
@@ -202,35 +219,26 @@ impl Buffers {
             grid_weights_bytes.max(32),
             U::STORAGE | U::COPY_DST,
         );
+        fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+            wgpu::BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            }
+        }
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("g1tess eval"),
             layout,
             entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: params.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: records.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: points.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: out.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: grid_weights.as_entire_binding(),
-                },
+                entry(0, &params),
+                entry(1, &patch_data),
+                entry(2, &points),
+                entry(3, &out),
+                entry(4, &grid_weights),
             ],
         });
         Buffers {
             params,
-            records,
+            patch_data,
             points,
             out,
             staging,
@@ -279,75 +287,152 @@ pub fn dispatch(
     queue.submit([encoder.finish()]);
 }
 
-/// Maps the first `bytes` of the staging buffer, hands them to `f` as reals, unmaps.
-pub fn read_back<R: Real, T>(
-    device: &wgpu::Device,
-    staging: &wgpu::Buffer,
-    bytes: u64,
-    f: impl FnOnce(&[R]) -> T,
-) -> Result<T> {
-    let slice = staging.slice(..bytes);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    crate::gpu::wait(device)?;
-    rx.recv()
-        .map_err(|_| Error::Gpu("map callback never ran".into()))?
-        .map_err(|e| Error::Gpu(format!("mapping the result buffer: {e}")))?;
-    let out = {
-        let view = slice
-            .get_mapped_range()
-            .map_err(|e| Error::Gpu(format!("reading the result buffer: {e}")))?;
-        let reals: &[R] = bytemuck::try_cast_slice(&view)
-            .map_err(|e| Error::Gpu(format!("result buffer: {e}")))?;
-        f(reals)
-    };
-    staging.unmap();
-    Ok(out)
-}
-
-/// Appends the record of patch `i` (control points relative to the first one, then the
-/// flat normal) to `out`, and returns the origin.
-fn push_record<R: Real>(table: &PatchTable, i: usize, out: &mut Vec<R>) -> DVec3 {
-    let c = table.patch(i);
-    let origin = c[0];
-    let geometry = shaders::geometry_points(table.kind);
-    for (j, p) in c.iter().enumerate() {
-        let q = if j < geometry { *p - origin } else { *p };
-        out.extend_from_slice(&[R::of(q.x), R::of(q.y), R::of(q.z)]);
+/// Appends the patch data of patch `i` to `out` (layout in `shaders/common.wgsl` and
+/// [`crate::gpu::shaders::patch_vecs`]): the control points, geometry relative to corner 0;
+/// the flat normal; corner 0's low part (corner 0 − its rounding to `R`); the three corners
+/// rounded once to `R`.
+fn push_patch_data<R: Real>(table: &PatchTable, i: usize, out: &mut Vec<R>) {
+    let push =
+        |out: &mut Vec<R>, v: DVec3| out.extend_from_slice(&[R::of(v.x), R::of(v.y), R::of(v.z)]);
+    let start = out.len();
+    let origin = table.corner(i, 0);
+    let geometry = table.kind.geometry();
+    for (j, p) in table.patch(i).iter().enumerate() {
+        push(out, if j < geometry { *p - origin } else { *p });
     }
-    let f = table.flat_normals[i];
-    out.extend_from_slice(&[R::of(f.x), R::of(f.y), R::of(f.z)]);
-    origin
+    let rounded = |v: DVec3| DVec3::new(R::of(v.x).get(), R::of(v.y).get(), R::of(v.z).get());
+    let extra = [
+        (SLOT_FLAT_NORMAL, table.flat_normals[i]),
+        (SLOT_ORIGIN_LO, origin - rounded(origin)),
+        (SLOT_CORNERS, origin),
+        (SLOT_CORNERS + 1, table.corner(i, 1)),
+        (SLOT_CORNERS + 2, table.corner(i, 2)),
+    ];
+    for (slot, (expect, v)) in extra.into_iter().enumerate() {
+        debug_assert_eq!(slot, expect);
+        push(out, v);
+    }
+    debug_assert_eq!(out.len() - start, 3 * shaders::patch_vecs(table.kind));
 }
 
-/// Converts `reals` (6 per sample) to f64 positions (plus their patch's origin) and
-/// renormalised normals.
-fn convert<R: Real>(
-    reals: &[R],
-    origin_of: impl Fn(usize) -> DVec3 + Sync,
-    pos: &mut [DVec3],
-    nrm: &mut [DVec3],
-) {
-    const BLOCK: usize = 4096;
-    pos.par_chunks_mut(BLOCK)
-        .zip(nrm.par_chunks_mut(BLOCK))
-        .enumerate()
-        .for_each(|(b, (p, n))| {
-            for k in 0..p.len() {
-                let t = b * BLOCK + k;
-                let r = &reals[t * OUT_REALS..t * OUT_REALS + OUT_REALS];
-                let o = origin_of(t);
-                p[k] = o + DVec3::new(r[0].get(), r[1].get(), r[2].get());
-                let v = DVec3::new(r[3].get(), r[4].get(), r[5].get());
-                n[k] = v.try_normalize().unwrap_or(v);
+/// Which corner `b` is (exactly the unit vector e_k), as the shaders decide it.
+fn corner_of(b: [f64; 3]) -> Option<usize> {
+    (0..3).find(|&k| (0..3).all(|m| b[m] == if m == k { 1.0 } else { 0.0 }))
+}
+
+/// Where evaluated samples go.
+enum Target<'s> {
+    /// The f64 reference interface ([`Evaluator::evaluate`]).
+    F64(&'s mut dyn FnMut(Chunk<'_>) -> Result<()>),
+    /// f32 samples ([`Evaluator::evaluate_f32`]).
+    F32(&'s mut dyn FnMut(ChunkF32<'_>) -> Result<()>),
+    /// Nothing is read back (timing of the device work).
+    Discard,
+}
+
+impl Target<'_> {
+    fn reads(&self) -> bool {
+        !matches!(self, Target::Discard)
+    }
+}
+
+/// One chunk's samples as the GPU wrote them (working precision), and the vectors the
+/// target gets.
+struct Samples<R> {
+    pos: Vec<[R; 3]>,
+    nrm: Vec<[R; 3]>,
+    p32: Vec<[f32; 3]>,
+    n32: Vec<[f32; 3]>,
+    p64: Vec<DVec3>,
+    n64: Vec<DVec3>,
+}
+
+impl<R: Real> Samples<R> {
+    fn new() -> Self {
+        Samples {
+            pos: Vec::new(),
+            nrm: Vec::new(),
+            p32: Vec::new(),
+            n32: Vec::new(),
+            p64: Vec::new(),
+            n64: Vec::new(),
+        }
+    }
+
+    fn resize(&mut self, n: usize) {
+        let zero = [R::of(0.0); 3];
+        self.pos.resize(n, zero);
+        self.nrm.resize(n, zero);
+    }
+
+    /// Copies the output of a dispatch of `n` samples (positions, then normals) from the
+    /// staging buffer into samples `s0..s0 + n`.
+    fn read(
+        &mut self,
+        device: &wgpu::Device,
+        staging: &wgpu::Buffer,
+        s0: usize,
+        n: usize,
+    ) -> Result<()> {
+        let bytes = (n * OUT_REALS * std::mem::size_of::<R>()) as u64;
+        let (pos, nrm) = (&mut self.pos[s0..s0 + n], &mut self.nrm[s0..s0 + n]);
+        read_buffer(device, staging, bytes, |b| {
+            let v: &[[R; 3]] = bytemuck::try_cast_slice(b)
+                .map_err(|e| Error::Gpu(format!("result buffer: {e}")))?;
+            pos.copy_from_slice(&v[..n]);
+            nrm.copy_from_slice(&v[n..2 * n]);
+            Ok(())
+        })?
+    }
+
+    /// Hands the samples to `target` as chunk `first`. For the f64 target they are widened,
+    /// normals renormalised in f64, and `corners` puts the input corners back exactly.
+    fn deliver(
+        &mut self,
+        target: &mut Target<'_>,
+        first: usize,
+        corners: impl FnOnce(&mut [DVec3]),
+    ) -> Result<()> {
+        match target {
+            Target::Discard => Ok(()),
+            Target::F32(sink) => {
+                let positions = R::as_f32(&self.pos, &mut self.p32);
+                let normals = R::as_f32(&self.nrm, &mut self.n32);
+                sink(Chunk {
+                    first,
+                    positions,
+                    normals,
+                })
             }
-        });
+            Target::F64(sink) => {
+                const BLOCK: usize = 4096;
+                let n = self.pos.len();
+                self.p64.resize(n, DVec3::ZERO);
+                self.n64.resize(n, DVec3::ZERO);
+                let widen = |v: [R; 3]| DVec3::new(v[0].get(), v[1].get(), v[2].get());
+                let (pos, nrm) = (&self.pos, &self.nrm);
+                self.p64
+                    .par_chunks_mut(BLOCK)
+                    .zip(self.n64.par_chunks_mut(BLOCK))
+                    .enumerate()
+                    .for_each(|(b, (p, q))| {
+                        for k in 0..p.len() {
+                            let t = b * BLOCK + k;
+                            p[k] = widen(pos[t]);
+                            let v = widen(nrm[t]);
+                            q[k] = v.try_normalize().unwrap_or(v);
+                        }
+                    });
+                corners(&mut self.p64);
+                sink(Chunk {
+                    first,
+                    positions: &self.p64,
+                    normals: &self.n64,
+                })
+            }
+        }
+    }
 }
-
-/// The consumer of evaluated chunks.
-pub type Sink<'a> = dyn FnMut(Chunk<'_>) -> Result<()> + 'a;
 
 /// Timings of [`GpuEvaluator::time_grid`].
 #[derive(Clone, Copy, Debug)]
@@ -380,7 +465,7 @@ impl GpuEvaluator {
     pub fn new(ctx: Arc<GpuContext>, precision: Precision) -> Result<GpuEvaluator> {
         if precision == Precision::F64 && !ctx.supports_f64() {
             return Err(Error::Gpu(format!(
-                "{}: the adapter does not offer SHADER_F64; use --precision f32",
+                "{}: the adapter does not offer SHADER_F64: f64 evaluation needs it; f32 works",
                 ctx.info.name
             )));
         }
@@ -405,19 +490,22 @@ impl GpuEvaluator {
         self.precision
     }
 
-    /// The pipelines of `file` for `kind` (built once, then cached).
-    pub fn pipelines_for(&self, file: ShaderFile, kind: PatchKind) -> Result<Arc<Pipelines>> {
+    /// The pipelines of `kind` in this evaluator's precision (built once, then cached:
+    /// every scheme of one kind shares them).
+    pub fn pipelines(&self, kind: PatchKind) -> Result<Arc<Pipelines>> {
         let mut cache = self
             .pipelines
             .lock()
             .map_err(|_| Error::Gpu("pipeline cache poisoned".into()))?;
-        if let Some(p) = cache.iter().find(|p| p.file == file && p.kind == kind) {
+        if let Some(p) = cache
+            .iter()
+            .find(|p| p.kind == kind && p.precision == self.precision)
+        {
             return Ok(p.clone());
         }
         let p = Arc::new(create_pipelines(
             &self.ctx.device,
             &self.layout,
-            file,
             kind,
             self.precision,
         )?);
@@ -426,36 +514,27 @@ impl GpuEvaluator {
         Ok(p)
     }
 
-    /// The pipelines of `table`'s scheme and kind.
-    pub fn pipelines(&self, table: &PatchTable) -> Result<Arc<Pipelines>> {
-        self.pipelines_for(shaders::scheme_file(table.scheme, table.kind)?, table.kind)
+    /// How many (kind, precision) pipeline sets have been built so far.
+    pub fn cached_pipelines(&self) -> usize {
+        self.pipelines.lock().map(|c| c.len()).unwrap_or(0)
     }
 
-    /// [`Evaluator::evaluate`] with an explicit shader file (which must evaluate the
-    /// table's kind) instead of the scheme's own.
-    pub fn evaluate_with_file(
-        &self,
-        file: ShaderFile,
-        table: &PatchTable,
-        pattern: &Pattern,
-        sink: &mut dyn FnMut(Chunk<'_>) -> Result<()>,
-    ) -> Result<()> {
-        if !file.kinds.contains(&table.kind) {
-            return Err(Error::Gpu(format!(
-                "shaders/{} cannot evaluate patch kind {:?}",
-                file.name, table.kind
-            )));
-        }
-        let pipes = self.pipelines_for(file, table.kind)?;
+    /// Evaluates `pattern` on `table` into `target` in the evaluator's precision.
+    fn run(&self, table: &PatchTable, pattern: &Pattern, mut target: Target<'_>) -> Result<()> {
+        let pipes = self.pipelines(table.kind)?;
         match (pattern, self.precision) {
             (Pattern::Grid { level }, Precision::F32) => {
-                self.grid::<f32>(&pipes, table, *level, Some(sink))
+                self.grid::<f32>(&pipes, table, *level, &mut target)
             }
             (Pattern::Grid { level }, Precision::F64) => {
-                self.grid::<f64>(&pipes, table, *level, Some(sink))
+                self.grid::<f64>(&pipes, table, *level, &mut target)
             }
-            (Pattern::Points(p), Precision::F32) => self.points::<f32>(&pipes, table, p, sink),
-            (Pattern::Points(p), Precision::F64) => self.points::<f64>(&pipes, table, p, sink),
+            (Pattern::Points(p), Precision::F32) => {
+                self.points::<f32>(&pipes, table, p, &mut target)
+            }
+            (Pattern::Points(p), Precision::F64) => {
+                self.points::<f64>(&pipes, table, p, &mut target)
+            }
         }
     }
 
@@ -473,14 +552,14 @@ impl GpuEvaluator {
         Ok(n)
     }
 
-    /// Evaluates the grid of `level`; with `sink` None nothing is read back (the timing of
-    /// dispatches alone).
+    /// Evaluates the grid of `level` into `target` (with [`Target::Discard`] nothing is
+    /// read back: the timing of dispatches alone).
     fn grid<R: Real>(
         &self,
         pipes: &Pipelines,
         table: &PatchTable,
         level: u32,
-        mut sink: Option<&mut Sink<'_>>,
+        target: &mut Target<'_>,
     ) -> Result<()> {
         let level = level.max(1);
         let per = grid_len(level);
@@ -493,18 +572,18 @@ impl GpuEvaluator {
         let (device, queue) = (&self.ctx.device, &self.ctx.queue);
         let rb = R::PRECISION.bytes();
         let sample_bytes = OUT_REALS * rb;
-        let rec_reals = 3 * (table.stride + 1);
-        let rec_bytes = rec_reals * rb;
+        let upload_reals = 3 * shaders::patch_vecs(table.kind);
+        let upload_bytes = upload_reals * rb;
         let per_dispatch = self.limit_samples(sample_bytes)?;
-        let by_records = (self.max_binding_bytes / rec_bytes as u64) as usize;
-        if by_records == 0 {
+        let by_uploads = (self.max_binding_bytes / upload_bytes as u64) as usize;
+        if by_uploads == 0 {
             return Err(Error::Gpu(
                 "storage binding limit is below one patch".into(),
             ));
         }
         let patches_per_chunk = (self.chunk_samples / per)
             .max(1)
-            .min(by_records)
+            .min(by_uploads)
             .min((per_dispatch / per).max(1))
             .min(table.len());
         let out_samples = (patches_per_chunk * per).min(per_dispatch);
@@ -513,15 +592,17 @@ impl GpuEvaluator {
         let buffers = Buffers::new(
             device,
             &self.layout,
-            (patches_per_chunk * rec_bytes) as u64,
+            (patches_per_chunk * upload_bytes) as u64,
             32,
             (out_samples * sample_bytes) as u64,
             if use_table { table_bytes } else { 32 },
         );
         let pipeline = if use_table {
-            let w = super::cpu::grid_weights(table, level);
+            // The basis at every grid point, the same for every patch (computed once, as
+            // the CPU backend does), laid out as `grid_w` of shaders/common.wgsl.
             let mut flat: Vec<R> = vec![R::of(0.0); per * table.stride * 3];
-            for (local, w) in w.iter().enumerate() {
+            for (local, b) in grid_barycentrics(level).into_iter().enumerate() {
+                let w = table.kind.weights(b);
                 for j in 0..table.stride {
                     flat[(j * 3) * per + local] = R::of(w.w[j]);
                     flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
@@ -533,22 +614,19 @@ impl GpuEvaluator {
         } else {
             &pipes.grid
         };
-        let mut records: Vec<R> = Vec::with_capacity(patches_per_chunk * rec_reals);
-        let mut origins = Vec::with_capacity(patches_per_chunk);
-        let (mut pos, mut nrm) = (Vec::new(), Vec::new());
+        let mut patch_data: Vec<R> = Vec::with_capacity(patches_per_chunk * upload_reals);
+        let mut samples = Samples::<R>::new();
         let mut first = 0;
         while first < table.len() {
             let count = patches_per_chunk.min(table.len() - first);
-            records.clear();
-            origins.clear();
+            patch_data.clear();
             for i in first..first + count {
-                origins.push(push_record(table, i, &mut records));
+                push_patch_data(table, i, &mut patch_data);
             }
-            queue.write_buffer(&buffers.records, 0, bytemuck::cast_slice(&records));
+            queue.write_buffer(&buffers.patch_data, 0, bytemuck::cast_slice(&patch_data));
             let total = count * per;
-            if sink.is_some() {
-                pos.resize(total, DVec3::ZERO);
-                nrm.resize(total, DVec3::ZERO);
+            if target.reads() {
+                samples.resize(total);
             }
             let mut s0 = 0;
             while s0 < total {
@@ -560,7 +638,7 @@ impl GpuEvaluator {
                     per: per as u32,
                     ..Default::default()
                 };
-                let copy = if sink.is_some() {
+                let copy = if target.reads() {
                     (n * sample_bytes) as u64
                 } else {
                     0
@@ -574,23 +652,21 @@ impl GpuEvaluator {
                     self.max_workgroups_per_dim,
                     copy,
                 );
-                if sink.is_some() {
-                    let origins = &origins;
-                    let (p, q) = (&mut pos[s0..s0 + n], &mut nrm[s0..s0 + n]);
-                    read_back::<R, _>(device, &buffers.staging, copy, |reals| {
-                        convert(reals, |t| origins[(s0 + t) / per], p, q)
-                    })?;
+                if target.reads() {
+                    samples.read(device, &buffers.staging, s0, n)?;
                     self.ctx.check()?;
                 }
                 s0 += n;
             }
-            if let Some(sink) = sink.as_mut() {
-                sink(Chunk {
-                    first,
-                    positions: &pos,
-                    normals: &nrm,
-                })?;
-            }
+            samples.deliver(target, first, |pos| {
+                // Grid index 0 is corner 0, index `level` (i = n, j = 0) corner 1, the
+                // last index (j = n) corner 2.
+                for (p, s) in pos.chunks_mut(per).enumerate() {
+                    for (k, local) in [0, level as usize, per - 1].into_iter().enumerate() {
+                        s[local] = table.corner(first + p, k);
+                    }
+                }
+            })?;
             first += count;
         }
         self.ctx.wait()?;
@@ -602,7 +678,7 @@ impl GpuEvaluator {
         pipes: &Pipelines,
         table: &PatchTable,
         points: &[PatchPoint],
-        sink: &mut dyn FnMut(Chunk<'_>) -> Result<()>,
+        target: &mut Target<'_>,
     ) -> Result<()> {
         if points.is_empty() {
             return Ok(());
@@ -618,52 +694,54 @@ impl GpuEvaluator {
         let rb = R::PRECISION.bytes();
         let sample_bytes = OUT_REALS * rb;
         let point_bytes = if rb == 4 { 16 } else { 32 };
-        let rec_reals = 3 * (table.stride + 1);
-        let rec_bytes = rec_reals * rb;
+        let upload_bytes = 3 * shaders::patch_vecs(table.kind) * rb;
         // Worst case every point of a chunk is on its own patch.
         let per_chunk = self
-            .limit_samples(sample_bytes.max(point_bytes).max(rec_bytes))?
+            .limit_samples(sample_bytes.max(point_bytes).max(upload_bytes))?
             .min(self.chunk_samples.max(1))
             .min(points.len());
         let buffers = Buffers::new(
             device,
             &self.layout,
-            (per_chunk * rec_bytes) as u64,
+            (per_chunk * upload_bytes) as u64,
             (per_chunk * point_bytes) as u64,
             (per_chunk * sample_bytes) as u64,
             32,
         );
-        let mut local = vec![u32::MAX; table.len()];
+        // Slot of each patch in this chunk's upload (u32::MAX: not uploaded).
+        let mut slot = vec![u32::MAX; table.len()];
         let mut used: Vec<usize> = Vec::new();
-        let mut records: Vec<R> = Vec::new();
-        let mut origins = Vec::new();
+        let mut patch_data: Vec<R> = Vec::new();
         let mut pts: Vec<u8> = Vec::with_capacity(per_chunk * point_bytes);
-        let (mut pos, mut nrm) = (Vec::new(), Vec::new());
+        let mut samples = Samples::<R>::new();
         for (c, chunk) in points.chunks(per_chunk).enumerate() {
-            records.clear();
-            origins.clear();
+            patch_data.clear();
             pts.clear();
             for p in chunk {
                 let i = p.patch as usize;
-                if local[i] == u32::MAX {
-                    local[i] = used.len() as u32;
+                if slot[i] == u32::MAX {
+                    slot[i] = used.len() as u32;
                     used.push(i);
-                    origins.push(push_record(table, i, &mut records));
+                    push_patch_data(table, i, &mut patch_data);
                 }
                 for x in p.b {
                     pts.extend_from_slice(bytemuck::bytes_of(&R::of(x)));
                 }
-                pts.extend_from_slice(&local[i].to_le_bytes());
+                pts.extend_from_slice(&slot[i].to_le_bytes());
                 pts.resize(pts.len().next_multiple_of(point_bytes), 0);
             }
-            queue.write_buffer(&buffers.records, 0, bytemuck::cast_slice(&records));
+            queue.write_buffer(&buffers.patch_data, 0, bytemuck::cast_slice(&patch_data));
             queue.write_buffer(&buffers.points, 0, &pts);
             let n = chunk.len();
             let params = Params {
                 count: n as u32,
                 ..Default::default()
             };
-            let copy = (n * sample_bytes) as u64;
+            let copy = if target.reads() {
+                (n * sample_bytes) as u64
+            } else {
+                0
+            };
             dispatch(
                 device,
                 queue,
@@ -673,27 +751,23 @@ impl GpuEvaluator {
                 self.max_workgroups_per_dim,
                 copy,
             );
-            pos.resize(n, DVec3::ZERO);
-            nrm.resize(n, DVec3::ZERO);
-            let (origins, slot) = (&origins, &local);
-            read_back::<R, _>(device, &buffers.staging, copy, |reals| {
-                convert(
-                    reals,
-                    |t| origins[slot[chunk[t].patch as usize] as usize],
-                    &mut pos,
-                    &mut nrm,
-                )
-            })?;
-            self.ctx.check()?;
-            for i in used.drain(..) {
-                local[i] = u32::MAX;
+            if target.reads() {
+                samples.resize(n);
+                samples.read(device, &buffers.staging, 0, n)?;
+                self.ctx.check()?;
             }
-            sink(Chunk {
-                first: c * per_chunk,
-                positions: &pos,
-                normals: &nrm,
+            for i in used.drain(..) {
+                slot[i] = u32::MAX;
+            }
+            samples.deliver(target, c * per_chunk, |pos| {
+                for (s, p) in pos.iter_mut().zip(chunk) {
+                    if let Some(k) = corner_of(p.b) {
+                        *s = table.corner(p.patch as usize, k);
+                    }
+                }
             })?;
         }
+        self.ctx.wait()?;
         self.ctx.check()
     }
 
@@ -701,11 +775,11 @@ impl GpuEvaluator {
     /// dispatches, then waits): the time of the device work alone.
     pub fn time_grid(&self, table: &PatchTable, level: u32) -> Result<GridTiming> {
         // Pipelines are built before the clock starts.
-        let pipes = self.pipelines(table)?;
+        let pipes = self.pipelines(table.kind)?;
         let start = Instant::now();
         match self.precision {
-            Precision::F32 => self.grid::<f32>(&pipes, table, level, None)?,
-            Precision::F64 => self.grid::<f64>(&pipes, table, level, None)?,
+            Precision::F32 => self.grid::<f32>(&pipes, table, level, &mut Target::Discard)?,
+            Precision::F64 => self.grid::<f64>(&pipes, table, level, &mut Target::Discard)?,
         }
         Ok(GridTiming {
             samples: grid_len(level.max(1)) * table.len(),
@@ -719,13 +793,25 @@ impl Evaluator for GpuEvaluator {
         format!("gpu ({}, {})", self.precision, self.ctx.describe())
     }
 
+    /// Positions and normals widened to f64 (normals renormalised in f64), corners the
+    /// input exactly. An f32 evaluator's positions carry f32 rounding.
     fn evaluate(
         &self,
         table: &PatchTable,
         pattern: &Pattern,
         sink: &mut dyn FnMut(Chunk<'_>) -> Result<()>,
     ) -> Result<()> {
-        let file = shaders::scheme_file(table.scheme, table.kind)?;
-        self.evaluate_with_file(file, table, pattern, sink)
+        self.run(table, pattern, Target::F64(sink))
+    }
+
+    /// The GPU's own f32 values for an f32 evaluator (no f64 round trip), an f64
+    /// evaluator's rounded once; corners are the input rounded once to f32.
+    fn evaluate_f32(
+        &self,
+        table: &PatchTable,
+        pattern: &Pattern,
+        sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
+    ) -> Result<()> {
+        self.run(table, pattern, Target::F32(sink))
     }
 }

@@ -15,9 +15,13 @@
 //! ```
 //!
 //! Validation errors that wgpu reports outside an error scope are collected (instead of
-//! wgpu's default panic) and turned into [`Error::Gpu`] by [`GpuContext::check`].
+//! wgpu's default panic) and turned into [`Error::Gpu`] by [`GpuContext::check`]; results
+//! come back through [`read_buffer`] (map, wait, copy out, unmap, errors as `Result`s).
 
+pub mod readback;
 pub mod shaders;
+
+pub use readback::read_buffer;
 
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -101,8 +105,8 @@ impl GpuContext {
             .await
             .map_err(|e| {
                 Error::Gpu(format!(
-                    "no Vulkan adapter ({e}); install a Vulkan driver (e.g. Mesa's lavapipe, \
-                     package mesa-vulkan-drivers) or use --backend cpu"
+                    "no Vulkan adapter ({e}); GPU evaluation needs a Vulkan driver (e.g. \
+                     Mesa's lavapipe, package mesa-vulkan-drivers); the CPU backend needs none"
                 ))
             })?;
         let info = adapter.get_info();

@@ -1,12 +1,37 @@
-//! WGSL sources of the evaluation shaders and how a module is assembled:
-//! a precision header (`alias real`, the kind's `STRIDE` and `GEOMETRY`), then the
-//! scheme's file, then `shaders/common.wgsl` (entry points `grid_main`, `points_main`).
-//! Pipelines are keyed on the [`PatchKind`] and the scheme's file.
+//! WGSL sources of the evaluation shaders and how a module is assembled: a header generated
+//! from [`PatchKind::layout`] and the crate's constants ([`header`]), then the kind's file
+//! ([`file_for`]: `shaders/bezier.wgsl` for every Bézier kind and PN's normal field,
+//! `shaders/gregory.wgsl` for the G1 patch), then `shaders/common.wgsl` (entry points
+//! `grid_main`, `grid_table_main`, `points_main`).
+//!
+//! Shaders are chosen by [`PatchKind`] alone, never by scheme: every scheme whose table has
+//! a given kind (phong, nagata and nlsa all build `Bezier(2)`) runs the same module and, in
+//! [`crate::eval::gpu::GpuEvaluator`], the same pipelines.
 
-use crate::patch::{PatchKind, Scheme};
+use crate::patch::basis::MAX_POINTS;
+use crate::patch::{PatchKind, Scheme, MIN_NORMAL_LEN_F32, MIN_NORMAL_LEN_F64};
 use crate::{Error, Result};
 
 use super::Precision;
+
+/// Threads per workgroup of every evaluation entry point (`WORKGROUP` in the header).
+pub const WORKGROUP: u32 = 64;
+
+/// The patch upload: after a patch's `stride` control points, these vectors (offsets from
+/// `stride`): its flat unit normal, ...
+pub const SLOT_FLAT_NORMAL: usize = 0;
+/// ... the low part of its first control point (`c0 − real(c0)`, zero in f64), ...
+pub const SLOT_ORIGIN_LO: usize = 1;
+/// ... and its three corners in absolute coordinates rounded once to the working precision
+/// (corner 0 is also the high part of the origin).
+pub const SLOT_CORNERS: usize = 2;
+/// Vectors of a patch upload after the control points.
+pub const EXTRA_VECS: usize = SLOT_CORNERS + 3;
+
+/// Vectors (3 reals each) of one patch upload of `kind`.
+pub fn patch_vecs(kind: PatchKind) -> usize {
+    kind.stride() + EXTRA_VECS
+}
 
 /// One WGSL file of `shaders/`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -14,119 +39,115 @@ pub struct ShaderFile {
     /// File name in `shaders/`.
     pub name: &'static str,
     pub source: &'static str,
-    /// The patch kinds this file evaluates.
-    pub kinds: &'static [PatchKind],
 }
 
 /// Shared code and entry points.
-pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
-
-pub const G1: ShaderFile = ShaderFile {
-    name: "g1.wgsl",
-    source: include_str!("../../shaders/g1.wgsl"),
-    kinds: &[PatchKind::Gregory],
-};
-pub const FLAT: ShaderFile = ShaderFile {
-    name: "flat.wgsl",
-    source: include_str!("../../shaders/flat.wgsl"),
-    kinds: &[PatchKind::Bezier(1)],
-};
-pub const PHONG: ShaderFile = ShaderFile {
-    name: "phong.wgsl",
-    source: include_str!("../../shaders/phong.wgsl"),
-    kinds: &[PatchKind::Bezier(2)],
-};
-pub const NAGATA: ShaderFile = ShaderFile {
-    name: "nagata.wgsl",
-    source: include_str!("../../shaders/nagata.wgsl"),
-    kinds: &[PatchKind::Bezier(2)],
-};
-pub const NLSA: ShaderFile = ShaderFile {
-    name: "nlsa.wgsl",
-    source: include_str!("../../shaders/nlsa.wgsl"),
-    kinds: &[PatchKind::Bezier(2)],
-};
-pub const PN: ShaderFile = ShaderFile {
-    name: "pn.wgsl",
-    source: include_str!("../../shaders/pn.wgsl"),
-    kinds: &[PatchKind::Bezier(3), PatchKind::PnNormals],
+pub const COMMON: ShaderFile = ShaderFile {
+    name: "common.wgsl",
+    source: include_str!("../../shaders/common.wgsl"),
 };
 
-/// Every scheme file.
-pub const FILES: [ShaderFile; 6] = [G1, FLAT, PHONG, NAGATA, NLSA, PN];
+/// [`PatchKind::Bezier`] of any degree and [`PatchKind::PnNormals`].
+pub const BEZIER: ShaderFile = ShaderFile {
+    name: "bezier.wgsl",
+    source: include_str!("../../shaders/bezier.wgsl"),
+};
 
-/// Every (file, kind) pair a pipeline can be built for.
+/// [`PatchKind::Gregory`] (the G1 patch).
+pub const GREGORY: ShaderFile = ShaderFile {
+    name: "gregory.wgsl",
+    source: include_str!("../../shaders/gregory.wgsl"),
+};
+
+/// Every evaluation file, the kinds' files then the shared one.
+pub const FILES: [ShaderFile; 3] = [BEZIER, GREGORY, COMMON];
+
+/// The file that evaluates `kind`.
+pub fn file_for(kind: PatchKind) -> ShaderFile {
+    match kind {
+        PatchKind::Bezier(_) | PatchKind::PnNormals => BEZIER,
+        PatchKind::Gregory => GREGORY,
+    }
+}
+
+/// Every (file, kind) pair a pipeline is built for: [`PatchKind::all`] with their files.
 pub fn variants() -> Vec<(ShaderFile, PatchKind)> {
-    FILES
-        .iter()
-        .flat_map(|f| f.kinds.iter().map(move |k| (*f, *k)))
+    PatchKind::all()
+        .into_iter()
+        .map(|k| (file_for(k), k))
         .collect()
 }
 
-/// The shader file of a scheme: by the scheme's name (`phong`, `nagata*`, `nlsa`, `pn*`,
-/// `g1`, `flat`), else the file of its patch kind when only one file has it. Errors when
-/// the file cannot evaluate `kind`.
+/// The file of a table built by `scheme`: the file of its `kind` (the scheme plays no
+/// part; kept for callers that name both, prefer [`file_for`]).
 pub fn scheme_file(scheme: Scheme, kind: PatchKind) -> Result<ShaderFile> {
-    let name = scheme.name();
-    let by_name = FILES.iter().find(|f| {
-        let stem = f.name.trim_end_matches(".wgsl");
-        name == stem || name.starts_with(&format!("{stem}-"))
-    });
-    let file = match by_name {
-        Some(f) => *f,
-        None => {
-            let with_kind: Vec<_> = FILES.iter().filter(|f| f.kinds.contains(&kind)).collect();
-            match with_kind.as_slice() {
-                [only] => **only,
-                _ => {
-                    return Err(Error::Gpu(format!(
-                        "no shader file for scheme '{name}' (patch kind {kind:?})"
-                    )))
-                }
-            }
-        }
-    };
-    if !file.kinds.contains(&kind) {
-        return Err(Error::Gpu(format!(
-            "shaders/{} cannot evaluate patch kind {kind:?} (scheme '{name}')",
-            file.name
-        )));
+    let _ = scheme;
+    Ok(file_for(kind))
+}
+
+/// A WGSL literal of `x` in `precision`, exactly (shortest round-trip decimal).
+fn literal(x: f64, precision: Precision) -> String {
+    match precision {
+        Precision::F32 => format!("{:e}f", x as f32),
+        Precision::F64 => format!("{x:e}lf"),
     }
-    Ok(file)
 }
 
-/// Leading control points that are geometry (the rest: PN's normal field).
-pub fn geometry_points(kind: PatchKind) -> usize {
-    kind.geometry()
-}
-
-/// The precision header of a module.
+/// The generated header of the module of `kind`: the working precision, the kind's layout
+/// ([`PatchKind::layout`]), [`MAX_POINTS`], [`WORKGROUP`], the normal threshold
+/// ([`MIN_NORMAL_LEN_F32`] or [`MIN_NORMAL_LEN_F64`]), the largest finite real, and the
+/// patch upload's slots. The WGSL files use these names and never copy the numbers.
 pub fn header(kind: PatchKind, precision: Precision) -> String {
-    let (real, tiny, huge) = match precision {
-        Precision::F32 => ("f32", "1e-30", "3.0e38"),
-        Precision::F64 => ("f64", "1e-300lf", "1.0e308lf"),
+    let layout = kind.layout();
+    let (real, min_len, max_real) = match precision {
+        Precision::F32 => ("f32", MIN_NORMAL_LEN_F32 as f64, f32::MAX as f64),
+        Precision::F64 => ("f64", MIN_NORMAL_LEN_F64, f64::MAX),
     };
     format!(
-        "// generated header: {kind:?}, {precision}\n\
+        "// generated by src/gpu/shaders.rs (header) from PatchKind::layout() of {kind:?}, \
+         {precision}\n\
          alias real = {real};\n\
-         const TINY: real = {tiny};\n\
-         const HUGE: real = {huge};\n\
          const STRIDE: u32 = {}u;\n\
-         const GEOMETRY: u32 = {}u;\n",
-        kind.stride(),
-        geometry_points(kind)
+         const GEOMETRY: u32 = {}u;\n\
+         const DEGREE: u32 = {}u;\n\
+         const MAX_POINTS: u32 = {MAX_POINTS}u;\n\
+         const WORKGROUP: u32 = {WORKGROUP}u;\n\
+         const MIN_NORMAL_LEN: real = {};\n\
+         const MAX_REAL: real = {};\n\
+         const PATCH_VECS: u32 = {}u;\n\
+         const SLOT_FLAT_NORMAL: u32 = {}u;\n\
+         const SLOT_ORIGIN_LO: u32 = {}u;\n\
+         const SLOT_CORNERS: u32 = {}u;\n",
+        layout.stride,
+        layout.geometry,
+        layout.degree,
+        literal(min_len, precision),
+        literal(max_real, precision),
+        patch_vecs(kind),
+        layout.stride + SLOT_FLAT_NORMAL,
+        layout.stride + SLOT_ORIGIN_LO,
+        layout.stride + SLOT_CORNERS,
     )
 }
 
-/// Complete WGSL source of the module evaluating `kind` with `file`.
-pub fn module_source(file: ShaderFile, kind: PatchKind, precision: Precision) -> String {
-    format!(
-        "{}\n// ---- shaders/{} ----\n{}\n// ---- shaders/common.wgsl ----\n{}",
+/// Complete WGSL source of the module evaluating `kind`. Errors for a kind with more
+/// control points than the shaders' `Weights` hold ([`MAX_POINTS`]).
+pub fn module_source(kind: PatchKind, precision: Precision) -> Result<String> {
+    if kind.stride() > MAX_POINTS {
+        return Err(Error::Gpu(format!(
+            "patch kind {kind:?} has {} control points; the shaders hold at most {MAX_POINTS}",
+            kind.stride()
+        )));
+    }
+    let file = file_for(kind);
+    Ok(format!(
+        "{}\n// ---- shaders/{} ----\n{}\n// ---- shaders/{} ----\n{}",
         header(kind, precision),
         file.name,
         file.source,
-        COMMON
-    )
+        COMMON.name,
+        COMMON.source
+    ))
 }
 
 /// Parses and validates a module with naga (what wgpu does on shader creation), with the

@@ -1,18 +1,23 @@
-// Bézier G1 patch (PatchKind::Gregory): 12 quartic boundary points L_{k,0..3}, then the
-// Gregory points G_{0,1}, G_{0,2}, G_{1,1}, G_{1,2}, G_{2,1}, G_{2,2}. Mirrors
-// src/patch/basis.rs: g1_boundary_powers and g1, line for line.
+// Bézier G1 patch (PatchKind::Gregory): 3 × DEGREE quartic boundary points L_{k,0..3}
+// (BOUNDARY), then the Gregory points G_{0,1}, G_{0,2}, G_{1,1}, G_{1,2}, G_{2,1}, G_{2,2}.
+// Line for line:
+// mirrors patch::basis::g1_boundary_powers, patch::basis::g1
+// DEGREE comes from the generated header (PatchKind::layout).
+
+// Boundary points: DEGREE per edge (L_{k,0..DEGREE−1}; L_{k,DEGREE} is L_{k+1,0}).
+const BOUNDARY: u32 = 3u * DEGREE;
 
 fn kind_weights(b: vec3<real>) -> Weights {
     return g1(b);
 }
 
-// Powers (on b0, b1, b2) of boundary point idx: edge k = idx / 4, point j = idx % 4
-// (power 4 − j on vertex k, j on vertex k + 1).
+// Powers (on b0, b1, b2) of boundary point idx: edge k = idx / DEGREE, point
+// j = idx % DEGREE (power DEGREE − j on vertex k, j on vertex k + 1).
 fn g1_boundary_power(idx: u32) -> vec3<u32> {
-    let k = idx / 4u;
-    let j = idx % 4u;
+    let k = idx / DEGREE;
+    let j = idx % DEGREE;
     var p = vec3<u32>(0u);
-    p[k] = 4u - j;
+    p[k] = DEGREE - j;
     p[(k + 1u) % 3u] = j;
     return p;
 }
@@ -20,9 +25,10 @@ fn g1_boundary_power(idx: u32) -> vec3<u32> {
 fn g1(b_in: vec3<real>) -> Weights {
     var b = b_in;
     var out: Weights;
-    for (var idx = 0u; idx < 12u; idx++) {
+    let nf = factorial(DEGREE);
+    for (var idx = 0u; idx < BOUNDARY; idx++) {
         let p = g1_boundary_power(idx);
-        let c = real(24.0) / (factorial(p.x) * factorial(p.y) * factorial(p.z));
+        let c = nf / (factorial(p.x) * factorial(p.y) * factorial(p.z));
         let m = monomial(c, p, b);
         out.w[idx] = m.v;
         out.ws[idx] = m.g.y - m.g.x;
@@ -65,9 +71,10 @@ fn g1(b_in: vec3<real>) -> Weights {
             ga[bi] = da[slot];
             gb[bi] = dbe[slot];
         }
-        // alpha_m weighs G_{m,1}; beta_m weighs G_{m-1,2}, stored at slot 13 + 2(m − 1).
-        let sa = 12u + 2u * m;
-        let sb = 13u + 2u * ((m + 2u) % 3u);
+        // alpha_m weighs G_{m,1}; beta_m weighs G_{m-1,2}, stored at slot
+        // BOUNDARY + 1 + 2(m − 1).
+        let sa = BOUNDARY + 2u * m;
+        let sb = BOUNDARY + 1u + 2u * ((m + 2u) % 3u);
         out.w[sa] = a;
         out.ws[sa] = ga.y - ga.x;
         out.wt[sa] = ga.z - ga.x;

@@ -1,0 +1,54 @@
+//! Reading a buffer back from the GPU: map, wait, hand out the bytes, unmap, with every
+//! failure an [`Error::Gpu`] instead of a panic.
+
+use crate::{Error, Result};
+
+/// Maps the first `bytes` bytes of `buffer` (which needs [`wgpu::BufferUsages::MAP_READ`],
+/// and whose copies into it have been submitted), waits for the device, hands the bytes to
+/// `f` and unmaps the buffer again, also when `f` fails.
+///
+/// `bytes` must be a multiple of [`wgpu::COPY_BUFFER_ALIGNMENT`] (4); the mapped bytes
+/// start at offset 0, [`wgpu::MAP_ALIGNMENT`]-aligned, so `f` may cast them to `f32`,
+/// `f64` or `u32` with `bytemuck`. Errors when mapping fails (a lost device, a buffer in use) or the
+/// map callback never runs.
+///
+/// ```no_run
+/// # fn demo(device: &wgpu::Device, staging: &wgpu::Buffer) -> g1tess::Result<()> {
+/// let floats: Vec<f32> = g1tess::gpu::read_buffer(device, staging, 64, |b| {
+///     bytemuck::cast_slice(b).to_vec()
+/// })?;
+/// # let _ = floats;
+/// # Ok(())
+/// # }
+/// ```
+pub fn read_buffer<T>(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    bytes: u64,
+    f: impl FnOnce(&[u8]) -> T,
+) -> Result<T> {
+    if bytes == 0 {
+        return Ok(f(&[]));
+    }
+    if bytes > buffer.size() {
+        return Err(Error::Gpu(format!(
+            "reading {bytes} bytes back from a buffer of {} bytes",
+            buffer.size()
+        )));
+    }
+    let slice = buffer.slice(..bytes);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    super::wait(device)?;
+    rx.recv()
+        .map_err(|_| Error::Gpu("reading a buffer back: the map callback never ran".into()))?
+        .map_err(|e| Error::Gpu(format!("reading a buffer back: mapping failed: {e}")))?;
+    let out = slice
+        .get_mapped_range()
+        .map_err(|e| Error::Gpu(format!("reading a buffer back: {e}")))
+        .map(|view| f(&view));
+    buffer.unmap();
+    out
+}
