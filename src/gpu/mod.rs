@@ -28,7 +28,8 @@ use std::sync::{Arc, Mutex, OnceLock};
 use crate::{Error, Result};
 
 /// Working precision of the GPU shaders.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum Precision {
     /// 32-bit floats: every adapter.

@@ -331,31 +331,11 @@ pub fn draw(
         extent,
     );
     queue.submit([enc.finish()]);
-    let data = read_buffer(dev, &staging)?;
-    let mut rgba = Vec::with_capacity((row_bytes * size) as usize);
-    for row in data.chunks(padded as usize).take(size as usize) {
-        rgba.extend_from_slice(&row[..row_bytes as usize]);
-    }
-    Ok(rgba)
-}
-
-/// The contents of `buffer` (MAP_READ, its copies submitted): mapped, waited for, copied
-/// out and unmapped.
-fn read_buffer(dev: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u8>> {
-    let slice = buffer.slice(..);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    dev.poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| Error::Gpu(format!("device poll: {e}")))?;
-    rx.recv()
-        .map_err(|_| Error::Gpu("readback never completed".into()))?
-        .map_err(|e| Error::Gpu(format!("readback: {e}")))?;
-    let data = slice
-        .get_mapped_range()
-        .map_err(|e| Error::Gpu(format!("readback: {e}")))?
-        .to_vec();
-    buffer.unmap();
-    Ok(data)
+    crate::gpu::read_buffer(dev, &staging, staging.size(), |data| {
+        let mut rgba = Vec::with_capacity((row_bytes * size) as usize);
+        for row in data.chunks(padded as usize).take(size as usize) {
+            rgba.extend_from_slice(&row[..row_bytes as usize]);
+        }
+        rgba
+    })
 }
