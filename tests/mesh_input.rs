@@ -277,3 +277,228 @@ fn cube_without_normals_is_closed() {
         }
     }
 }
+
+/// The regular octahedron as a renderer holds it: every face with its own three vertices
+/// (24 in all) and, as normals, the face normal on each of them.
+fn split_octahedron() -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<DVec3>) {
+    let (mut pos, mut tris, mut nrm) = (Vec::new(), Vec::new(), Vec::new());
+    for sx in [1.0, -1.0] {
+        for sy in [1.0, -1.0] {
+            for sz in [1.0, -1.0] {
+                let mut f = [
+                    DVec3::new(sx, 0.0, 0.0),
+                    DVec3::new(0.0, sy, 0.0),
+                    DVec3::new(0.0, 0.0, sz),
+                ];
+                if sx * sy * sz < 0.0 {
+                    f.swap(1, 2); // counter-clockwise seen from outside
+                }
+                let base = pos.len() as u32;
+                tris.push([base, base + 1, base + 2]);
+                pos.extend(f);
+                nrm.extend([DVec3::new(sx, sy, sz); 3]);
+            }
+        }
+    }
+    (pos, tris, nrm)
+}
+
+/// Writes a coordinate as OBJ text; `neg_zero` spells zeros as `-0` (what some exporters
+/// write after a mirror or a negation).
+fn coord(x: f64, neg_zero: bool) -> String {
+    if x == 0.0 && neg_zero {
+        "-0".to_string()
+    } else {
+        format!("{x:?}")
+    }
+}
+
+#[test]
+fn signed_zeros_weld_in_every_reader() {
+    let (pos, tris, nrm) = split_octahedron();
+    // OBJ: the faces of odd index spell their zeros as -0, the others as 0.
+    let mut obj = String::new();
+    for (i, p) in pos.iter().enumerate() {
+        let neg = (i / 3) % 2 == 1;
+        obj += &format!(
+            "v {} {} {}\n",
+            coord(p.x, neg),
+            coord(p.y, neg),
+            coord(p.z, neg)
+        );
+    }
+    for t in &tris {
+        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    let m = load_path(
+        &write_obj("octa-signed-zero.obj", &obj),
+        &LoadOptions::default(),
+    );
+    let adj = m.adjacency();
+    assert_eq!(m.positions.len(), 6);
+    assert_eq!((adj.interior, adj.boundary, adj.misoriented), (12, 0, 0));
+    assert_eq!(m.load_report.vertices_welded, 18);
+    // The welded positions carry +0.0.
+    assert!(m
+        .positions
+        .iter()
+        .flat_map(|p| p.to_array())
+        .all(|x| x != 0.0 || x.is_sign_positive()));
+
+    // The same soup as a .pn file, with -0.0 on the faces of odd index.
+    let mut pn = format!("g1tess-pn 1\ncounts {} {} 0\n", pos.len(), tris.len());
+    for (i, (p, n)) in pos.iter().zip(&nrm).enumerate() {
+        let neg = (i / 3) % 2 == 1;
+        pn += &format!(
+            "v {} {} {} {} {} {}\n",
+            coord(p.x, neg),
+            coord(p.y, neg),
+            coord(p.z, neg),
+            n.x,
+            n.y,
+            n.z
+        );
+    }
+    for t in &tris {
+        pn += &format!("t {} {} {}\n", t[0], t[1], t[2]);
+    }
+    let m = load_path(
+        &write_obj("octa-signed-zero.pn", &pn),
+        &LoadOptions::default(),
+    );
+    let adj = m.adjacency();
+    assert_eq!((m.positions.len(), adj.interior, adj.boundary), (6, 12, 0));
+
+    // An open 4 × 4 grid of quads in z = 0 written as two objects meeting at x = 0; the
+    // right one spells every zero as -0. Welded, the seam disappears: only the 16 perimeter
+    // edges are boundary, and 3·32 half-edges − 16 = 2·40 are interior.
+    let mut obj = String::new();
+    let mut nv = 0;
+    for (half, neg) in [(-2i32..=0, false), (0i32..=2, true)] {
+        let xs: Vec<i32> = half.collect();
+        let base = nv;
+        for &x in &xs {
+            for y in 0..=4 {
+                let q = [x as f64, y as f64, 0.0].map(|c| coord(c, neg));
+                obj += &format!("v {} {} {}\n", q[0], q[1], q[2]);
+                nv += 1;
+            }
+        }
+        let id = |i: usize, j: usize| base + i * 5 + j + 1;
+        for i in 0..xs.len() - 1 {
+            for j in 0..4 {
+                obj += &format!(
+                    "f {} {} {} {}\n",
+                    id(i, j),
+                    id(i + 1, j),
+                    id(i + 1, j + 1),
+                    id(i, j + 1)
+                );
+            }
+        }
+    }
+    let m = load_path(&write_obj("grid-seam.obj", &obj), &LoadOptions::default());
+    let adj = m.adjacency();
+    assert_eq!(m.triangles.len(), 32);
+    assert_eq!(m.positions.len(), 25);
+    assert_eq!((adj.interior, adj.boundary, adj.nonmanifold), (40, 16, 0));
+    assert_eq!(m.load_report.vertices_welded, 5);
+}
+
+#[test]
+fn soup_constructor_welds_a_split_vertex_octahedron() {
+    let (pos, tris, nrm) = split_octahedron();
+    // Flip the sign of every zero on half the faces: still the same points.
+    let pos: Vec<DVec3> = pos
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            if (i / 3) % 2 == 1 {
+                p.map(|x| if x == 0.0 { -0.0 } else { x })
+            } else {
+                *p
+            }
+        })
+        .collect();
+    let m = Mesh::from_soup("octa", &pos, &tris, Some(&nrm), &LoadOptions::default()).unwrap();
+    let adj = m.adjacency();
+    assert_eq!((m.positions.len(), m.triangles.len()), (6, 8));
+    assert_eq!((adj.interior, adj.boundary, adj.misoriented), (12, 0, 0));
+    assert_eq!(m.load_report.vertices_welded, 18);
+    assert_eq!(m.load_report.normals_estimated, 0);
+    // Each corner keeps its face's normal, renormalised: the split normals survive.
+    for (t, cn) in m.triangles.iter().zip(&m.corner_normals) {
+        let q = t.map(|v| m.positions[v as usize]);
+        let face = (q[0] + q[1] + q[2]).normalize();
+        for n in cn {
+            // (±1, ±1, ±1) / √3 against the normalised centroid: the same unit vector up to
+            // one rounding of each.
+            assert!((*n - face).length() < 1e-15, "{n:?} vs {face:?}");
+        }
+    }
+
+    // Without normals they are estimated: at (1, 0, 0) the four faces' normals average to
+    // +x, and with arrays instead of glam vectors.
+    let arrays: Vec<[f64; 3]> = pos.iter().map(|p| p.to_array()).collect();
+    let m = Mesh::from_soup("octa", &arrays, &tris, None, &LoadOptions::default()).unwrap();
+    assert_eq!(m.load_report.normals_estimated, 24);
+    let x = m.positions.iter().position(|p| *p == DVec3::X).unwrap() as u32;
+    for (t, cn) in m.triangles.iter().zip(&m.corner_normals) {
+        for k in 0..3 {
+            if t[k] == x {
+                // Four symmetric unit normals summed: exact up to a rounding per addition.
+                assert!((cn[k] - DVec3::X).length() < 1e-15);
+            }
+        }
+    }
+}
+
+#[test]
+fn soup_constructor_rejects_bad_input_naming_the_element() {
+    let p = vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let t = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+    let opts = LoadOptions::default();
+    let err = |r: g1tess::Result<Mesh>| r.unwrap_err().to_string();
+    let mut bad = p.clone();
+    bad[2][1] = f64::NAN;
+    assert_eq!(
+        err(Mesh::from_soup("soup", &bad, &t, None, &opts)),
+        "soup: vertex 2 has a non-finite coordinate"
+    );
+    bad[2][1] = f64::NEG_INFINITY;
+    assert!(err(Mesh::from_soup("soup", &bad, &t, None, &opts)).contains("vertex 2 "));
+    assert_eq!(
+        err(Mesh::from_soup("soup", &p, &[[0, 1, 4]], None, &opts)),
+        "soup: triangle 0 has vertex index 4, out of range (the soup has 4 vertices)"
+    );
+    let n = vec![[0.0, 0.0, 1.0]; 3];
+    assert_eq!(
+        err(Mesh::from_soup("soup", &p, &t, Some(&n), &opts)),
+        "soup: 3 normals for 4 vertices (one per vertex expected)"
+    );
+    let mut n = vec![[0.0, 0.0, 1.0]; 4];
+    n[3] = [0.0, 0.0, 0.0];
+    assert_eq!(
+        err(Mesh::from_soup("soup", &p, &t, Some(&n), &opts)),
+        "soup: normal 3 is zero or non-finite"
+    );
+    n[3] = [f64::NAN, 0.0, 1.0];
+    assert!(err(Mesh::from_soup("soup", &p, &t, Some(&n), &opts)).contains("normal 3"));
+    assert_eq!(
+        err(Mesh::from_soup("soup", &p, &[], None, &opts)),
+        "soup: empty mesh: no triangles"
+    );
+    assert_eq!(
+        err(Mesh::from_soup("soup", &p, &[[0, 1, 1]], None, &opts)),
+        "soup: empty mesh: every triangle is degenerate"
+    );
+    // A good soup: closed, every normal a unit vector, counts in the report.
+    let m = Mesh::from_soup("soup", &p, &t, None, &opts).unwrap();
+    assert_eq!(m.adjacency().boundary, 0);
+    assert_eq!(m.name, "soup");
+}

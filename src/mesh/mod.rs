@@ -6,7 +6,8 @@ pub mod creases;
 pub mod generators;
 pub mod normals;
 pub mod obj;
-pub mod pn;
+pub mod pn_file;
+pub mod weld;
 
 use glam::DVec3;
 use std::path::Path;
@@ -92,23 +93,149 @@ impl Mesh {
             }
             let ext = path.extension().map(|e| e.to_ascii_lowercase());
             if ext.as_deref() == Some(std::ffi::OsStr::new("pn")) {
-                pn::load_pn(path)?
+                pn_file::load_pn(path)?
             } else {
                 obj::load_obj(path, opts)?
             }
         };
+        mesh.apply_options(opts)?;
+        Ok(mesh)
+    }
+
+    /// What every source does last: the options' normal recomputation and crease split,
+    /// then [`Mesh::validate`].
+    fn apply_options(&mut self, opts: &LoadOptions) -> Result<()> {
         if opts.recompute_normals {
-            let n = normals::vertex_normals(&mesh.positions, &mesh.triangles, opts.weighting);
-            mesh.corner_normals = mesh
+            let n = normals::vertex_normals(&self.positions, &self.triangles, opts.weighting);
+            self.corner_normals = self
                 .triangles
                 .iter()
                 .map(|t| t.map(|v| n[v as usize]))
                 .collect();
         }
         if let Some(angle) = opts.crease_angle {
-            creases::split_normals_by_angle(&mut mesh, angle, opts.weighting)?;
+            creases::split_normals_by_angle(self, angle, opts.weighting)?;
         }
-        mesh.validate()?;
+        self.validate()
+    }
+
+    /// Builds a mesh from an in-memory triangle soup, the way a renderer or another library
+    /// holds one: `positions`, `triangles` indexing them (counter-clockwise seen from the
+    /// outside) and, optionally, one normal per position.
+    ///
+    /// The input is checked first: a non-finite coordinate, a zero or non-finite normal, a
+    /// normal count that differs from the position count or a triangle index out of range is
+    /// an error naming the element (`"NAME: vertex 12 has a non-finite coordinate"`). The soup
+    /// is then welded exactly like file input ([`weld::weld`]: equal coordinates, `-0.0`
+    /// equal to `0.0`, so a split-vertex mesh comes out closed); triangles that collapse and
+    /// unused vertices are dropped and counted in [`Mesh::load_report`]. Each corner keeps
+    /// the normal given for its input vertex (renormalised), so split normals survive the
+    /// weld; without normals they are estimated with `opts.weighting`. The options'
+    /// normal recomputation and crease angle apply as for [`Mesh::load`].
+    ///
+    /// ```
+    /// use g1tess::eval::{cpu::CpuEvaluator, Evaluator, Pattern};
+    /// use g1tess::mesh::{LoadOptions, Mesh};
+    /// use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+    ///
+    /// // A tetrahedron, outward, without normals (they are estimated).
+    /// let positions = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    /// let triangles = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+    /// let mesh = Mesh::from_soup("tetra", &positions, &triangles, None, &LoadOptions::default())?;
+    /// let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default())?;
+    /// let (points, normals) =
+    ///     CpuEvaluator::default().evaluate_all(&table, &Pattern::Grid { level: 8 })?;
+    /// assert_eq!(points.len(), 4 * 45); // 45 samples per patch at level 8
+    /// assert!(normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-12));
+    /// # Ok::<(), g1tess::Error>(())
+    /// ```
+    pub fn from_soup<P: Copy + Into<DVec3>>(
+        name: impl Into<String>,
+        positions: &[P],
+        triangles: &[[u32; 3]],
+        normals: Option<&[P]>,
+        opts: &LoadOptions,
+    ) -> Result<Mesh> {
+        let name = name.into();
+        let positions: Vec<DVec3> = positions.iter().map(|&p| p.into()).collect();
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(Error::mesh(
+                &name,
+                format!("vertex {i} has a non-finite coordinate"),
+            ));
+        }
+        let nv = positions.len();
+        if let Some((t, v)) = triangles
+            .iter()
+            .enumerate()
+            .find_map(|(t, tri)| tri.iter().find(|&&v| v as usize >= nv).map(|&v| (t, v)))
+        {
+            return Err(Error::mesh(
+                &name,
+                format!(
+                    "triangle {t} has vertex index {v}, out of range (the soup has {nv} vertices)"
+                ),
+            ));
+        }
+        let unit: Option<Vec<DVec3>> = match normals {
+            None => None,
+            Some(n) if n.len() != nv => {
+                return Err(Error::mesh(
+                    &name,
+                    format!(
+                        "{} normals for {nv} vertices (one per vertex expected)",
+                        n.len()
+                    ),
+                ))
+            }
+            Some(n) => Some(
+                n.iter()
+                    .enumerate()
+                    .map(|(i, &n)| {
+                        let n: DVec3 = n.into();
+                        let len = n.length();
+                        if len == 0.0 || !len.is_finite() {
+                            Err(Error::mesh(
+                                &name,
+                                format!("normal {i} is zero or non-finite"),
+                            ))
+                        } else {
+                            Ok(n / len)
+                        }
+                    })
+                    .collect::<Result<_>>()?,
+            ),
+        };
+        let mut corner_normals: Vec<[DVec3; 3]> = match &unit {
+            Some(n) => triangles.iter().map(|t| t.map(|v| n[v as usize])).collect(),
+            None => Vec::new(),
+        };
+        let mut triangles = triangles.to_vec();
+        let mut report = LoadReport::default();
+        let positions = weld::weld(&positions, &mut triangles, &mut corner_normals, &mut report)?;
+        if triangles.is_empty() {
+            return Err(Error::mesh(
+                &name,
+                if report.degenerate_triangles_dropped > 0 {
+                    "empty mesh: every triangle is degenerate"
+                } else {
+                    "empty mesh: no triangles"
+                },
+            ));
+        }
+        if unit.is_none() {
+            report.normals_estimated = 3 * triangles.len();
+            let n = normals::vertex_normals(&positions, &triangles, opts.weighting);
+            corner_normals = triangles.iter().map(|t| t.map(|v| n[v as usize])).collect();
+        }
+        let mut mesh = Mesh {
+            name,
+            positions,
+            triangles,
+            corner_normals,
+            load_report: report,
+        };
+        mesh.apply_options(opts)?;
         Ok(mesh)
     }
 
@@ -161,26 +288,6 @@ impl Mesh {
     pub fn diagonal(&self) -> f64 {
         let (lo, hi) = self.bbox();
         (hi - lo).length()
-    }
-
-    /// Builds a mesh with one normal per vertex.
-    pub fn from_vertex_normals(
-        name: impl Into<String>,
-        positions: Vec<DVec3>,
-        normals: &[DVec3],
-        triangles: Vec<[u32; 3]>,
-    ) -> Mesh {
-        let corner_normals = triangles
-            .iter()
-            .map(|t| t.map(|v| normals[v as usize].normalize()))
-            .collect();
-        Mesh {
-            name: name.into(),
-            positions,
-            triangles,
-            corner_normals,
-            load_report: LoadReport::default(),
-        }
     }
 
     /// Edge adjacency of the triangles.

@@ -5,12 +5,11 @@
 //! line number. Here every defect names the file and the line, and a corner without a
 //! normal gets an estimated one.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use glam::DVec3;
 
-use super::{normals, LoadOptions, LoadReport, Mesh};
+use super::{normals, weld, LoadOptions, LoadReport, Mesh};
 use crate::{Error, Result};
 
 /// One face corner: position index and optional normal index (0-based, resolved).
@@ -181,46 +180,20 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
         }
     }
 
-    // Weld referenced positions by exact coordinates; unreferenced ones are dropped.
-    let mut weld: HashMap<[u64; 3], u32> = HashMap::new();
-    let mut welded_of: Vec<Option<u32>> = vec![None; positions.len()];
-    let mut out_pos: Vec<DVec3> = Vec::new();
-    let mut referenced = 0usize;
+    // Triangulate as fans, then the one input weld (see `weld`).
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut corner_in: Vec<[Option<DVec3>; 3]> = Vec::new();
     for f in &faces {
         if f.corners.len() > 3 {
             report.polygons_triangulated += 1;
         }
-        let ids: Vec<u32> = f
-            .corners
-            .iter()
-            .map(|c| {
-                *welded_of[c.v].get_or_insert_with(|| {
-                    referenced += 1;
-                    let p = positions[c.v];
-                    *weld
-                        .entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
-                        .or_insert_with(|| {
-                            out_pos.push(p);
-                            (out_pos.len() - 1) as u32
-                        })
-                })
-            })
-            .collect();
         for k in 1..f.corners.len() - 1 {
-            let (a, b, c) = (0, k, k + 1);
-            let t = [ids[a], ids[b], ids[c]];
-            if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
-                report.degenerate_triangles_dropped += 1;
-                continue;
-            }
-            triangles.push(t);
-            corner_in.push([a, b, c].map(|i| f.corners[i].vn.map(|n| normals_in[n])));
+            let c = [0, k, k + 1].map(|i| f.corners[i]);
+            triangles.push(c.map(|c| c.v as u32));
+            corner_in.push(c.map(|c| c.vn.map(|n| normals_in[n])));
         }
     }
-    report.unused_vertices_dropped = positions.len() - referenced;
-    report.vertices_welded = referenced - out_pos.len();
+    let out_pos = weld::weld(&positions, &mut triangles, &mut corner_in, &mut report)?;
 
     let name = super::display_name(path);
     if triangles.is_empty() {

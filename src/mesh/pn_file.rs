@@ -14,15 +14,14 @@
 //!
 //! Records may come in any order after `counts`; the counts must match what the file holds
 //! (a truncated file is an error). Positions are welded by exact coordinates like OBJ input
-//! (each corner keeps its own normal), unused vertices and triangles with a repeated vertex
+//! (with [`super::weld`]: `-0.0` equals `0.0`; each corner keeps its own normal), unused vertices and triangles with a repeated vertex
 //! are dropped and reported, and every normal is renormalised.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use glam::DVec3;
 
-use super::{LoadReport, Mesh};
+use super::{weld, LoadReport, Mesh};
 use crate::{Error, Result};
 
 /// The first line of every version-1 file.
@@ -230,52 +229,12 @@ fn build(path: &Path, raw: Raw) -> Result<Mesh> {
         corner_normals[t][k] = n;
     }
 
-    // Weld by exact coordinates (+0.0 folds -0.0 into 0.0): each vertex maps to the first
-    // vertex of the file at its position. Triangles that then repeat a vertex are dropped;
-    // the vertices still used keep the file's order.
+    // The one input weld (see `weld`): each corner keeps its own normal.
     let mut report = LoadReport::default();
-    let mut first: HashMap<[u64; 3], u32> = HashMap::new();
-    let rep: Vec<u32> = (0..nv)
-        .map(|v| {
-            let p = raw.positions[v] + DVec3::ZERO;
-            *first
-                .entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
-                .or_insert(v as u32)
-        })
-        .collect();
-    let mut kept = Vec::with_capacity(raw.triangles.len());
-    let mut normals = Vec::with_capacity(raw.triangles.len());
-    for ((t, _), n) in raw.triangles.iter().zip(corner_normals) {
-        let w = t.map(|v| rep[v as usize]);
-        if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] {
-            report.degenerate_triangles_dropped += 1;
-            continue;
-        }
-        kept.push(w);
-        normals.push(n);
-    }
-    let mut used = vec![false; nv];
-    for &(t, _) in &raw.triangles {
-        for v in t {
-            used[v as usize] = true;
-        }
-    }
-    let mut id = vec![u32::MAX; nv];
-    for t in &kept {
-        for &v in t {
-            id[v as usize] = 0;
-        }
-    }
-    let mut positions = Vec::new();
-    for (i, p) in id.iter_mut().zip(&raw.positions) {
-        if *i == 0 {
-            *i = positions.len() as u32;
-            positions.push(*p + DVec3::ZERO);
-        }
-    }
-    let triangles: Vec<[u32; 3]> = kept.iter().map(|t| t.map(|v| id[v as usize])).collect();
-    report.vertices_welded = (0..nv).filter(|&v| used[v] && rep[v] != v as u32).count();
-    report.unused_vertices_dropped = nv - positions.len() - report.vertices_welded;
+    let mut triangles: Vec<[u32; 3]> = raw.triangles.iter().map(|&(t, _)| t).collect();
+    drop(raw.triangles);
+    let mut normals = corner_normals;
+    let positions = weld::weld(&raw.positions, &mut triangles, &mut normals, &mut report)?;
     let name = super::display_name(path);
     if triangles.is_empty() {
         return Err(Error::mesh(
