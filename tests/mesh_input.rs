@@ -502,3 +502,227 @@ fn soup_constructor_rejects_bad_input_naming_the_element() {
     assert_eq!(m.adjacency().boundary, 0);
     assert_eq!(m.name, "soup");
 }
+
+#[test]
+fn line_endings_byte_order_mark_and_continuations() {
+    // The same tetrahedron with every line ending, a BOM, and a face continued over lines.
+    let lines = [
+        "v 0 0 0",
+        "v 1 0 0",
+        "v 0 1 0",
+        "v 0 0 1",
+        "f 1 3 2",
+        "f 1 2 \\",
+        "4",
+        "f 1 4 3",
+        "f 2 3 4 \\",
+    ];
+    let reference = Mesh::from_soup(
+        "tetra",
+        &[
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ],
+        &[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        None,
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    for (i, (nl, bom, last_nl)) in [
+        ("\n", "", true),
+        ("\r\n", "", true),
+        ("\r", "", true),
+        ("\n", "\u{feff}", true),
+        ("\r\n", "\u{feff}", false),
+        ("\r", "", false),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut text = format!("{bom}{}", lines.join(nl));
+        if last_nl {
+            text += nl;
+        }
+        let m = load_path(
+            &write_obj(&format!("endings{i}.obj"), &text),
+            &LoadOptions::default(),
+        );
+        assert_eq!(m.positions, reference.positions, "case {i}");
+        // The last face, continued at the end of the file, is read too.
+        assert_eq!(m.triangles, reference.triangles, "case {i}");
+        assert_eq!(m.adjacency().boundary, 0);
+        // Line numbers count each ending once; a continued statement has its first line.
+        let bad = text.replace("f 1 4 3", "f 1 4 x");
+        let e = Mesh::load(
+            write_obj(&format!("endings-bad{i}.obj"), &bad)
+                .to_str()
+                .unwrap(),
+            &LoadOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.ends_with(":8: face corner 'x': 'x' is not an index"),
+            "{e}"
+        );
+        let bad = text.replace("\\", "x \\");
+        let e = Mesh::load(
+            write_obj(&format!("endings-cont{i}.obj"), &bad)
+                .to_str()
+                .unwrap(),
+            &LoadOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains(":6: face corner 'x'"), "{e}");
+    }
+}
+
+#[test]
+fn errors_escape_and_cut_the_input_they_quote() {
+    let text = format!(
+        "v 0 0 0\nv 1 0 0\nv 0 \u{1b}[31m 0\nf 1 2 {}\n",
+        "9".repeat(300)
+    );
+    let e = Mesh::load(
+        write_obj("escape.obj", &text).to_str().unwrap(),
+        &LoadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.ends_with(":3: vertex: '\\u{1b}[31m' is not a number"),
+        "{e}"
+    );
+    let text = format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/{}\n", "x".repeat(300));
+    let e = Mesh::load(
+        write_obj("long.obj", &text).to_str().unwrap(),
+        &LoadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains(":4: face corner '3/xxxxx"), "{e}");
+    assert!(e.contains(&format!("'3/{}…'", "x".repeat(78))), "{e}");
+    assert!(
+        e.contains(&format!("'{}…' is not an index", "x".repeat(80))),
+        "{e}"
+    );
+}
+
+/// A grid of `n` × `n` vertices on a wavy sheet as OBJ text, written row by row: each row's
+/// vertices and normals, then the faces between it and the previous row, with negative
+/// (relative) indices on odd rows and positive ones on even rows. Returns the text, the line
+/// of each row's first face, and the soup it describes.
+fn wavy_sheet(n: usize) -> (String, Vec<usize>, Vec<DVec3>, Vec<[u32; 3]>, Vec<DVec3>) {
+    let (mut pos, mut nrm, mut tris) = (Vec::new(), Vec::new(), Vec::new());
+    let mut text = String::from("# a wavy sheet\r\n");
+    let mut face_line = vec![0; n];
+    let mut line = 2;
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (i as f64 / 7.0, j as f64 / 3.0);
+            let p = DVec3::new(x, y, (x * 0.9).sin() * (y * 1.3).cos());
+            let nn = DVec3::new(-(x * 0.9).cos() * 0.9, (y * 1.3).sin() * 1.3, 1.0);
+            text += &format!(
+                "v {:?} {:?} {:?}\nvn {} {} {}\n",
+                p.x, p.y, p.z, nn.x, nn.y, nn.z
+            );
+            line += 2;
+            pos.push(p);
+            nrm.push(nn);
+        }
+        if i == 0 {
+            continue;
+        }
+        face_line[i] = line;
+        for j in 0..n - 1 {
+            let id = |a: usize, b: usize| (a * n + b) as u32;
+            let q = [id(i - 1, j), id(i, j), id(i, j + 1), id(i - 1, j + 1)];
+            tris.push([q[0], q[1], q[2]]);
+            tris.push([q[0], q[2], q[3]]);
+            let c: Vec<String> = q
+                .iter()
+                .map(|&v| {
+                    if i % 2 == 1 {
+                        let r = v as i64 - (i as i64 + 1) * n as i64;
+                        format!("{r}//{r}")
+                    } else {
+                        format!("{}//{}", v + 1, v + 1)
+                    }
+                })
+                .collect();
+            text += &format!("f {}\n", c.join(" "));
+            line += 1;
+        }
+    }
+    (text, face_line, pos, tris, nrm)
+}
+
+#[test]
+fn a_large_file_reads_like_its_soup_and_names_lines_deep_inside() {
+    // 350 × 350 vertices: about 16 MB of text, two chunks of many blocks each, so
+    // relative indices reach back across block and chunk boundaries.
+    let n = 350;
+    let (text, face_line, pos, tris, nrm) = wavy_sheet(n);
+    assert!(text.len() > 12 << 20, "{} bytes", text.len());
+    let soup = Mesh::from_soup("sheet", &pos, &tris, Some(&nrm), &LoadOptions::default()).unwrap();
+    let p = write_obj("sheet.obj", &text);
+    let m = load_path(&p, &LoadOptions::default());
+    assert_eq!(m.positions.len(), n * n);
+    // Every coordinate back bit for bit, every corner normal the one given (renormalised).
+    assert_eq!(m.positions, soup.positions);
+    assert_eq!(m.triangles, soup.triangles);
+    assert_eq!(m.corner_normals, soup.corner_normals);
+    assert_eq!(m.load_report.polygons_triangulated, (n - 1) * (n - 1));
+    let adj = m.adjacency();
+    assert_eq!(adj.boundary, 4 * (n - 1));
+
+    let lines: Vec<&str> = text.split('\n').collect();
+    let fails = |name: &str, edit: &dyn Fn(&mut Vec<String>)| -> String {
+        let mut l: Vec<String> = lines.iter().map(|s| s.to_string()).collect();
+        edit(&mut l);
+        let p = write_obj(name, &l.join("\n"));
+        let r = Mesh::load(p.to_str().unwrap(), &LoadOptions::default());
+        std::fs::remove_file(&p).unwrap();
+        r.err().map(|e| e.to_string()).unwrap_or_default()
+    };
+    // Line numbers count from 1; `lines[k]` is line k + 1 (the first ends in \r\n).
+    let row = 241; // odd: relative indices
+    let at = face_line[row];
+    let e = fails("sheet-nan.obj", &|l| l[at - 3] = "v 0 nan 0".into());
+    assert!(
+        e.ends_with(&format!(":{}: vertex: non-finite coordinate 'nan'", at - 2)),
+        "{e}"
+    );
+    let e = fails("sheet-back.obj", &|l| l[at + 5] = "f -1 -2 -9999999".into());
+    let have = (row + 1) * n;
+    assert!(
+        e.ends_with(&format!(
+            ":{}: face corner '-9999999': vertex index -9999999 out of range (only {have} vertexs so far)",
+            at + 6
+        )),
+        "{e}"
+    );
+    let e = fails("sheet-forward.obj", &|l| l[at + 7] = "f 1 2 9999999".into());
+    assert!(
+        e.ends_with(&format!(
+            ":{}: vertex index 9999999 out of range (the file has {} vertices)",
+            at + 8,
+            n * n
+        )),
+        "{e}"
+    );
+    let e = fails("sheet-normal.obj", &|l| {
+        l[at + 9] = "f 1//1 2//2 3//999999".into()
+    });
+    assert!(
+        e.ends_with(&format!(
+            ":{}: normal index 999999 out of range (the file has {} normals)",
+            at + 10,
+            n * n
+        )),
+        "{e}"
+    );
+}
