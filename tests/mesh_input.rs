@@ -615,7 +615,7 @@ fn errors_escape_and_cut_the_input_they_quote() {
 /// vertices and normals, then the faces between it and the previous row, with negative
 /// (relative) indices on odd rows and positive ones on even rows. Returns the text, the line
 /// of each row's first face, and the soup it describes.
-fn wavy_sheet(n: usize) -> (String, Vec<usize>, Vec<DVec3>, Vec<[u32; 3]>, Vec<DVec3>) {
+fn wavy_sheet(n: usize) -> (String, Vec<usize>, Soup) {
     let (mut pos, mut nrm, mut tris) = (Vec::new(), Vec::new(), Vec::new());
     let mut text = String::from("# a wavy sheet\r\n");
     let mut face_line = vec![0; n];
@@ -657,15 +657,18 @@ fn wavy_sheet(n: usize) -> (String, Vec<usize>, Vec<DVec3>, Vec<[u32; 3]>, Vec<D
             line += 1;
         }
     }
-    (text, face_line, pos, tris, nrm)
+    (text, face_line, (pos, tris, nrm))
 }
+
+/// Positions, triangles and one normal per position.
+type Soup = (Vec<DVec3>, Vec<[u32; 3]>, Vec<DVec3>);
 
 #[test]
 fn a_large_file_reads_like_its_soup_and_names_lines_deep_inside() {
     // 350 × 350 vertices: about 16 MB of text, two chunks of many blocks each, so
     // relative indices reach back across block and chunk boundaries.
     let n = 350;
-    let (text, face_line, pos, tris, nrm) = wavy_sheet(n);
+    let (text, face_line, (pos, tris, nrm)) = wavy_sheet(n);
     assert!(text.len() > 12 << 20, "{} bytes", text.len());
     let soup = Mesh::from_soup("sheet", &pos, &tris, Some(&nrm), &LoadOptions::default()).unwrap();
     let p = write_obj("sheet.obj", &text);
