@@ -729,3 +729,79 @@ fn a_large_file_reads_like_its_soup_and_names_lines_deep_inside() {
         "{e}"
     );
 }
+
+#[test]
+fn a_large_point_normal_file_reads_like_its_soup_and_names_lines_deep_inside() {
+    // The wavy sheet as .pn, with a corner normal on every 50th triangle: about 14 MB,
+    // two chunks of parallel blocks.
+    let n = 330;
+    let (_, _, (pos, tris, nrm)) = wavy_sheet(n);
+    let mut text = format!(
+        "g1tess-pn 1\n# a wavy sheet\ncounts {} {} {}\n",
+        pos.len(),
+        tris.len(),
+        tris.len().div_ceil(50)
+    );
+    for (p, q) in pos.iter().zip(&nrm) {
+        text += &format!(
+            "v {:?} {:?} {:?} {:?} {:?} {:?}\n",
+            p.x, p.y, p.z, q.x, q.y, q.z
+        );
+    }
+    let t_line = text.lines().count() + 1;
+    for t in &tris {
+        text += &format!("t {} {} {}\n", t[0], t[1], t[2]);
+    }
+    for t in (0..tris.len()).step_by(50) {
+        text += &format!("c {t} 1 0 0 1\n");
+    }
+    assert!(text.len() > 10 << 20, "{} bytes", text.len());
+    let mut soup =
+        Mesh::from_soup("sheet", &pos, &tris, Some(&nrm), &LoadOptions::default()).unwrap();
+    for t in (0..tris.len()).step_by(50) {
+        soup.corner_normals[t][1] = DVec3::Z;
+    }
+    let m = load_path(&write_obj("sheet.pn", &text), &LoadOptions::default());
+    assert_eq!(m.positions, soup.positions);
+    assert_eq!(m.triangles, soup.triangles);
+    assert_eq!(m.corner_normals, soup.corner_normals);
+
+    let lines: Vec<&str> = text.lines().collect();
+    let fails = |name: &str, line: usize, new: &str| -> String {
+        let mut l = lines.clone();
+        l[line - 1] = new;
+        let p = write_obj(name, &l.join("\n"));
+        let r = Mesh::load(p.to_str().unwrap(), &LoadOptions::default());
+        std::fs::remove_file(&p).unwrap();
+        r.err().map(|e| e.to_string()).unwrap_or_default()
+    };
+    let deep = t_line + 150_000;
+    let e = fails("sheet-range.pn", deep, "t 0 1 999999");
+    assert!(
+        e.ends_with(&format!(
+            ":{deep}: triangle: vertex index 999999 out of range (the file has {} vertices)",
+            n * n
+        )),
+        "{e}"
+    );
+    let e = fails("sheet-bad.pn", deep, "t 0 1 x");
+    assert!(
+        e.ends_with(&format!(
+            ":{deep}: triangle: 'x' is not an index (0-based integer)"
+        )),
+        "{e}"
+    );
+    let last = lines.len();
+    let e = fails("sheet-twice.pn", last, "c 0 1 0 0 1");
+    assert!(
+        e.ends_with(&format!(
+            ":{last}: corner normal: corner 1 of triangle 0 given twice"
+        )),
+        "{e}"
+    );
+    let e = fails("sheet-counts.pn", deep, "counts 1 1 1");
+    assert!(
+        e.ends_with(&format!(":{deep}: a second 'counts' line")),
+        "{e}"
+    );
+}

@@ -442,11 +442,12 @@ pub(crate) mod text {
     }
 
     /// Calls `f(line, statement)` for each statement of `text` (lines end with `\n`, `\r\n`
-    /// or `\r`; a backslash at the end of a line continues the statement on the next, also
-    /// at the end of the text). Returns the number of lines.
+    /// or `\r`; with `continuation`, a backslash at the end of a line continues the statement
+    /// on the next, also at the end of the text). Returns the number of lines.
     pub fn statements(
         text: &str,
         first_line: usize,
+        continuation: bool,
         mut f: impl FnMut(usize, &str) -> Result<()>,
     ) -> Result<usize> {
         let b = text.as_bytes();
@@ -457,7 +458,8 @@ pub(crate) mod text {
         while i < b.len() {
             let mut j = find_eol(b, i);
             let content = &text[i..j];
-            if let Some(body) = (j > i && b[j - 1] == b'\\').then(|| &text[i..j - 1]) {
+            let continued = continuation && j > i && b[j - 1] == b'\\';
+            if let Some(body) = continued.then(|| &text[i..j - 1]) {
                 if pending.is_empty() {
                     pending_line = line;
                 }
@@ -722,7 +724,7 @@ mod tests {
     fn statements_follow_every_line_ending_and_continuations() {
         let collect = |text: &str| {
             let mut out = Vec::new();
-            let n = statements(text, 1, |line, s| {
+            let n = statements(text, 1, true, |line, s| {
                 out.push((line, s.to_string()));
                 Ok(())
             })
@@ -749,7 +751,7 @@ mod tests {
             let mut line = 1;
             for p in &pieces {
                 let p = std::str::from_utf8(p).unwrap();
-                line += statements(p, line, |l, s| {
+                line += statements(p, line, true, |l, s| {
                     all.push((l, s.to_string()));
                     Ok(())
                 })

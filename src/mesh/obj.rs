@@ -349,8 +349,9 @@ fn pass(path: &Path, parallel: bool, totals: Option<[usize; 2]>) -> std::result:
                     };
                     let mut b = Block::new();
                     let text = std::str::from_utf8(piece).ok()?;
-                    let n = text::statements(text, 0, |line, s| b.statement(path, mode, line, s))
-                        .ok()?;
+                    let n =
+                        text::statements(text, 0, true, |line, s| b.statement(path, mode, line, s))
+                            .ok()?;
                     Some((b, n))
                 })
                 .collect();
@@ -372,7 +373,7 @@ fn pass(path: &Path, parallel: bool, totals: Option<[usize; 2]>) -> std::result:
                     totals,
                 };
                 let mut b = Block::new();
-                lines += text::statements(text, first_line + lines, |line, s| {
+                lines += text::statements(text, first_line + lines, true, |line, s| {
                     b.statement(path, mode, line, s)
                 })?;
                 if raw.join(b).is_err() {
