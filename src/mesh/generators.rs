@@ -193,6 +193,7 @@ fn with_vertex_normals(
         &positions,
         &mut triangles,
         &mut corner_normals,
+        weld::Order::Input,
         &mut load_report,
     )
     .expect("built-in meshes index their own vertices");

@@ -212,7 +212,13 @@ impl Mesh {
         };
         let mut triangles = triangles.to_vec();
         let mut report = LoadReport::default();
-        let positions = weld::weld(&positions, &mut triangles, &mut corner_normals, &mut report)?;
+        let positions = weld::weld(
+            &positions,
+            &mut triangles,
+            &mut corner_normals,
+            weld::Order::Input,
+            &mut report,
+        )?;
         if triangles.is_empty() {
             return Err(Error::mesh(
                 &name,

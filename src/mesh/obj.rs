@@ -450,7 +450,13 @@ fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
         polygons_triangulated: polygons,
         ..Default::default()
     };
-    let positions = weld::weld(&positions, &mut tris, &mut tri_normals, &mut report)?;
+    let positions = weld::weld(
+        &positions,
+        &mut tris,
+        &mut tri_normals,
+        weld::Order::FirstUse,
+        &mut report,
+    )?;
     if tris.is_empty() {
         return Err(Error::mesh(
             path.display().to_string(),

@@ -384,7 +384,13 @@ fn build(path: &Path, raw: Raw) -> Result<Mesh> {
     let mut report = LoadReport::default();
     let mut triangles = raw.triangles;
     let mut normals = corner_normals;
-    let positions = weld::weld(&raw.positions, &mut triangles, &mut normals, &mut report)?;
+    let positions = weld::weld(
+        &raw.positions,
+        &mut triangles,
+        &mut normals,
+        weld::Order::Input,
+        &mut report,
+    )?;
     let name = super::display_name(path);
     if triangles.is_empty() {
         return Err(Error::mesh(

@@ -5,7 +5,9 @@
 //! equals `0.0` (a zero's sign never splits a vertex; the welded position carries `+0.0`).
 //! Every vertex maps to the first vertex of the input at its position; triangles that then
 //! repeat a vertex are dropped, and so are the vertices no remaining triangle uses. The
-//! vertices kept stay in input order. Output-side welding (tessellated samples) is a
+//! vertices kept are numbered in input order or in order of first use ([`Order`]; OBJ files
+//! use the latter, as they always have, since the patches' rounding follows vertex ids).
+//! Output-side welding (tessellated samples) is a
 //! different thing and lives with the writers.
 
 use glam::DVec3;
@@ -31,6 +33,15 @@ fn hash(k: [u64; 3]) -> u64 {
     h ^= h >> 33;
     h = h.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
     h ^ (h >> 33)
+}
+
+/// How the welded vertices are numbered.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Order {
+    /// In the order of the input vertices.
+    Input,
+    /// In the order the triangles first use them.
+    FirstUse,
 }
 
 /// For every vertex, the first vertex of `positions` at the same point (itself when it is
@@ -78,6 +89,7 @@ pub fn weld<P>(
     positions: &[DVec3],
     triangles: &mut Vec<[u32; 3]>,
     payload: &mut Vec<P>,
+    order: Order,
     report: &mut LoadReport,
 ) -> Result<Vec<DVec3>> {
     let n = positions.len();
@@ -137,10 +149,23 @@ pub fn weld<P>(
         .count();
     // `rep` is no longer needed: reuse it as the new index of each kept representative.
     let mut out = Vec::new();
-    for v in 0..n {
-        if state[v] & KEEP != 0 {
-            rep[v] = out.len() as u32;
-            out.push(positions[v] + DVec3::ZERO);
+    match order {
+        Order::Input => {
+            for v in 0..n {
+                if state[v] & KEEP != 0 {
+                    rep[v] = out.len() as u32;
+                    out.push(positions[v] + DVec3::ZERO);
+                }
+            }
+        }
+        Order::FirstUse => {
+            rep.fill(u32::MAX);
+            for &v in triangles.iter().flatten() {
+                if rep[v as usize] == u32::MAX {
+                    rep[v as usize] = out.len() as u32;
+                    out.push(positions[v as usize] + DVec3::ZERO);
+                }
+            }
         }
     }
     for t in triangles.iter_mut() {
@@ -170,7 +195,7 @@ mod tests {
         let mut tris = vec![[0, 1, 2], [3, 4, 7], [3, 0, 5], [5, 3, 7]];
         let mut normals = vec!['a', 'b', 'c', 'd'];
         let mut report = LoadReport::default();
-        let out = weld(&p, &mut tris, &mut normals, &mut report).unwrap();
+        let out = weld(&p, &mut tris, &mut normals, Order::Input, &mut report).unwrap();
         assert_eq!(out.len(), 4);
         assert_eq!(tris, vec![[0, 1, 2], [0, 1, 3], [2, 0, 3]]);
         assert_eq!(normals, vec!['a', 'b', 'd']);
@@ -182,8 +207,24 @@ mod tests {
             .iter()
             .flat_map(|q| q.to_array())
             .all(|x| x != 0.0 || x.is_sign_positive()));
+        // Numbered by first use: the last kept vertex (7) is used before vertex 2.
+        let (mut t1, mut n1, mut r1) = (
+            vec![[0, 1, 7], [3, 4, 2]],
+            vec![0, 1],
+            LoadReport::default(),
+        );
+        let out1 = weld(&p, &mut t1, &mut n1, Order::FirstUse, &mut r1).unwrap();
+        assert_eq!(t1, vec![[0, 1, 2], [0, 1, 3]]);
+        assert_eq!(out1[2], p[7]);
         let mut bad = vec![[0, 1, 8]];
-        let e = weld(&p, &mut bad, &mut Vec::<()>::new(), &mut report).unwrap_err();
+        let e = weld(
+            &p,
+            &mut bad,
+            &mut Vec::<()>::new(),
+            Order::Input,
+            &mut report,
+        )
+        .unwrap_err();
         assert!(
             e.to_string().contains("triangle 0 has vertex index 8"),
             "{e}"
