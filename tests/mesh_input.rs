@@ -277,3 +277,538 @@ fn cube_without_normals_is_closed() {
         }
     }
 }
+
+/// The regular octahedron as a renderer holds it: every face with its own three vertices
+/// (24 in all) and, as normals, the face normal on each of them.
+fn split_octahedron() -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<DVec3>) {
+    let (mut pos, mut tris, mut nrm) = (Vec::new(), Vec::new(), Vec::new());
+    for sx in [1.0, -1.0] {
+        for sy in [1.0, -1.0] {
+            for sz in [1.0, -1.0] {
+                let mut f = [
+                    DVec3::new(sx, 0.0, 0.0),
+                    DVec3::new(0.0, sy, 0.0),
+                    DVec3::new(0.0, 0.0, sz),
+                ];
+                if sx * sy * sz < 0.0 {
+                    f.swap(1, 2); // counter-clockwise seen from outside
+                }
+                let base = pos.len() as u32;
+                tris.push([base, base + 1, base + 2]);
+                pos.extend(f);
+                nrm.extend([DVec3::new(sx, sy, sz); 3]);
+            }
+        }
+    }
+    (pos, tris, nrm)
+}
+
+/// Writes a coordinate as OBJ text; `neg_zero` spells zeros as `-0` (what some exporters
+/// write after a mirror or a negation).
+fn coord(x: f64, neg_zero: bool) -> String {
+    if x == 0.0 && neg_zero {
+        "-0".to_string()
+    } else {
+        format!("{x:?}")
+    }
+}
+
+#[test]
+fn signed_zeros_weld_in_every_reader() {
+    let (pos, tris, nrm) = split_octahedron();
+    // OBJ: the faces of odd index spell their zeros as -0, the others as 0.
+    let mut obj = String::new();
+    for (i, p) in pos.iter().enumerate() {
+        let neg = (i / 3) % 2 == 1;
+        obj += &format!(
+            "v {} {} {}\n",
+            coord(p.x, neg),
+            coord(p.y, neg),
+            coord(p.z, neg)
+        );
+    }
+    for t in &tris {
+        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    let m = load_path(
+        &write_obj("octa-signed-zero.obj", &obj),
+        &LoadOptions::default(),
+    );
+    let adj = m.adjacency();
+    assert_eq!(m.positions.len(), 6);
+    assert_eq!((adj.interior, adj.boundary, adj.misoriented), (12, 0, 0));
+    assert_eq!(m.load_report.vertices_welded, 18);
+    // The welded positions carry +0.0.
+    assert!(m
+        .positions
+        .iter()
+        .flat_map(|p| p.to_array())
+        .all(|x| x != 0.0 || x.is_sign_positive()));
+
+    // The same soup as a .pn file, with -0.0 on the faces of odd index.
+    let mut pn = format!("g1tess-pn 1\ncounts {} {} 0\n", pos.len(), tris.len());
+    for (i, (p, n)) in pos.iter().zip(&nrm).enumerate() {
+        let neg = (i / 3) % 2 == 1;
+        pn += &format!(
+            "v {} {} {} {} {} {}\n",
+            coord(p.x, neg),
+            coord(p.y, neg),
+            coord(p.z, neg),
+            n.x,
+            n.y,
+            n.z
+        );
+    }
+    for t in &tris {
+        pn += &format!("t {} {} {}\n", t[0], t[1], t[2]);
+    }
+    let m = load_path(
+        &write_obj("octa-signed-zero.pn", &pn),
+        &LoadOptions::default(),
+    );
+    let adj = m.adjacency();
+    assert_eq!((m.positions.len(), adj.interior, adj.boundary), (6, 12, 0));
+
+    // An open 4 × 4 grid of quads in z = 0 written as two objects meeting at x = 0; the
+    // right one spells every zero as -0. Welded, the seam disappears: only the 16 perimeter
+    // edges are boundary, and 3·32 half-edges − 16 = 2·40 are interior.
+    let mut obj = String::new();
+    let mut nv = 0;
+    for (half, neg) in [(-2i32..=0, false), (0i32..=2, true)] {
+        let xs: Vec<i32> = half.collect();
+        let base = nv;
+        for &x in &xs {
+            for y in 0..=4 {
+                let q = [x as f64, y as f64, 0.0].map(|c| coord(c, neg));
+                obj += &format!("v {} {} {}\n", q[0], q[1], q[2]);
+                nv += 1;
+            }
+        }
+        let id = |i: usize, j: usize| base + i * 5 + j + 1;
+        for i in 0..xs.len() - 1 {
+            for j in 0..4 {
+                obj += &format!(
+                    "f {} {} {} {}\n",
+                    id(i, j),
+                    id(i + 1, j),
+                    id(i + 1, j + 1),
+                    id(i, j + 1)
+                );
+            }
+        }
+    }
+    let m = load_path(&write_obj("grid-seam.obj", &obj), &LoadOptions::default());
+    let adj = m.adjacency();
+    assert_eq!(m.triangles.len(), 32);
+    assert_eq!(m.positions.len(), 25);
+    assert_eq!((adj.interior, adj.boundary, adj.nonmanifold), (40, 16, 0));
+    assert_eq!(m.load_report.vertices_welded, 5);
+}
+
+#[test]
+fn soup_constructor_welds_a_split_vertex_octahedron() {
+    let (pos, tris, nrm) = split_octahedron();
+    // Flip the sign of every zero on half the faces: still the same points.
+    let pos: Vec<DVec3> = pos
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            if (i / 3) % 2 == 1 {
+                p.map(|x| if x == 0.0 { -0.0 } else { x })
+            } else {
+                *p
+            }
+        })
+        .collect();
+    let m = Mesh::from_soup("octa", &pos, &tris, Some(&nrm), &LoadOptions::default()).unwrap();
+    let adj = m.adjacency();
+    assert_eq!((m.positions.len(), m.triangles.len()), (6, 8));
+    assert_eq!((adj.interior, adj.boundary, adj.misoriented), (12, 0, 0));
+    assert_eq!(m.load_report.vertices_welded, 18);
+    assert_eq!(m.load_report.normals_estimated, 0);
+    // Each corner keeps its face's normal, renormalised: the split normals survive.
+    for (t, cn) in m.triangles.iter().zip(&m.corner_normals) {
+        let q = t.map(|v| m.positions[v as usize]);
+        let face = (q[0] + q[1] + q[2]).normalize();
+        for n in cn {
+            // (±1, ±1, ±1) / √3 against the normalised centroid: the same unit vector up to
+            // one rounding of each.
+            assert!((*n - face).length() < 1e-15, "{n:?} vs {face:?}");
+        }
+    }
+
+    // Without normals they are estimated: at (1, 0, 0) the four faces' normals average to
+    // +x, and with arrays instead of glam vectors.
+    let arrays: Vec<[f64; 3]> = pos.iter().map(|p| p.to_array()).collect();
+    let m = Mesh::from_soup("octa", &arrays, &tris, None, &LoadOptions::default()).unwrap();
+    assert_eq!(m.load_report.normals_estimated, 24);
+    let x = m.positions.iter().position(|p| *p == DVec3::X).unwrap() as u32;
+    for (t, cn) in m.triangles.iter().zip(&m.corner_normals) {
+        for k in 0..3 {
+            if t[k] == x {
+                // Four symmetric unit normals summed: exact up to a rounding per addition.
+                assert!((cn[k] - DVec3::X).length() < 1e-15);
+            }
+        }
+    }
+}
+
+#[test]
+fn soup_constructor_rejects_bad_input_naming_the_element() {
+    let p = vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let t = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+    let opts = LoadOptions::default();
+    let err = |r: g1tess::Result<Mesh>| r.unwrap_err().to_string();
+    let mut bad = p.clone();
+    bad[2][1] = f64::NAN;
+    assert_eq!(
+        err(Mesh::from_soup("soup", &bad, &t, None, &opts)),
+        "soup: vertex 2 has a non-finite coordinate"
+    );
+    bad[2][1] = f64::NEG_INFINITY;
+    assert!(err(Mesh::from_soup("soup", &bad, &t, None, &opts)).contains("vertex 2 "));
+    assert_eq!(
+        err(Mesh::from_soup("soup", &p, &[[0, 1, 4]], None, &opts)),
+        "soup: triangle 0 has vertex index 4, out of range (the soup has 4 vertices)"
+    );
+    let n = vec![[0.0, 0.0, 1.0]; 3];
+    assert_eq!(
+        err(Mesh::from_soup("soup", &p, &t, Some(&n), &opts)),
+        "soup: 3 normals for 4 vertices (one per vertex expected)"
+    );
+    let mut n = vec![[0.0, 0.0, 1.0]; 4];
+    n[3] = [0.0, 0.0, 0.0];
+    assert_eq!(
+        err(Mesh::from_soup("soup", &p, &t, Some(&n), &opts)),
+        "soup: normal 3 is zero or non-finite"
+    );
+    n[3] = [f64::NAN, 0.0, 1.0];
+    assert!(err(Mesh::from_soup("soup", &p, &t, Some(&n), &opts)).contains("normal 3"));
+    assert_eq!(
+        err(Mesh::from_soup("soup", &p, &[], None, &opts)),
+        "soup: empty mesh: no triangles"
+    );
+    assert_eq!(
+        err(Mesh::from_soup("soup", &p, &[[0, 1, 1]], None, &opts)),
+        "soup: empty mesh: every triangle is degenerate"
+    );
+    // A good soup: closed, every normal a unit vector, counts in the report.
+    let m = Mesh::from_soup("soup", &p, &t, None, &opts).unwrap();
+    assert_eq!(m.adjacency().boundary, 0);
+    assert_eq!(m.name, "soup");
+}
+
+#[test]
+fn line_endings_byte_order_mark_and_continuations() {
+    // The same tetrahedron with every line ending, a BOM, and a face continued over lines.
+    let lines = [
+        "v 0 0 0",
+        "v 1 0 0",
+        "v 0 1 0",
+        "v 0 0 1",
+        "f 1 3 2",
+        "f 1 2 \\",
+        "4",
+        "f 1 4 3",
+        "f 2 3 4 \\",
+    ];
+    let reference = Mesh::from_soup(
+        "tetra",
+        &[
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ],
+        &[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        None,
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    for (i, (nl, bom, last_nl)) in [
+        ("\n", "", true),
+        ("\r\n", "", true),
+        ("\r", "", true),
+        ("\n", "\u{feff}", true),
+        ("\r\n", "\u{feff}", false),
+        ("\r", "", false),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut text = format!("{bom}{}", lines.join(nl));
+        if last_nl {
+            text += nl;
+        }
+        let m = load_path(
+            &write_obj(&format!("endings{i}.obj"), &text),
+            &LoadOptions::default(),
+        );
+        // The last face, continued at the end of the file, is read too. (OBJ numbers the
+        // welded vertices by first use, the soup by input order: compare the corners.)
+        assert_eq!(corners(&m), corners(&reference), "case {i}");
+        assert_eq!(m.adjacency().boundary, 0);
+        // Line numbers count each ending once; a continued statement has its first line.
+        let bad = text.replace("f 1 4 3", "f 1 4 x");
+        let e = Mesh::load(
+            write_obj(&format!("endings-bad{i}.obj"), &bad)
+                .to_str()
+                .unwrap(),
+            &LoadOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.ends_with(":8: face corner 'x': 'x' is not an index"),
+            "{e}"
+        );
+        let bad = text.replace("\\", "x \\");
+        let e = Mesh::load(
+            write_obj(&format!("endings-cont{i}.obj"), &bad)
+                .to_str()
+                .unwrap(),
+            &LoadOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains(":6: face corner 'x'"), "{e}");
+    }
+}
+
+#[test]
+fn errors_escape_and_cut_the_input_they_quote() {
+    let text = format!(
+        "v 0 0 0\nv 1 0 0\nv 0 \u{1b}[31m 0\nf 1 2 {}\n",
+        "9".repeat(300)
+    );
+    let e = Mesh::load(
+        write_obj("escape.obj", &text).to_str().unwrap(),
+        &LoadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.ends_with(":3: vertex: '\\u{1b}[31m' is not a number"),
+        "{e}"
+    );
+    let text = format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/{}\n", "x".repeat(300));
+    let e = Mesh::load(
+        write_obj("long.obj", &text).to_str().unwrap(),
+        &LoadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains(":4: face corner '3/xxxxx"), "{e}");
+    assert!(e.contains(&format!("'3/{}…'", "x".repeat(78))), "{e}");
+    assert!(
+        e.contains(&format!("'{}…' is not an index", "x".repeat(80))),
+        "{e}"
+    );
+}
+
+/// Each triangle's corner positions: a mesh independent of how its vertices are numbered.
+fn corners(m: &Mesh) -> Vec<[DVec3; 3]> {
+    m.triangles
+        .iter()
+        .map(|t| t.map(|v| m.positions[v as usize]))
+        .collect()
+}
+
+/// A grid of `n` × `n` vertices on a wavy sheet as OBJ text, written row by row: each row's
+/// vertices and normals, then the faces between it and the previous row, with negative
+/// (relative) indices on odd rows and positive ones on even rows. Returns the text, the line
+/// of each row's first face, and the soup it describes.
+fn wavy_sheet(n: usize) -> (String, Vec<usize>, Soup) {
+    let (mut pos, mut nrm, mut tris) = (Vec::new(), Vec::new(), Vec::new());
+    let mut text = String::from("# a wavy sheet\r\n");
+    let mut face_line = vec![0; n];
+    let mut line = 2;
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (i as f64 / 7.0, j as f64 / 3.0);
+            let p = DVec3::new(x, y, (x * 0.9).sin() * (y * 1.3).cos());
+            let nn = DVec3::new(-(x * 0.9).cos() * 0.9, (y * 1.3).sin() * 1.3, 1.0);
+            text += &format!(
+                "v {:?} {:?} {:?}\nvn {} {} {}\n",
+                p.x, p.y, p.z, nn.x, nn.y, nn.z
+            );
+            line += 2;
+            pos.push(p);
+            nrm.push(nn);
+        }
+        if i == 0 {
+            continue;
+        }
+        face_line[i] = line;
+        for j in 0..n - 1 {
+            let id = |a: usize, b: usize| (a * n + b) as u32;
+            let q = [id(i - 1, j), id(i, j), id(i, j + 1), id(i - 1, j + 1)];
+            tris.push([q[0], q[1], q[2]]);
+            tris.push([q[0], q[2], q[3]]);
+            let c: Vec<String> = q
+                .iter()
+                .map(|&v| {
+                    if i % 2 == 1 {
+                        let r = v as i64 - (i as i64 + 1) * n as i64;
+                        format!("{r}//{r}")
+                    } else {
+                        format!("{}//{}", v + 1, v + 1)
+                    }
+                })
+                .collect();
+            text += &format!("f {}\n", c.join(" "));
+            line += 1;
+        }
+    }
+    (text, face_line, (pos, tris, nrm))
+}
+
+/// Positions, triangles and one normal per position.
+type Soup = (Vec<DVec3>, Vec<[u32; 3]>, Vec<DVec3>);
+
+#[test]
+fn a_large_file_reads_like_its_soup_and_names_lines_deep_inside() {
+    // 350 × 350 vertices: about 16 MB of text, two chunks of many blocks each, so
+    // relative indices reach back across block and chunk boundaries.
+    let n = 350;
+    let (text, face_line, (pos, tris, nrm)) = wavy_sheet(n);
+    assert!(text.len() > 12 << 20, "{} bytes", text.len());
+    let soup = Mesh::from_soup("sheet", &pos, &tris, Some(&nrm), &LoadOptions::default()).unwrap();
+    let p = write_obj("sheet.obj", &text);
+    let m = load_path(&p, &LoadOptions::default());
+    assert_eq!(m.positions.len(), n * n);
+    // Every coordinate back bit for bit, every corner normal the one given (renormalised).
+    assert_eq!(corners(&m), corners(&soup));
+    assert_eq!(m.corner_normals, soup.corner_normals);
+    assert_eq!(m.load_report.polygons_triangulated, (n - 1) * (n - 1));
+    let adj = m.adjacency();
+    assert_eq!(adj.boundary, 4 * (n - 1));
+
+    let lines: Vec<&str> = text.split('\n').collect();
+    let fails = |name: &str, edit: &dyn Fn(&mut Vec<String>)| -> String {
+        let mut l: Vec<String> = lines.iter().map(|s| s.to_string()).collect();
+        edit(&mut l);
+        let p = write_obj(name, &l.join("\n"));
+        let r = Mesh::load(p.to_str().unwrap(), &LoadOptions::default());
+        std::fs::remove_file(&p).unwrap();
+        r.err().map(|e| e.to_string()).unwrap_or_default()
+    };
+    // Line numbers count from 1; `lines[k]` is line k + 1 (the first ends in \r\n).
+    let row = 241; // odd: relative indices
+    let at = face_line[row];
+    let e = fails("sheet-nan.obj", &|l| l[at - 3] = "v 0 nan 0".into());
+    assert!(
+        e.ends_with(&format!(":{}: vertex: non-finite coordinate 'nan'", at - 2)),
+        "{e}"
+    );
+    let e = fails("sheet-back.obj", &|l| l[at + 5] = "f -1 -2 -9999999".into());
+    let have = (row + 1) * n;
+    assert!(
+        e.ends_with(&format!(
+            ":{}: face corner '-9999999': vertex index -9999999 out of range (only {have} vertexs so far)",
+            at + 6
+        )),
+        "{e}"
+    );
+    let e = fails("sheet-forward.obj", &|l| l[at + 7] = "f 1 2 9999999".into());
+    assert!(
+        e.ends_with(&format!(
+            ":{}: vertex index 9999999 out of range (the file has {} vertices)",
+            at + 8,
+            n * n
+        )),
+        "{e}"
+    );
+    let e = fails("sheet-normal.obj", &|l| {
+        l[at + 9] = "f 1//1 2//2 3//999999".into()
+    });
+    assert!(
+        e.ends_with(&format!(
+            ":{}: normal index 999999 out of range (the file has {} normals)",
+            at + 10,
+            n * n
+        )),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_large_point_normal_file_reads_like_its_soup_and_names_lines_deep_inside() {
+    // The wavy sheet as .pn, with a corner normal on every 50th triangle: about 14 MB,
+    // two chunks of parallel blocks.
+    let n = 330;
+    let (_, _, (pos, tris, nrm)) = wavy_sheet(n);
+    let mut text = format!(
+        "g1tess-pn 1\n# a wavy sheet\ncounts {} {} {}\n",
+        pos.len(),
+        tris.len(),
+        tris.len().div_ceil(50)
+    );
+    for (p, q) in pos.iter().zip(&nrm) {
+        text += &format!(
+            "v {:?} {:?} {:?} {:?} {:?} {:?}\n",
+            p.x, p.y, p.z, q.x, q.y, q.z
+        );
+    }
+    let t_line = text.lines().count() + 1;
+    for t in &tris {
+        text += &format!("t {} {} {}\n", t[0], t[1], t[2]);
+    }
+    for t in (0..tris.len()).step_by(50) {
+        text += &format!("c {t} 1 0 0 1\n");
+    }
+    assert!(text.len() > 10 << 20, "{} bytes", text.len());
+    let mut soup =
+        Mesh::from_soup("sheet", &pos, &tris, Some(&nrm), &LoadOptions::default()).unwrap();
+    for t in (0..tris.len()).step_by(50) {
+        soup.corner_normals[t][1] = DVec3::Z;
+    }
+    let m = load_path(&write_obj("sheet.pn", &text), &LoadOptions::default());
+    assert_eq!(m.positions, soup.positions);
+    assert_eq!(m.triangles, soup.triangles);
+    assert_eq!(m.corner_normals, soup.corner_normals);
+
+    let lines: Vec<&str> = text.lines().collect();
+    let fails = |name: &str, line: usize, new: &str| -> String {
+        let mut l = lines.clone();
+        l[line - 1] = new;
+        let p = write_obj(name, &l.join("\n"));
+        let r = Mesh::load(p.to_str().unwrap(), &LoadOptions::default());
+        std::fs::remove_file(&p).unwrap();
+        r.err().map(|e| e.to_string()).unwrap_or_default()
+    };
+    let deep = t_line + 150_000;
+    let e = fails("sheet-range.pn", deep, "t 0 1 999999");
+    assert!(
+        e.ends_with(&format!(
+            ":{deep}: triangle: vertex index 999999 out of range (the file has {} vertices)",
+            n * n
+        )),
+        "{e}"
+    );
+    let e = fails("sheet-bad.pn", deep, "t 0 1 x");
+    assert!(
+        e.ends_with(&format!(
+            ":{deep}: triangle: 'x' is not an index (0-based integer)"
+        )),
+        "{e}"
+    );
+    let last = lines.len();
+    let e = fails("sheet-twice.pn", last, "c 0 1 0 0 1");
+    assert!(
+        e.ends_with(&format!(
+            ":{last}: corner normal: corner 1 of triangle 0 given twice"
+        )),
+        "{e}"
+    );
+    let e = fails("sheet-counts.pn", deep, "counts 1 1 1");
+    assert!(
+        e.ends_with(&format!(":{deep}: a second 'counts' line")),
+        "{e}"
+    );
+}

@@ -185,7 +185,7 @@ mod tests {
         }
         let c = DVec3::splat(0.5);
         let n: Vec<DVec3> = p.iter().map(|x| (*x - c).normalize()).collect();
-        Mesh::from_vertex_normals("cube", p, &n, tris)
+        Mesh::from_soup("cube", &p, &tris, Some(&n), &Default::default()).unwrap()
     }
 
     #[test]

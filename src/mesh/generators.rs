@@ -6,7 +6,7 @@ use std::f64::consts::TAU;
 
 use glam::DVec3;
 
-use super::{normals, Mesh, NormalWeighting};
+use super::{normals, weld, LoadReport, Mesh, NormalWeighting};
 use crate::{Error, Result};
 
 /// One line listing the built-in specs, for help texts and errors.
@@ -126,12 +126,11 @@ pub fn icosphere(level: u32) -> Mesh {
     }
     orient_outward(&pos, &mut tris, DVec3::ZERO);
     let normals = pos.clone();
-    Mesh::from_vertex_normals(format!("icosphere:{level}"), pos, &normals, tris).renamed(
-        match level {
-            2 => "sphere320".to_string(),
-            _ => format!("icosphere:{level}"),
-        },
-    )
+    let name = match level {
+        2 => "sphere320".to_string(),
+        _ => format!("icosphere:{level}"),
+    };
+    with_vertex_normals(name, pos, &normals, tris)
 }
 
 /// Torus with major radius `big_r` around the z axis and tube radius `r`: an n × m grid,
@@ -173,7 +172,38 @@ pub fn torus(n: u32, m: u32, big_r: f64, r: f64, normals: TorusNormals) -> Mesh 
     } else {
         format!("torus:{n}x{m}:{tag}")
     };
-    Mesh::from_vertex_normals(name, pos, &vn, tris)
+    with_vertex_normals(name, pos, &vn, tris)
+}
+
+/// A built-in mesh with one normal per vertex, renormalised on every corner, through the
+/// input weld like every other source (a no-op for these meshes: their vertices are
+/// distinct and all used).
+fn with_vertex_normals(
+    name: String,
+    positions: Vec<DVec3>,
+    normals: &[DVec3],
+    mut triangles: Vec<[u32; 3]>,
+) -> Mesh {
+    let mut corner_normals: Vec<[DVec3; 3]> = triangles
+        .iter()
+        .map(|t| t.map(|v| normals[v as usize].normalize()))
+        .collect();
+    let mut load_report = LoadReport::default();
+    let positions = weld::weld(
+        &positions,
+        &mut triangles,
+        &mut corner_normals,
+        weld::Order::Input,
+        &mut load_report,
+    )
+    .expect("built-in meshes index their own vertices");
+    Mesh {
+        name,
+        positions,
+        triangles,
+        corner_normals,
+        load_report,
+    }
 }
 
 /// Flips triangles whose normal points towards `centre` (convex, star-shaped meshes).
@@ -184,12 +214,5 @@ fn orient_outward(pos: &[DVec3], tris: &mut [[u32; 3]], centre: DVec3) {
         if n.dot(p[0] + p[1] + p[2] - 3.0 * centre) < 0.0 {
             t.swap(1, 2);
         }
-    }
-}
-
-impl Mesh {
-    fn renamed(mut self, name: String) -> Mesh {
-        self.name = name;
-        self
     }
 }

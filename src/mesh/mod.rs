@@ -6,7 +6,8 @@ pub mod creases;
 pub mod generators;
 pub mod normals;
 pub mod obj;
-pub mod pn;
+pub mod pn_file;
+pub mod weld;
 
 use glam::DVec3;
 use std::path::Path;
@@ -92,23 +93,155 @@ impl Mesh {
             }
             let ext = path.extension().map(|e| e.to_ascii_lowercase());
             if ext.as_deref() == Some(std::ffi::OsStr::new("pn")) {
-                pn::load_pn(path)?
+                pn_file::load_pn(path)?
             } else {
                 obj::load_obj(path, opts)?
             }
         };
+        mesh.apply_options(opts)?;
+        Ok(mesh)
+    }
+
+    /// What every source does last: the options' normal recomputation and crease split,
+    /// then [`Mesh::validate`].
+    fn apply_options(&mut self, opts: &LoadOptions) -> Result<()> {
         if opts.recompute_normals {
-            let n = normals::vertex_normals(&mesh.positions, &mesh.triangles, opts.weighting);
-            mesh.corner_normals = mesh
+            let n = normals::vertex_normals(&self.positions, &self.triangles, opts.weighting);
+            self.corner_normals = self
                 .triangles
                 .iter()
                 .map(|t| t.map(|v| n[v as usize]))
                 .collect();
         }
         if let Some(angle) = opts.crease_angle {
-            creases::split_normals_by_angle(&mut mesh, angle, opts.weighting)?;
+            creases::split_normals_by_angle(self, angle, opts.weighting)?;
         }
-        mesh.validate()?;
+        self.validate()
+    }
+
+    /// Builds a mesh from an in-memory triangle soup, the way a renderer or another library
+    /// holds one: `positions`, `triangles` indexing them (counter-clockwise seen from the
+    /// outside) and, optionally, one normal per position.
+    ///
+    /// The input is checked first: a non-finite coordinate, a zero or non-finite normal, a
+    /// normal count that differs from the position count or a triangle index out of range is
+    /// an error naming the element (`"NAME: vertex 12 has a non-finite coordinate"`). The soup
+    /// is then welded exactly like file input ([`weld::weld`]: equal coordinates, `-0.0`
+    /// equal to `0.0`, so a split-vertex mesh comes out closed); triangles that collapse and
+    /// unused vertices are dropped and counted in [`Mesh::load_report`]. Each corner keeps
+    /// the normal given for its input vertex (renormalised), so split normals survive the
+    /// weld; without normals they are estimated with `opts.weighting`. The options'
+    /// normal recomputation and crease angle apply as for [`Mesh::load`].
+    ///
+    /// ```
+    /// use g1tess::eval::{cpu::CpuEvaluator, Evaluator, Pattern};
+    /// use g1tess::mesh::{LoadOptions, Mesh};
+    /// use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+    ///
+    /// // A tetrahedron, outward, without normals (they are estimated).
+    /// let positions = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    /// let triangles = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+    /// let mesh = Mesh::from_soup("tetra", &positions, &triangles, None, &LoadOptions::default())?;
+    /// let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default())?;
+    /// let (points, normals) =
+    ///     CpuEvaluator::default().evaluate_all(&table, &Pattern::Grid { level: 8 })?;
+    /// assert_eq!(points.len(), 4 * 45); // 45 samples per patch at level 8
+    /// assert!(normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-12));
+    /// # Ok::<(), g1tess::Error>(())
+    /// ```
+    pub fn from_soup<P: Copy + Into<DVec3>>(
+        name: impl Into<String>,
+        positions: &[P],
+        triangles: &[[u32; 3]],
+        normals: Option<&[P]>,
+        opts: &LoadOptions,
+    ) -> Result<Mesh> {
+        let name = name.into();
+        let positions: Vec<DVec3> = positions.iter().map(|&p| p.into()).collect();
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(Error::mesh(
+                &name,
+                format!("vertex {i} has a non-finite coordinate"),
+            ));
+        }
+        let nv = positions.len();
+        if let Some((t, v)) = triangles
+            .iter()
+            .enumerate()
+            .find_map(|(t, tri)| tri.iter().find(|&&v| v as usize >= nv).map(|&v| (t, v)))
+        {
+            return Err(Error::mesh(
+                &name,
+                format!(
+                    "triangle {t} has vertex index {v}, out of range (the soup has {nv} vertices)"
+                ),
+            ));
+        }
+        let unit: Option<Vec<DVec3>> = match normals {
+            None => None,
+            Some(n) if n.len() != nv => {
+                return Err(Error::mesh(
+                    &name,
+                    format!(
+                        "{} normals for {nv} vertices (one per vertex expected)",
+                        n.len()
+                    ),
+                ))
+            }
+            Some(n) => Some(
+                n.iter()
+                    .enumerate()
+                    .map(|(i, &n)| {
+                        let n: DVec3 = n.into();
+                        let len = n.length();
+                        if len == 0.0 || !len.is_finite() {
+                            Err(Error::mesh(
+                                &name,
+                                format!("normal {i} is zero or non-finite"),
+                            ))
+                        } else {
+                            Ok(n / len)
+                        }
+                    })
+                    .collect::<Result<_>>()?,
+            ),
+        };
+        let mut corner_normals: Vec<[DVec3; 3]> = match &unit {
+            Some(n) => triangles.iter().map(|t| t.map(|v| n[v as usize])).collect(),
+            None => Vec::new(),
+        };
+        let mut triangles = triangles.to_vec();
+        let mut report = LoadReport::default();
+        let positions = weld::weld(
+            &positions,
+            &mut triangles,
+            &mut corner_normals,
+            weld::Order::Input,
+            &mut report,
+        )?;
+        if triangles.is_empty() {
+            return Err(Error::mesh(
+                &name,
+                if report.degenerate_triangles_dropped > 0 {
+                    "empty mesh: every triangle is degenerate"
+                } else {
+                    "empty mesh: no triangles"
+                },
+            ));
+        }
+        if unit.is_none() {
+            report.normals_estimated = 3 * triangles.len();
+            let n = normals::vertex_normals(&positions, &triangles, opts.weighting);
+            corner_normals = triangles.iter().map(|t| t.map(|v| n[v as usize])).collect();
+        }
+        let mut mesh = Mesh {
+            name,
+            positions,
+            triangles,
+            corner_normals,
+            load_report: report,
+        };
+        mesh.apply_options(opts)?;
         Ok(mesh)
     }
 
@@ -163,28 +296,482 @@ impl Mesh {
         (hi - lo).length()
     }
 
-    /// Builds a mesh with one normal per vertex.
-    pub fn from_vertex_normals(
-        name: impl Into<String>,
-        positions: Vec<DVec3>,
-        normals: &[DVec3],
-        triangles: Vec<[u32; 3]>,
-    ) -> Mesh {
-        let corner_normals = triangles
-            .iter()
-            .map(|t| t.map(|v| normals[v as usize].normalize()))
-            .collect();
-        Mesh {
-            name: name.into(),
-            positions,
-            triangles,
-            corner_normals,
-            load_report: LoadReport::default(),
-        }
-    }
-
     /// Edge adjacency of the triangles.
     pub fn adjacency(&self) -> Adjacency {
         Adjacency::new(&self.triangles)
+    }
+}
+
+/// Reading input text fast: chunks of whole statements, statements with their line numbers,
+/// ASCII tokens, and input echoed safely in messages. Shared by the OBJ and `.pn` readers.
+pub(crate) mod text {
+    use std::io::Read;
+    use std::path::Path;
+
+    use crate::{Error, Result};
+
+    /// Bytes read per chunk (a chunk grows past this only for one longer statement).
+    pub const CHUNK: usize = 8 << 20;
+
+    /// Whether the terminator byte at `i` (`\n` or `\r`) ends a statement: not the `\r` of a
+    /// `\r\n`, not a `\r` that may be followed by `\n` in data not yet read, and not the end
+    /// of a line continued by a backslash. Returns the index just after it.
+    fn boundary_at(buf: &[u8], i: usize, eof: bool) -> Option<usize> {
+        if buf[i] == b'\r' {
+            match buf.get(i + 1) {
+                Some(b'\n') => return None,
+                None if !eof => return None,
+                _ => {}
+            }
+        }
+        let end = if buf[i] == b'\n' && i > 0 && buf[i - 1] == b'\r' {
+            i - 1
+        } else {
+            i
+        };
+        (end == 0 || buf[end - 1] != b'\\').then_some(i + 1)
+    }
+
+    /// The end of the last whole statement of `buf`, if any.
+    fn last_boundary(buf: &[u8]) -> Option<usize> {
+        let mut i = buf.len();
+        while i > 0 {
+            i -= 1;
+            if (buf[i] == b'\n' || buf[i] == b'\r') && boundary_at(buf, i, false).is_some() {
+                return Some(i + 1);
+            }
+        }
+        None
+    }
+
+    /// The first statement boundary at or after `from` (`buf.len()` if none).
+    fn next_boundary(buf: &[u8], from: usize) -> usize {
+        (from..buf.len())
+            .find(|&i| (buf[i] == b'\n' || buf[i] == b'\r') && boundary_at(buf, i, true).is_some())
+            .map_or(buf.len(), |i| i + 1)
+    }
+
+    /// Splits `buf` (whole statements) into at most `n` pieces of whole statements.
+    pub fn split(buf: &[u8], n: usize) -> Vec<&[u8]> {
+        let mut out = Vec::with_capacity(n);
+        let mut start = 0;
+        for k in 1..=n {
+            let end = if k == n {
+                buf.len()
+            } else {
+                next_boundary(buf, (buf.len() * k / n).max(start))
+            };
+            if end > start {
+                out.push(&buf[start..end]);
+                start = end;
+            }
+        }
+        out
+    }
+
+    fn fill(file: &mut std::fs::File, buf: &mut Vec<u8>, want: usize) -> std::io::Result<bool> {
+        let target = buf.len() + want;
+        buf.reserve(want);
+        while buf.len() < target {
+            let n = file
+                .by_ref()
+                .take((target - buf.len()) as u64)
+                .read_to_end(buf)?;
+            if n == 0 {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    /// Reads `path` chunk by chunk, each chunk ending at a statement boundary (a UTF-8 BOM at
+    /// the start dropped), and hands each to `f` in order with the number of its first line;
+    /// `f` returns how many lines the chunk holds. The next chunk is read while `f` works.
+    pub fn for_each_chunk<F>(path: &Path, mut f: F) -> Result<()>
+    where
+        F: FnMut(&[u8], usize) -> Result<usize> + Send,
+    {
+        let io = |e| Error::io(path, e);
+        let mut file = std::fs::File::open(path).map_err(io)?;
+        let mut cur = Vec::new();
+        let mut eof = fill(&mut file, &mut cur, CHUNK).map_err(io)?;
+        if cur.starts_with(b"\xef\xbb\xbf") {
+            cur.drain(..3);
+        }
+        let mut line = 1;
+        loop {
+            let cut = if eof {
+                cur.len()
+            } else if let Some(c) = last_boundary(&cur) {
+                c
+            } else {
+                // One statement longer than a chunk: read on.
+                eof = fill(&mut file, &mut cur, CHUNK).map_err(io)?;
+                continue;
+            };
+            let mut next = Vec::with_capacity(CHUNK + cur.len() - cut);
+            next.extend_from_slice(&cur[cut..]);
+            let (lines, more) = if eof {
+                (f(&cur[..cut], line), Ok(true))
+            } else {
+                rayon::join(
+                    || f(&cur[..cut], line),
+                    || fill(&mut file, &mut next, CHUNK),
+                )
+            };
+            line += lines?;
+            if eof {
+                return Ok(());
+            }
+            eof = more.map_err(io)?;
+            cur = next;
+        }
+    }
+
+    /// Checks that `buf` is UTF-8; the error names the line of the first bad byte.
+    pub fn utf8<'a>(path: &Path, buf: &'a [u8], first_line: usize) -> Result<&'a str> {
+        std::str::from_utf8(buf).map_err(|e| {
+            let before = &buf[..e.valid_up_to()];
+            Error::parse(path, first_line + count_lines(before), "not UTF-8 text")
+        })
+    }
+
+    /// Line terminators in `buf` (`\n`, `\r\n` and a lone `\r` each count once).
+    pub fn count_lines(buf: &[u8]) -> usize {
+        let mut n = 0;
+        for (i, &b) in buf.iter().enumerate() {
+            if b == b'\n' || (b == b'\r' && buf.get(i + 1) != Some(&b'\n')) {
+                n += 1;
+            }
+        }
+        n
+    }
+
+    /// Calls `f(line, statement)` for each statement of `text` (lines end with `\n`, `\r\n`
+    /// or `\r`; with `continuation`, a backslash at the end of a line continues the statement
+    /// on the next, also at the end of the text). Returns the number of lines.
+    pub fn statements(
+        text: &str,
+        first_line: usize,
+        continuation: bool,
+        mut f: impl FnMut(usize, &str) -> Result<()>,
+    ) -> Result<usize> {
+        let b = text.as_bytes();
+        let mut i = 0;
+        let mut line = first_line;
+        let mut pending = String::new();
+        let mut pending_line = 0;
+        while i < b.len() {
+            let mut j = find_eol(b, i);
+            let content = &text[i..j];
+            let continued = continuation && j > i && b[j - 1] == b'\\';
+            if let Some(body) = continued.then(|| &text[i..j - 1]) {
+                if pending.is_empty() {
+                    pending_line = line;
+                }
+                pending.push_str(body);
+                pending.push(' ');
+            } else if !pending.is_empty() {
+                pending.push_str(content);
+                f(pending_line, &pending)?;
+                pending.clear();
+            } else {
+                f(line, content)?;
+            }
+            if j < b.len() {
+                line += 1;
+                j += if b[j] == b'\r' && b.get(j + 1) == Some(&b'\n') {
+                    2
+                } else {
+                    1
+                };
+            }
+            i = j;
+        }
+        if !pending.is_empty() {
+            f(pending_line, &pending)?;
+        }
+        Ok(line - first_line)
+    }
+
+    /// The first `\n` or `\r` at or after `i` (`b.len()` if none), eight bytes at a time.
+    #[inline]
+    fn find_eol(b: &[u8], mut i: usize) -> usize {
+        const ONES: u64 = 0x0101_0101_0101_0101;
+        const HIGH: u64 = 0x8080_8080_8080_8080;
+        // High bit of each zero byte of v; exact for the lowest one (what is used).
+        let zero = |v: u64| v.wrapping_sub(ONES) & !v & HIGH;
+        while let Some(word) = b.get(i..i + 8) {
+            let w = u64::from_le_bytes(word.try_into().unwrap_or_default());
+            let m = zero(w ^ (ONES * b'\n' as u64)) | zero(w ^ (ONES * b'\r' as u64));
+            if m != 0 {
+                return i + (m.trailing_zeros() / 8) as usize;
+            }
+            i += 8;
+        }
+        while i < b.len() && b[i] != b'\n' && b[i] != b'\r' {
+            i += 1;
+        }
+        i
+    }
+
+    /// Parses a decimal number like `str::parse::<f64>`, with a shortcut for the plain
+    /// decimals mesh files hold: at most 15 significant digits and 22 decimals, no exponent,
+    /// are an integer below 2^53 divided by an exact power of ten, one correctly rounded
+    /// division (Clinger's fast path), so the result is the same. Anything else goes to std.
+    #[inline]
+    pub fn parse_f64(s: &str) -> Option<f64> {
+        const POW10: [f64; 23] = [
+            1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+            1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+        ];
+        let b = s.as_bytes();
+        let (neg, mut i) = match b.first() {
+            Some(b'-') => (true, 1),
+            Some(b'+') => (false, 1),
+            _ => (false, 0),
+        };
+        let (mut m, mut digits, mut decimals, mut any, mut dot) =
+            (0u64, 0u32, 0usize, false, false);
+        while i < b.len() {
+            let c = b[i];
+            if c.is_ascii_digit() {
+                any = true;
+                if m != 0 || c != b'0' {
+                    digits += 1;
+                    if digits > 15 {
+                        return s.parse().ok();
+                    }
+                    m = m * 10 + u64::from(c - b'0');
+                }
+                decimals += usize::from(dot);
+            } else if c == b'.' && !dot {
+                dot = true;
+            } else {
+                return s.parse().ok();
+            }
+            i += 1;
+        }
+        if !any || decimals > 22 {
+            return s.parse().ok();
+        }
+        let v = m as f64 / POW10[decimals];
+        Some(if neg { -v } else { v })
+    }
+
+    /// Parses a decimal integer like `str::parse::<i64>`.
+    #[inline]
+    pub fn parse_i64(s: &str) -> Option<i64> {
+        let b = s.as_bytes();
+        let (neg, digits) = match b.first() {
+            Some(b'-') => (true, &b[1..]),
+            Some(b'+') => (false, &b[1..]),
+            _ => (false, b),
+        };
+        if digits.is_empty() || digits.len() > 18 {
+            return s.parse().ok();
+        }
+        let mut v = 0i64;
+        for &c in digits {
+            if !c.is_ascii_digit() {
+                return None;
+            }
+            v = v * 10 + i64::from(c - b'0');
+        }
+        Some(if neg { -v } else { v })
+    }
+
+    /// Whitespace-separated tokens of a statement up to a `#` comment. ASCII statements are
+    /// split on ASCII blanks; others on Unicode whitespace.
+    pub enum Tokens<'a> {
+        Ascii(&'a str, usize),
+        Unicode(std::str::SplitWhitespace<'a>),
+    }
+
+    impl<'a> Tokens<'a> {
+        pub fn new(stmt: &'a str) -> Tokens<'a> {
+            if stmt.is_ascii() {
+                Tokens::Ascii(stmt, 0)
+            } else {
+                Tokens::Unicode(stmt.split('#').next().unwrap_or("").split_whitespace())
+            }
+        }
+    }
+
+    impl<'a> Iterator for Tokens<'a> {
+        type Item = &'a str;
+        #[inline]
+        fn next(&mut self) -> Option<&'a str> {
+            match self {
+                Tokens::Unicode(it) => it.next(),
+                Tokens::Ascii(s, pos) => {
+                    let b = s.as_bytes();
+                    let mut i = *pos;
+                    while i < b.len() && matches!(b[i], b' ' | b'\t' | b'\x0b' | b'\x0c') {
+                        i += 1;
+                    }
+                    if i == b.len() || b[i] == b'#' {
+                        *pos = b.len();
+                        return None;
+                    }
+                    let start = i;
+                    while i < b.len() && !matches!(b[i], b' ' | b'\t' | b'\x0b' | b'\x0c' | b'#') {
+                        i += 1;
+                    }
+                    *pos = i;
+                    Some(&s[start..i])
+                }
+            }
+        }
+    }
+
+    /// Input text quoted in a message: control characters escaped, cut to 80 characters.
+    pub fn echo(s: &str) -> String {
+        let mut out = String::new();
+        for (n, c) in s.chars().enumerate() {
+            if n == 80 {
+                out.push('…');
+                break;
+            }
+            if c.is_control() {
+                out.extend(c.escape_default());
+            } else {
+                out.push(c);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::text::*;
+
+    #[test]
+    fn number_parsers_agree_with_std() {
+        // Decimal strings of every shape a mesh file holds, and some it should not.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut cases: Vec<String> = [
+            "0",
+            "-0",
+            "+0",
+            "0.",
+            ".5",
+            "-.5",
+            "+.5",
+            ".",
+            "-",
+            "+",
+            "",
+            "1.2.3",
+            "1e5",
+            "-1.5E-3",
+            "inf",
+            "-infinity",
+            "NaN",
+            "0x10",
+            "1_0",
+            " 1",
+            "00012.5000",
+            "0.30000000000000004",
+            "123456789012345",
+            "1234567890123456",
+            "9007199254740993",
+            "0.0000000000000000000001",
+            "0.00000000000000000000001",
+            "1.7976931348623157e308",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        for _ in 0..20000 {
+            let r = next();
+            let digits = (r % 20) as usize + 1;
+            let point = (r >> 8) as usize % (digits + 1);
+            let mut s = String::new();
+            if r & (1 << 20) != 0 {
+                s.push('-');
+            }
+            for k in 0..digits {
+                if k == point {
+                    s.push('.');
+                }
+                s.push((b'0' + (next() % 10) as u8) as char);
+            }
+            cases.push(s);
+            let x = f64::from_bits(next()).abs();
+            if x.is_finite() {
+                cases.push(format!("{x:?}"));
+                cases.push(format!("{:.6}", x % 1e6));
+            }
+        }
+        for s in &cases {
+            let want = s.parse::<f64>().ok().map(f64::to_bits);
+            assert_eq!(parse_f64(s).map(f64::to_bits), want, "'{s}'");
+            assert_eq!(parse_i64(s), s.parse::<i64>().ok(), "'{s}'");
+        }
+        for s in [
+            "99999999999999999999",
+            "-9223372036854775808",
+            "9223372036854775807",
+            "+7",
+        ] {
+            assert_eq!(parse_i64(s), s.parse::<i64>().ok(), "'{s}'");
+        }
+    }
+
+    #[test]
+    fn statements_follow_every_line_ending_and_continuations() {
+        let collect = |text: &str| {
+            let mut out = Vec::new();
+            let n = statements(text, 1, true, |line, s| {
+                out.push((line, s.to_string()));
+                Ok(())
+            })
+            .unwrap();
+            (n, out)
+        };
+        let want = vec![
+            (1, "a".to_string()),
+            (2, "b  c".to_string()),
+            (4, "d".to_string()),
+        ];
+        for nl in ["\n", "\r\n", "\r"] {
+            let text = format!("a{nl}b \\{nl}c{nl}d{nl}");
+            assert_eq!(collect(&text), (4, want.clone()), "{text:?}");
+        }
+        // A continuation on the last line, with and without a final newline.
+        assert_eq!(collect("x\\").1, vec![(1, "x ".to_string())]);
+        assert_eq!(collect("x\\\n").1, vec![(1, "x ".to_string())]);
+        // Splitting never cuts a statement, a CRLF or a continuation.
+        let text = "v 1\r\nv 2 \\\r\n3\rf 1\n\nf 2\\\n\\\nx\r";
+        for n in 1..=text.len() {
+            let pieces = split(text.as_bytes(), n);
+            let mut all = Vec::new();
+            let mut line = 1;
+            for p in &pieces {
+                let p = std::str::from_utf8(p).unwrap();
+                line += statements(p, line, true, |l, s| {
+                    all.push((l, s.to_string()));
+                    Ok(())
+                })
+                .unwrap();
+            }
+            assert_eq!((line - 1, all), collect(text), "{n} pieces: {pieces:?}");
+        }
+    }
+
+    #[test]
+    fn echo_escapes_and_cuts() {
+        assert_eq!(echo("a\u{1b}[1mb\tc"), "a\\u{1b}[1mb\\tc");
+        let long = "x".repeat(200);
+        assert_eq!(echo(&long), format!("{}…", "x".repeat(80)));
+        assert_eq!(echo("é"), "é");
     }
 }

@@ -4,252 +4,490 @@
 //! corner's) for face corners that give none when other faces do, and its errors carry no
 //! line number. Here every defect names the file and the line, and a corner without a
 //! normal gets an estimated one.
+//!
+//! The file is read in chunks of whole statements, each split into blocks parsed in parallel.
+//! A block does not know how many vertices came before it, so relative (negative) indices
+//! are kept relative to the block and resolved when the blocks are joined in order. Any
+//! defect sends the whole file through the same parser once more, sequentially with exact
+//! counts, which reports the first defect of the file with its line: errors cost a second
+//! pass, valid files do not.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
-use super::{normals, LoadOptions, LoadReport, Mesh};
+use super::text::{self, echo, Tokens};
+use super::{normals, weld, LoadOptions, LoadReport, Mesh};
 use crate::{Error, Result};
 
-/// One face corner: position index and optional normal index (0-based, resolved).
+/// Marks a corner without a normal.
+const NONE: i64 = i64::MAX;
+/// Offset of an index relative to its block (stored as `r - REL`, always below `-REL / 2`).
+const REL: i64 = 1 << 40;
+
+/// Counts of `v`, `vt` and `vn` records.
+type Counts = [usize; 3];
+const V: usize = 0;
+const VT: usize = 1;
+const VN: usize = 2;
+const WHAT: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+
+/// What one block of statements holds.
+#[derive(Default)]
+struct Block {
+    positions: Vec<DVec3>,
+    normals: Vec<DVec3>,
+    texcoords: usize,
+    /// Position and normal index of each triangle corner: absolute (>= 0), relative to the
+    /// block (`r - REL`) or [`NONE`].
+    tris: Vec<[i64; 3]>,
+    tri_normals: Vec<[i64; 3]>,
+    polygons: usize,
+    /// Largest absolute position and normal index (-1 if none).
+    max_abs: [i64; 2],
+    /// Smallest relative index of each kind (0 if none): it must not reach before the file.
+    min_rel: [i64; 3],
+}
+
+/// How a block is parsed.
 #[derive(Clone, Copy)]
-struct Corner {
-    v: usize,
-    vn: Option<usize>,
+struct Mode {
+    /// Counts before the block when known (sequential pass): indices resolve exactly.
+    base: Option<Counts>,
+    /// The file's final position and normal counts, when a sequential pass checks forward
+    /// references.
+    totals: Option<[usize; 2]>,
 }
 
-/// A face as read, with its line for errors found after the whole file is read.
-struct Face {
-    line: usize,
-    corners: Vec<Corner>,
+/// Outcome of a pass: a parallel pass only learns that something is wrong.
+enum Fail {
+    Error(Error),
+    Retry,
 }
 
-/// Reads a Wavefront OBJ file: polygons triangulated as fans, every face form (`v`,
-/// `v/vt`, `v//vn`, `v/vt/vn`), negative (relative) indices, all objects and groups merged,
-/// positions welded by exact coordinates, unused vertices dropped, per-corner normals kept
-/// (renormalised), missing normals estimated with `opts.weighting`.
-pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        let at = e.utf8_error().valid_up_to();
-        let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
-        Error::parse(path, line, "not UTF-8 text")
-    })?;
+impl From<Error> for Fail {
+    fn from(e: Error) -> Fail {
+        Fail::Error(e)
+    }
+}
 
-    let mut positions: Vec<DVec3> = Vec::new();
-    let mut normals_in: Vec<DVec3> = Vec::new();
-    let mut texcoords = 0usize;
-    let mut faces: Vec<Face> = Vec::new();
-    let mut report = LoadReport::default();
+impl Block {
+    fn new() -> Block {
+        Block {
+            max_abs: [-1; 2],
+            ..Default::default()
+        }
+    }
 
-    let mut pending = String::new();
-    let mut start_line = 0;
-    for (i, raw) in text.lines().enumerate() {
-        // Backslash continues a statement on the next line.
-        if pending.is_empty() {
-            start_line = i + 1;
+    fn count(&self, kind: usize) -> usize {
+        match kind {
+            V => self.positions.len(),
+            VT => self.texcoords,
+            _ => self.normals.len(),
         }
-        if let Some(body) = raw.strip_suffix('\\') {
-            pending.push_str(body);
-            pending.push(' ');
-            continue;
-        }
-        pending.push_str(raw);
-        let line = std::mem::take(&mut pending);
-        let lineno = start_line;
-        let err = |msg: String| Error::parse(path, lineno, msg);
-        let content = line.split('#').next().unwrap_or("");
-        let mut tok = content.split_whitespace();
-        let Some(kw) = tok.next() else { continue };
-        let numbers =
-            |tok: std::str::SplitWhitespace, need: usize, what: &str| -> Result<[f64; 3]> {
-                let vals: Vec<&str> = tok.collect();
-                if vals.len() < need {
-                    return Err(err(format!(
-                        "{what} needs {need} numbers, found {}",
-                        vals.len()
-                    )));
-                }
-                let mut out = [0.0; 3];
-                for (k, s) in vals.iter().take(need).enumerate() {
-                    let x: f64 = s
-                        .parse()
-                        .map_err(|_| err(format!("{what}: '{s}' is not a number")))?;
-                    if !x.is_finite() {
-                        return Err(err(format!("{what}: non-finite coordinate '{s}'")));
-                    }
-                    out[k] = x;
-                }
-                Ok(out)
-            };
-        match kw {
-            "v" => positions.push(DVec3::from_array(numbers(tok, 3, "vertex")?)),
-            "vn" => {
-                let n = DVec3::from_array(numbers(tok, 3, "normal")?);
+    }
+
+    /// Parses one statement.
+    fn statement(&mut self, path: &Path, mode: Mode, line: usize, stmt: &str) -> Result<()> {
+        let err = |msg: String| Error::parse(path, line, msg);
+        let mut tok = Tokens::new(stmt);
+        let Some(kw) = tok.next() else {
+            return Ok(());
+        };
+        match kw.as_bytes() {
+            b"v" => {
+                let p = numbers::<3>(tok, "vertex", &err)?;
+                self.positions.push(DVec3::from_array(p));
+            }
+            b"vn" => {
+                let n = DVec3::from_array(numbers::<3>(tok, "normal", &err)?);
                 let len = n.length();
                 if len == 0.0 || !len.is_finite() {
                     return Err(err("zero-length normal".into()));
                 }
-                normals_in.push(n / len);
+                self.normals.push(n / len);
             }
-            "vt" => {
-                numbers(tok, 1, "texture coordinate")?;
-                texcoords += 1;
+            b"vt" => {
+                numbers::<1>(tok, "texture coordinate", &err)?;
+                self.texcoords += 1;
             }
-            "f" => {
-                let mut corners = Vec::new();
-                for c in tok {
-                    let parts: Vec<&str> = c.split('/').collect();
-                    if parts.len() > 3 || parts[0].is_empty() {
-                        return Err(err(format!("malformed face corner '{c}'")));
-                    }
-                    let mut idx = [None; 3];
-                    for (slot, s) in parts.iter().enumerate() {
-                        if s.is_empty() {
-                            continue;
-                        }
-                        let (what, have) = match slot {
-                            0 => ("vertex", positions.len()),
-                            1 => ("texture coordinate", texcoords),
-                            _ => ("normal", normals_in.len()),
-                        };
-                        let k: i64 = s.parse().map_err(|_| {
-                            err(format!("face corner '{c}': '{s}' is not an index"))
-                        })?;
-                        let resolved = if k > 0 {
-                            (k - 1) as usize
-                        } else if k < 0 && (-k) as usize <= have {
-                            (have as i64 + k) as usize
-                        } else if k == 0 {
-                            return Err(err(format!(
-                                "face corner '{c}': index 0 (OBJ counts from 1)"
-                            )));
-                        } else {
-                            return Err(err(format!(
-                                "face corner '{c}': {what} index {k} out of range (only {have} {what}s so far)"
-                            )));
-                        };
-                        idx[slot] = Some(resolved);
-                    }
-                    corners.push(Corner {
-                        v: idx[0].unwrap_or_default(),
-                        vn: idx[2],
-                    });
-                }
-                if corners.len() < 3 {
-                    return Err(err(format!(
-                        "face needs at least 3 corners, found {}",
-                        corners.len()
-                    )));
-                }
-                faces.push(Face {
-                    line: lineno,
-                    corners,
-                });
-            }
+            b"f" => self.face(mode, tok, &err)?,
             _ => {}
         }
+        Ok(())
     }
 
-    // Positive indices may point forward; check them against the final counts.
-    for f in &faces {
-        for c in &f.corners {
-            if c.v >= positions.len() {
-                return Err(Error::parse(
-                    path,
-                    f.line,
-                    format!(
-                        "vertex index {} out of range (the file has {} vertices)",
-                        c.v + 1,
-                        positions.len()
-                    ),
-                ));
+    fn face(&mut self, mode: Mode, tok: Tokens, err: &dyn Fn(String) -> Error) -> Result<()> {
+        let mut n = 0usize;
+        let mut first = [NONE; 2];
+        let mut prev = [NONE; 2];
+        for c in tok {
+            let malformed = || err(format!("malformed face corner '{}'", echo(c)));
+            let mut parts = [""; 3];
+            let (mut np, mut start) = (0, 0);
+            for (i, &b) in c.as_bytes().iter().enumerate() {
+                if b == b'/' {
+                    if np == 2 {
+                        return Err(malformed());
+                    }
+                    parts[np] = &c[start..i];
+                    np += 1;
+                    start = i + 1;
+                }
             }
-            if let Some(n) = c.vn.filter(|&n| n >= normals_in.len()) {
-                return Err(Error::parse(
-                    path,
-                    f.line,
-                    format!(
-                        "normal index {} out of range (the file has {} normals)",
-                        n + 1,
-                        normals_in.len()
-                    ),
-                ));
+            parts[np] = &c[start..];
+            if parts[0].is_empty() {
+                return Err(malformed());
+            }
+            let mut idx = [NONE; 3];
+            for (slot, s) in parts.into_iter().enumerate() {
+                if !s.is_empty() {
+                    idx[slot] = self.index(mode, c, s, slot, err)?;
+                }
+            }
+            let cur = [idx[V], idx[VN]];
+            match n {
+                0 => first = cur,
+                1 => {}
+                _ => {
+                    self.tris.push([first[0], prev[0], cur[0]]);
+                    self.tri_normals.push([first[1], prev[1], cur[1]]);
+                }
+            }
+            prev = cur;
+            n += 1;
+        }
+        if n < 3 {
+            return Err(err(format!("face needs at least 3 corners, found {n}")));
+        }
+        self.polygons += usize::from(n > 3);
+        Ok(())
+    }
+
+    /// Resolves index text `s` of kind `slot` in corner `c`.
+    fn index(
+        &mut self,
+        mode: Mode,
+        c: &str,
+        s: &str,
+        slot: usize,
+        err: &dyn Fn(String) -> Error,
+    ) -> Result<i64> {
+        let k = text::parse_i64(s).ok_or_else(|| {
+            err(format!(
+                "face corner '{}': '{}' is not an index",
+                echo(c),
+                echo(s)
+            ))
+        })?;
+        let what = WHAT[slot];
+        if k > 0 {
+            let abs = k - 1;
+            if slot != VT {
+                let a = usize::from(slot == VN);
+                if let Some(total) = mode.totals.map(|t| t[a]) {
+                    if abs as u64 >= total as u64 {
+                        return Err(err(format!(
+                            "{what} index {k} out of range (the file has {total} {})",
+                            if slot == V { "vertices" } else { "normals" }
+                        )));
+                    }
+                }
+                self.max_abs[a] = self.max_abs[a].max(abs);
+            }
+            return Ok(abs);
+        }
+        if k == 0 {
+            return Err(err(format!(
+                "face corner '{}': index 0 (OBJ counts from 1)",
+                echo(c)
+            )));
+        }
+        let local = self.count(slot);
+        match mode.base {
+            Some(base) => {
+                let have = base[slot] + local;
+                if k.unsigned_abs() > have as u64 {
+                    return Err(err(format!(
+                        "face corner '{}': {what} index {k} out of range (only {have} {what}s so far)",
+                        echo(c)
+                    )));
+                }
+                Ok(have as i64 + k)
+            }
+            None => {
+                // Within the range of relative values (|k| below 2^39): larger ones are
+                // out of range anyway and are reported by the sequential pass.
+                let r = local as i64 + k.max(-(REL / 2));
+                self.min_rel[slot] = self.min_rel[slot].min(r);
+                Ok(r - REL)
             }
         }
     }
+}
 
-    // Weld referenced positions by exact coordinates; unreferenced ones are dropped.
-    let mut weld: HashMap<[u64; 3], u32> = HashMap::new();
-    let mut welded_of: Vec<Option<u32>> = vec![None; positions.len()];
-    let mut out_pos: Vec<DVec3> = Vec::new();
-    let mut referenced = 0usize;
-    let mut triangles: Vec<[u32; 3]> = Vec::new();
-    let mut corner_in: Vec<[Option<DVec3>; 3]> = Vec::new();
-    for f in &faces {
-        if f.corners.len() > 3 {
-            report.polygons_triangulated += 1;
+/// `N` numbers from the statement's tokens (more are ignored), finite.
+fn numbers<const N: usize>(
+    mut tok: Tokens,
+    what: &str,
+    err: &dyn Fn(String) -> Error,
+) -> Result<[f64; N]> {
+    let mut s = [""; N];
+    for (k, slot) in s.iter_mut().enumerate() {
+        *slot = tok
+            .next()
+            .ok_or_else(|| err(format!("{what} needs {N} numbers, found {k}")))?;
+    }
+    let mut out = [0.0; N];
+    for (x, s) in out.iter_mut().zip(s) {
+        *x = text::parse_f64(s)
+            .ok_or_else(|| err(format!("{what}: '{}' is not a number", echo(s))))?;
+        if !x.is_finite() {
+            return Err(err(format!("{what}: non-finite coordinate '{}'", echo(s))));
         }
-        let ids: Vec<u32> = f
-            .corners
-            .iter()
-            .map(|c| {
-                *welded_of[c.v].get_or_insert_with(|| {
-                    referenced += 1;
-                    let p = positions[c.v];
-                    *weld
-                        .entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
-                        .or_insert_with(|| {
-                            out_pos.push(p);
-                            (out_pos.len() - 1) as u32
-                        })
+    }
+    Ok(out)
+}
+
+/// Everything the file holds, joined.
+struct Raw {
+    positions: Vec<DVec3>,
+    normals: Vec<DVec3>,
+    texcoords: usize,
+    tris: Vec<[u32; 3]>,
+    /// Normal index of each corner, `u32::MAX` for none.
+    tri_normals: Vec<[u32; 3]>,
+    polygons: usize,
+    max_abs: [i64; 2],
+}
+
+impl Raw {
+    fn counts(&self) -> Counts {
+        [self.positions.len(), self.texcoords, self.normals.len()]
+    }
+
+    /// Appends a block parsed after everything so far; `Retry` when one of its relative
+    /// indices reaches before the start of the file.
+    fn join(&mut self, b: Block) -> std::result::Result<(), Fail> {
+        let base = self.counts();
+        if (0..3).any(|k| (base[k] as i64) + b.min_rel[k] < 0) {
+            return Err(Fail::Retry);
+        }
+        let resolve = |e: i64, base: usize| -> u32 {
+            if e == NONE {
+                u32::MAX
+            } else if e < 0 {
+                (e + REL + base as i64) as u32
+            } else {
+                e as u32
+            }
+        };
+        self.tris
+            .extend(b.tris.iter().map(|t| t.map(|e| resolve(e, base[V]))));
+        self.tri_normals.extend(
+            b.tri_normals
+                .iter()
+                .map(|t| t.map(|e| resolve(e, base[VN]))),
+        );
+        self.positions.extend_from_slice(&b.positions);
+        self.normals.extend_from_slice(&b.normals);
+        self.texcoords += b.texcoords;
+        self.polygons += b.polygons;
+        self.max_abs = [0, 1].map(|a| self.max_abs[a].max(b.max_abs[a]));
+        Ok(())
+    }
+
+    /// After the first chunk, reserves room for the whole file at the same density, so the
+    /// arrays grow once instead of doubling past what they need.
+    fn reserve_for(&mut self, read: usize, file_len: u64) {
+        let scale = file_len as f64 / read.max(1) as f64 * 1.02;
+        let more = |n: usize| ((n as f64 * scale) as usize).saturating_sub(n);
+        self.positions.reserve(more(self.positions.len()));
+        self.normals.reserve(more(self.normals.len()));
+        self.tris.reserve(more(self.tris.len()));
+        self.tri_normals.reserve(more(self.tri_normals.len()));
+    }
+}
+
+/// One pass over the file: parallel (`totals` = None, any defect gives `Retry`) or
+/// sequential (exact errors).
+fn pass(path: &Path, parallel: bool, totals: Option<[usize; 2]>) -> std::result::Result<Raw, Fail> {
+    let file_len = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
+    let mut raw = Raw {
+        positions: Vec::new(),
+        normals: Vec::new(),
+        texcoords: 0,
+        tris: Vec::new(),
+        tri_normals: Vec::new(),
+        polygons: 0,
+        max_abs: [-1; 2],
+    };
+    let mut read = 0usize;
+    let mut retry = false;
+    let blocks = if parallel {
+        2 * rayon::current_num_threads()
+    } else {
+        1
+    };
+    let done = text::for_each_chunk(path, |chunk, first_line| {
+        let pieces = if chunk.len() < 1 << 16 {
+            vec![chunk]
+        } else {
+            text::split(chunk, blocks)
+        };
+        let mut lines = 0;
+        if parallel {
+            let parsed: Vec<Option<(Block, usize)>> = pieces
+                .par_iter()
+                .map(|piece| {
+                    let mode = Mode {
+                        base: None,
+                        totals: None,
+                    };
+                    let mut b = Block::new();
+                    let text = std::str::from_utf8(piece).ok()?;
+                    let n =
+                        text::statements(text, 0, true, |line, s| b.statement(path, mode, line, s))
+                            .ok()?;
+                    Some((b, n))
                 })
-            })
-            .collect();
-        for k in 1..f.corners.len() - 1 {
-            let (a, b, c) = (0, k, k + 1);
-            let t = [ids[a], ids[b], ids[c]];
-            if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
-                report.degenerate_triangles_dropped += 1;
-                continue;
+                .collect();
+            for p in parsed {
+                match p.map(|(b, n)| raw.join(b).map(|()| n)) {
+                    Some(Ok(n)) => lines += n,
+                    _ => {
+                        // Stop reading: the sequential pass starts over.
+                        retry = true;
+                        return Err(Error::Invalid(String::new()));
+                    }
+                }
             }
-            triangles.push(t);
-            corner_in.push([a, b, c].map(|i| f.corners[i].vn.map(|n| normals_in[n])));
+        } else {
+            for piece in pieces {
+                let text = text::utf8(path, piece, first_line + lines)?;
+                let mode = Mode {
+                    base: Some(raw.counts()),
+                    totals,
+                };
+                let mut b = Block::new();
+                lines += text::statements(text, first_line + lines, true, |line, s| {
+                    b.statement(path, mode, line, s)
+                })?;
+                if raw.join(b).is_err() {
+                    return Err(Error::Invalid(format!(
+                        "{}: internal error: an index resolved before the file",
+                        path.display()
+                    )));
+                }
+            }
         }
+        if read == 0 {
+            raw.reserve_for(chunk.len(), file_len);
+        }
+        read += chunk.len();
+        Ok(lines)
+    });
+    match (done, retry) {
+        (_, true) => Err(Fail::Retry),
+        (Err(e), false) => Err(Fail::Error(e)),
+        (Ok(()), false) => Ok(raw),
     }
-    report.unused_vertices_dropped = positions.len() - referenced;
-    report.vertices_welded = referenced - out_pos.len();
+}
 
-    let name = super::display_name(path);
-    if triangles.is_empty() {
+/// Reads a Wavefront OBJ file: polygons triangulated as fans, every face form (`v`,
+/// `v/vt`, `v//vn`, `v/vt/vn`), negative (relative) indices, all objects and groups merged,
+/// positions welded with [`weld`] (exact coordinates, `-0.0` equal to `0.0`), unused
+/// vertices dropped, per-corner normals kept (renormalised), missing normals estimated with
+/// `opts.weighting`. Lines may end in `\n`, `\r\n` or `\r`; a backslash at the end of a line
+/// continues the statement; a UTF-8 byte-order mark is skipped.
+pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
+    let sequential = |totals| match pass(path, false, totals) {
+        Ok(raw) => Ok(raw),
+        Err(Fail::Error(e)) => Err(e),
+        Err(Fail::Retry) => Err(Error::Invalid(format!(
+            "{}: internal error: the sequential pass asked for another",
+            path.display()
+        ))),
+    };
+    let raw = match pass(path, true, None) {
+        Ok(raw) => raw,
+        Err(Fail::Error(e)) => return Err(e),
+        Err(Fail::Retry) => sequential(None)?,
+    };
+    // Positive indices may point forward; check them against the final counts (a second,
+    // sequential pass names the first face that is out of range).
+    let totals = [raw.positions.len(), raw.normals.len()];
+    if raw.max_abs[0] >= totals[0] as i64 || raw.max_abs[1] >= totals[1] as i64 {
+        sequential(Some(totals))?;
+        return Err(Error::Invalid(format!(
+            "{}: internal error: an index out of range was not found again",
+            path.display()
+        )));
+    }
+    build(path, raw, opts)
+}
+
+/// Welds, drops, and gives every corner its normal.
+fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
+    let Raw {
+        positions,
+        normals: normals_in,
+        mut tris,
+        mut tri_normals,
+        polygons,
+        ..
+    } = raw;
+    if tris.is_empty() {
         return Err(Error::mesh(
             path.display().to_string(),
-            if faces.is_empty() {
-                "empty mesh: no faces ('f' lines)"
-            } else {
-                "empty mesh: every face is degenerate"
-            },
+            "empty mesh: no faces ('f' lines)",
         ));
     }
-
-    let missing = corner_in.iter().flatten().filter(|n| n.is_none()).count();
+    let mut report = LoadReport {
+        polygons_triangulated: polygons,
+        ..Default::default()
+    };
+    let positions = weld::weld(
+        &positions,
+        &mut tris,
+        &mut tri_normals,
+        weld::Order::FirstUse,
+        &mut report,
+    )?;
+    if tris.is_empty() {
+        return Err(Error::mesh(
+            path.display().to_string(),
+            "empty mesh: every face is degenerate",
+        ));
+    }
+    let missing = tri_normals
+        .iter()
+        .flatten()
+        .filter(|&&n| n == u32::MAX)
+        .count();
     report.normals_estimated = missing;
     let estimated = if missing > 0 {
-        normals::vertex_normals(&out_pos, &triangles, opts.weighting)
+        normals::vertex_normals(&positions, &tris, opts.weighting)
     } else {
         Vec::new()
     };
-    let corner_normals = triangles
-        .iter()
-        .zip(&corner_in)
-        .map(|(t, n)| std::array::from_fn(|k| n[k].unwrap_or_else(|| estimated[t[k] as usize])))
+    let corner_normals = tris
+        .par_iter()
+        .zip(&tri_normals)
+        .map(|(t, n)| {
+            std::array::from_fn(|k| match n[k] {
+                u32::MAX => estimated[t[k] as usize],
+                i => normals_in[i as usize],
+            })
+        })
         .collect();
     Ok(Mesh {
-        name,
-        positions: out_pos,
-        triangles,
+        name: super::display_name(path),
+        positions,
+        triangles: tris,
         corner_normals,
         load_report: report,
     })

@@ -14,100 +14,159 @@
 //!
 //! Records may come in any order after `counts`; the counts must match what the file holds
 //! (a truncated file is an error). Positions are welded by exact coordinates like OBJ input
-//! (each corner keeps its own normal), unused vertices and triangles with a repeated vertex
+//! (with [`super::weld`]: `-0.0` equals `0.0`; each corner keeps its own normal), unused vertices and triangles with a repeated vertex
 //! are dropped and reported, and every normal is renormalised.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
-use super::{LoadReport, Mesh};
+use super::text::{self, echo, Tokens};
+use super::{weld, LoadReport, Mesh};
 use crate::{Error, Result};
 
 /// The first line of every version-1 file.
 pub const HEADER: &str = "g1tess-pn 1";
 
 /// Reads a `.pn` file (see the module documentation).
+///
+/// The file is read in chunks of whole lines, each split into blocks parsed in parallel; any
+/// defect sends the file through the same parser once more, sequentially, which reports the
+/// first defect with its line (errors cost a second pass, valid files do not).
 pub fn load_pn(path: &Path) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        let at = e.utf8_error().valid_up_to();
-        let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
-        Error::parse(path, line, "not UTF-8 text")
-    })?;
-    let raw = parse(path, &text)?;
+    let raw = match pass(path, true) {
+        Some(Ok(raw)) if raw.consistent() => raw,
+        Some(Err(e)) => return Err(e),
+        _ => match pass(path, false) {
+            Some(r) => r?,
+            None => {
+                return Err(Error::Invalid(format!(
+                    "{}: internal error: the sequential pass asked for another",
+                    path.display()
+                )))
+            }
+        },
+    };
     build(path, raw)
 }
 
-/// The file's records, checked line by line.
+/// The file's records. Lines are kept in the sequential pass only (for its errors).
+#[derive(Default)]
 struct Raw {
     positions: Vec<DVec3>,
     normals: Vec<DVec3>,
-    /// Triangle and the line it came from.
-    triangles: Vec<([u32; 3], usize)>,
-    /// (triangle, corner, normal, line).
-    corners: Vec<(usize, usize, DVec3, usize)>,
+    triangles: Vec<[u32; 3]>,
+    triangle_lines: Vec<usize>,
+    /// (triangle, corner, normal).
+    corners: Vec<(usize, usize, DVec3)>,
+    corner_lines: Vec<usize>,
+    counts: Option<[usize; 3]>,
+    /// Whether the header line has been read.
+    header: bool,
+    /// Whether records before a counts line are an error here (the start of the file).
+    expect_counts: bool,
+    /// Number of the last line.
+    last: usize,
 }
 
-fn parse(path: &Path, text: &str) -> Result<Raw> {
-    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
-    match lines.next() {
-        Some((_, l)) if l.trim_end() == HEADER => {}
-        Some((_, l)) if l.starts_with("g1tess-pn ") => {
-            return Err(Error::parse(
-                path,
-                1,
+impl Raw {
+    /// What a parallel pass checks before the records are used: the counts match, every
+    /// index is in range and no corner is given twice. Anything else is left to the
+    /// sequential pass, which names the line.
+    fn consistent(&self) -> bool {
+        let (nv, nt) = (self.positions.len(), self.triangles.len());
+        if self.counts != Some([nv, nt, self.corners.len()]) {
+            return false;
+        }
+        if self.triangles.iter().flatten().any(|&v| v as usize >= nv) {
+            return false;
+        }
+        let mut seen = vec![0u8; nt];
+        self.corners.iter().all(|&(t, k, _)| {
+            t < nt && {
+                let bit = 1 << k;
+                let fresh = seen[t] & bit == 0;
+                seen[t] |= bit;
+                fresh
+            }
+        })
+    }
+
+    fn append(&mut self, b: Raw) {
+        self.positions.extend_from_slice(&b.positions);
+        self.normals.extend_from_slice(&b.normals);
+        self.triangles.extend_from_slice(&b.triangles);
+        self.triangle_lines.extend_from_slice(&b.triangle_lines);
+        self.corners.extend_from_slice(&b.corners);
+        self.corner_lines.extend_from_slice(&b.corner_lines);
+    }
+
+    /// Parses one line. `sequential` keeps lines; a parallel block assumes the counts line
+    /// came before it (checked when the blocks are joined).
+    fn line(&mut self, path: &Path, sequential: bool, lineno: usize, line: &str) -> Result<()> {
+        let err = |msg: String| Error::parse(path, lineno, msg);
+        self.last = lineno;
+        if !self.header {
+            self.header = true;
+            let l = line.trim_end();
+            if l == HEADER {
+                return Ok(());
+            }
+            return Err(err(if l.starts_with("g1tess-pn ") {
                 format!(
                     "unsupported version '{}' (this g1tess reads '{HEADER}')",
-                    l.trim_end()
-                ),
-            ))
+                    echo(l)
+                )
+            } else {
+                format!("not a point-normal file: the first line must be '{HEADER}'")
+            }));
         }
-        _ => {
-            return Err(Error::parse(
-                path,
-                1,
-                format!("not a point-normal file: the first line must be '{HEADER}'"),
-            ))
+        let mut tok = Tokens::new(line);
+        let Some(kw) = tok.next() else {
+            return Ok(());
+        };
+        let mut fields = [""; 6];
+        let mut found = 0;
+        for t in tok {
+            if let Some(f) = fields.get_mut(found) {
+                *f = t;
+            }
+            found += 1;
         }
-    }
-    let mut counts: Option<[usize; 3]> = None;
-    let mut raw = Raw {
-        positions: Vec::new(),
-        normals: Vec::new(),
-        triangles: Vec::new(),
-        corners: Vec::new(),
-    };
-    for (lineno, line) in lines {
-        let err = |msg: String| Error::parse(path, lineno, msg);
-        let line = line.split('#').next().unwrap_or("");
-        let mut tok = line.split_whitespace();
-        let Some(kw) = tok.next() else { continue };
-        let fields: Vec<&str> = tok.collect();
         let need = |n: usize| -> Result<()> {
-            if fields.len() == n {
+            if found == n {
                 Ok(())
             } else {
                 Err(err(format!(
-                    "'{kw}' needs {n} fields, found {}",
-                    fields.len()
+                    "'{}' needs {n} fields, found {found}",
+                    echo(kw)
                 )))
             }
         };
         let float = |s: &str, what: &str| -> Result<f64> {
-            let x: f64 = s
-                .parse()
-                .map_err(|_| err(format!("{what}: '{s}' is not a number")))?;
+            let x = text::parse_f64(s)
+                .ok_or_else(|| err(format!("{what}: '{}' is not a number", echo(s))))?;
             if x.is_finite() {
                 Ok(x)
             } else {
-                Err(err(format!("{what}: non-finite value '{s}'")))
+                Err(err(format!("{what}: non-finite value '{}'", echo(s))))
             }
         };
         let index = |s: &str, what: &str| -> Result<usize> {
-            s.parse()
-                .map_err(|_| err(format!("{what}: '{s}' is not an index (0-based integer)")))
+            let v = if s.starts_with('-') {
+                None
+            } else if s.len() <= 18 {
+                text::parse_i64(s).map(|v| v as usize)
+            } else {
+                s.parse().ok()
+            };
+            v.ok_or_else(|| {
+                err(format!(
+                    "{what}: '{}' is not an index (0-based integer)",
+                    echo(s)
+                ))
+            })
         };
         let normal = |f: &[&str]| -> Result<DVec3> {
             let n = DVec3::new(
@@ -121,33 +180,34 @@ fn parse(path: &Path, text: &str) -> Result<Raw> {
             }
             Ok(n / len)
         };
-        if kw != "counts" && counts.is_none() {
+        if kw != "counts" && self.counts.is_none() && self.expect_counts {
             return Err(err(format!(
-                "'{kw}' before the 'counts V T C' line (it must follow the header)"
+                "'{}' before the 'counts V T C' line (it must follow the header)",
+                echo(kw)
             )));
         }
-        match kw {
-            "counts" => {
-                if counts.is_some() {
+        match kw.as_bytes() {
+            b"counts" => {
+                if self.counts.is_some() {
                     return Err(err("a second 'counts' line".into()));
                 }
                 need(3)?;
-                counts = Some([
+                self.counts = Some([
                     index(fields[0], "vertex count")?,
                     index(fields[1], "triangle count")?,
                     index(fields[2], "corner normal count")?,
                 ]);
             }
-            "v" => {
+            b"v" => {
                 need(6)?;
-                raw.positions.push(DVec3::new(
+                self.positions.push(DVec3::new(
                     float(fields[0], "vertex")?,
                     float(fields[1], "vertex")?,
                     float(fields[2], "vertex")?,
                 ));
-                raw.normals.push(normal(&fields[3..])?);
+                self.normals.push(normal(&fields[3..])?);
             }
-            "t" => {
+            b"t" => {
                 need(3)?;
                 let mut t = [0u32; 3];
                 for k in 0..3 {
@@ -155,9 +215,12 @@ fn parse(path: &Path, text: &str) -> Result<Raw> {
                     t[k] = u32::try_from(i)
                         .map_err(|_| err(format!("triangle: vertex index {i} too large")))?;
                 }
-                raw.triangles.push((t, lineno));
+                self.triangles.push(t);
+                if sequential {
+                    self.triangle_lines.push(lineno);
+                }
             }
-            "c" => {
+            b"c" => {
                 need(5)?;
                 let t = index(fields[0], "corner normal: triangle")?;
                 let k = index(fields[1], "corner normal: corner")?;
@@ -166,50 +229,137 @@ fn parse(path: &Path, text: &str) -> Result<Raw> {
                         "corner normal: corner {k} out of range (0, 1 or 2)"
                     )));
                 }
-                raw.corners.push((t, k, normal(&fields[2..])?, lineno));
+                self.corners.push((t, k, normal(&fields[2..5])?));
+                if sequential {
+                    self.corner_lines.push(lineno);
+                }
             }
-            _ => return Err(err(format!("unknown record '{kw}' (expected v, t or c)"))),
+            _ => {
+                return Err(err(format!(
+                    "unknown record '{}' (expected v, t or c)",
+                    echo(kw)
+                )))
+            }
         }
+        Ok(())
     }
-    let last = text.lines().count().max(1);
-    let Some([nv, nt, nc]) = counts else {
-        return Err(Error::parse(path, last, "no 'counts V T C' line"));
+}
+
+/// One pass over the file. `None`: a parallel pass found something to leave to the
+/// sequential one.
+fn pass(path: &Path, parallel: bool) -> Option<Result<Raw>> {
+    let mut raw = Raw {
+        expect_counts: true,
+        ..Default::default()
     };
-    for (what, declared, found) in [
-        ("vertices", nv, raw.positions.len()),
-        ("triangles", nt, raw.triangles.len()),
-        ("corner normals", nc, raw.corners.len()),
-    ] {
-        if declared != found {
+    let mut retry = false;
+    let blocks = 2 * rayon::current_num_threads();
+    let done = text::for_each_chunk(path, |chunk, first_line| {
+        if !parallel {
+            let text = text::utf8(path, chunk, first_line)?;
+            return text::statements(text, first_line, false, |line, s| {
+                raw.line(path, true, line, s)
+            });
+        }
+        // The file's first block reads the header and must reach the counts line before
+        // any record; later blocks read records only.
+        let pieces = if chunk.len() < 1 << 16 {
+            vec![chunk]
+        } else {
+            text::split(chunk, blocks)
+        };
+        let starts_file = !raw.header;
+        let parsed: Vec<Option<Raw>> = pieces
+            .par_iter()
+            .enumerate()
+            .map(|(i, piece)| {
+                let at_start = starts_file && i == 0;
+                let mut b = Raw {
+                    header: !at_start,
+                    expect_counts: at_start,
+                    ..Default::default()
+                };
+                let text = std::str::from_utf8(piece).ok()?;
+                text::statements(text, 1, false, |line, s| b.line(path, false, line, s)).ok()?;
+                Some(b)
+            })
+            .collect();
+        for (i, b) in parsed.into_iter().enumerate() {
+            match b {
+                Some(b) if !(starts_file && i == 0) && b.counts.is_some() => retry = true,
+                Some(b) if starts_file && i == 0 => {
+                    raw.header = true;
+                    raw.counts = b.counts;
+                    raw.append(b);
+                }
+                Some(b) => raw.append(b),
+                None => retry = true,
+            }
+            if retry || raw.counts.is_none() {
+                retry = true;
+                // Stop reading: the sequential pass starts over.
+                return Err(Error::Invalid(String::new()));
+            }
+        }
+        Ok(0)
+    });
+    if retry {
+        return None;
+    }
+    Some(done.and_then(|()| {
+        if parallel {
+            return Ok(raw);
+        }
+        let last = raw.last.max(1);
+        if !raw.header {
             return Err(Error::parse(
                 path,
-                last,
-                format!("'counts' declares {declared} {what}, the file holds {found} (truncated?)"),
+                1,
+                format!("not a point-normal file: the first line must be '{HEADER}'"),
             ));
         }
-    }
-    Ok(raw)
+        let Some([nv, nt, nc]) = raw.counts else {
+            return Err(Error::parse(path, last, "no 'counts V T C' line"));
+        };
+        for (what, declared, found) in [
+            ("vertices", nv, raw.positions.len()),
+            ("triangles", nt, raw.triangles.len()),
+            ("corner normals", nc, raw.corners.len()),
+        ] {
+            if declared != found {
+                return Err(Error::parse(
+                    path,
+                    last,
+                    format!(
+                        "'counts' declares {declared} {what}, the file holds {found} (truncated?)"
+                    ),
+                ));
+            }
+        }
+        Ok(raw)
+    }))
 }
 
 /// Checks indices, applies corner normals, welds and drops like the OBJ loader.
 fn build(path: &Path, raw: Raw) -> Result<Mesh> {
     let nv = raw.positions.len();
-    for &(t, line) in &raw.triangles {
+    for (k, t) in raw.triangles.iter().enumerate() {
         if let Some(&i) = t.iter().find(|&&i| i as usize >= nv) {
             return Err(Error::parse(
                 path,
-                line,
+                raw.triangle_lines.get(k).copied().unwrap_or(0),
                 format!("triangle: vertex index {i} out of range (the file has {nv} vertices)"),
             ));
         }
     }
     let mut corner_normals: Vec<[DVec3; 3]> = raw
         .triangles
-        .iter()
-        .map(|(t, _)| t.map(|v| raw.normals[v as usize]))
+        .par_iter()
+        .map(|t| t.map(|v| raw.normals[v as usize]))
         .collect();
     let mut seen = vec![[false; 3]; raw.triangles.len()];
-    for &(t, k, n, line) in &raw.corners {
+    for (i, &(t, k, n)) in raw.corners.iter().enumerate() {
+        let line = raw.corner_lines.get(i).copied().unwrap_or(0);
         if t >= raw.triangles.len() {
             return Err(Error::parse(
                 path,
@@ -230,52 +380,17 @@ fn build(path: &Path, raw: Raw) -> Result<Mesh> {
         corner_normals[t][k] = n;
     }
 
-    // Weld by exact coordinates (+0.0 folds -0.0 into 0.0): each vertex maps to the first
-    // vertex of the file at its position. Triangles that then repeat a vertex are dropped;
-    // the vertices still used keep the file's order.
+    // The one input weld (see `weld`): each corner keeps its own normal.
     let mut report = LoadReport::default();
-    let mut first: HashMap<[u64; 3], u32> = HashMap::new();
-    let rep: Vec<u32> = (0..nv)
-        .map(|v| {
-            let p = raw.positions[v] + DVec3::ZERO;
-            *first
-                .entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
-                .or_insert(v as u32)
-        })
-        .collect();
-    let mut kept = Vec::with_capacity(raw.triangles.len());
-    let mut normals = Vec::with_capacity(raw.triangles.len());
-    for ((t, _), n) in raw.triangles.iter().zip(corner_normals) {
-        let w = t.map(|v| rep[v as usize]);
-        if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] {
-            report.degenerate_triangles_dropped += 1;
-            continue;
-        }
-        kept.push(w);
-        normals.push(n);
-    }
-    let mut used = vec![false; nv];
-    for &(t, _) in &raw.triangles {
-        for v in t {
-            used[v as usize] = true;
-        }
-    }
-    let mut id = vec![u32::MAX; nv];
-    for t in &kept {
-        for &v in t {
-            id[v as usize] = 0;
-        }
-    }
-    let mut positions = Vec::new();
-    for (i, p) in id.iter_mut().zip(&raw.positions) {
-        if *i == 0 {
-            *i = positions.len() as u32;
-            positions.push(*p + DVec3::ZERO);
-        }
-    }
-    let triangles: Vec<[u32; 3]> = kept.iter().map(|t| t.map(|v| id[v as usize])).collect();
-    report.vertices_welded = (0..nv).filter(|&v| used[v] && rep[v] != v as u32).count();
-    report.unused_vertices_dropped = nv - positions.len() - report.vertices_welded;
+    let mut triangles = raw.triangles;
+    let mut normals = corner_normals;
+    let positions = weld::weld(
+        &raw.positions,
+        &mut triangles,
+        &mut normals,
+        weld::Order::Input,
+        &mut report,
+    )?;
     let name = super::display_name(path);
     if triangles.is_empty() {
         return Err(Error::mesh(
