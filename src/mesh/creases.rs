@@ -76,7 +76,7 @@ pub fn split_normals_by_angle(
 ) -> Result<usize> {
     if !(0.0..=180.0).contains(&angle_deg) {
         return Err(Error::Invalid(format!(
-            "--crease-angle must be between 0 and 180 degrees, got {angle_deg}"
+            "the crease angle must be between 0 and 180 degrees, got {angle_deg}"
         )));
     }
     let cos_limit = angle_deg.to_radians().cos();

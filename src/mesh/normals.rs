@@ -3,7 +3,8 @@
 use glam::DVec3;
 
 /// How face normals are weighted when a vertex normal is estimated.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum NormalWeighting {
     /// Plain mean of the unit normals of the incident faces.
