@@ -409,7 +409,7 @@ fn run(
     }
     let mut fold = Fold::new();
     let mut crease_edges = 0;
-    let mut batch: Vec<Edge> = Vec::with_capacity(chunk_edges);
+    let mut batch: Vec<Edge> = Vec::with_capacity(chunk_edges.min(CHUNK_EDGES));
     let mut points: Vec<PatchPoint> = Vec::new();
     // Per triangle: its patch in the chunk's table, or one of the marks above.
     let mut slot: Vec<u32> = match patches {
