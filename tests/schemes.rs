@@ -7,6 +7,7 @@ mod common;
 
 use common::Rng;
 use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::eval::{Evaluator, PatchPoint, Pattern};
 use g1tess::mesh::{generators, LoadOptions, Mesh};
 use g1tess::output::distance::{distance, Surface};
 use g1tess::output::stats::{continuity, Continuity, EdgeStats, CHUNK_EDGES, SAMPLES_PER_EDGE};
@@ -470,5 +471,52 @@ fn torus_counts_are_exact() {
         assert_eq!(r.samples, 21 * 3 * n * m, "{n}x{m}");
         assert_eq!(r.crease_edges, 0);
         assert_eq!(r.interior_edges, 3 * n * m);
+    }
+}
+
+/// Evaluation at explicit points (the CPU backend memoises the basis per distinct point and
+/// skips the control points whose weights vanish) is bitwise `PatchTable::eval`: at the
+/// corners, at the statistics' edge points and at random interior points, repeated so
+/// that the memo serves them.
+#[test]
+fn point_evaluation_is_bitwise_the_reference() {
+    let mut rng = Rng(0xC0FFEE);
+    for mesh in [
+        generators::from_spec("torus:7x9:averaged")
+            .unwrap()
+            .unwrap(),
+        Mesh::load(&common::shared_spec("spot.obj"), &LoadOptions::default()).unwrap(),
+    ] {
+        for scheme in Scheme::all() {
+            let t = table(&mesh, scheme);
+            let mut points = Vec::new();
+            for round in 0..3 {
+                for i in 0..t.len().min(300) {
+                    for k in 0..3 {
+                        for q in [0.0, 0.05, 0.5, 0.95, 1.0] {
+                            let mut b = [0.0; 3];
+                            b[k] = 1.0 - q;
+                            b[(k + 1) % 3] = q;
+                            points.push(PatchPoint { patch: i as u32, b });
+                        }
+                    }
+                    if round == 0 {
+                        points.push(PatchPoint {
+                            patch: i as u32,
+                            b: rng.interior_b(0.0),
+                        });
+                    }
+                }
+            }
+            let (pos, nrm) = CpuEvaluator::default()
+                .evaluate_all(&t, &Pattern::Points(points.clone()))
+                .unwrap();
+            for (pp, (p, n)) in points.iter().zip(pos.iter().zip(&nrm)) {
+                let r = t.eval(pp.patch as usize, pp.b);
+                let bits = |v: DVec3| v.to_array().map(f64::to_bits);
+                assert_eq!(bits(*p), bits(r.p), "{scheme} {pp:?}");
+                assert_eq!(bits(*n), bits(r.n), "{scheme} {pp:?}");
+            }
+        }
     }
 }

@@ -175,39 +175,47 @@ pub fn pn_normals(b: [f64; 3]) -> Weights {
     out
 }
 
-/// [`Weights`] with, for each of the three sums (S, S_s, S_t), the geometry control points
-/// whose weight is not zero. Skipping a zero weight's term changes nothing (the term is
-/// ±0 on a finite point, and a running sum started at +0 is never −0), so an evaluation
-/// through the lists is bitwise the full one; on an edge (one b_k = 0) about half the
-/// terms drop out.
+/// [`Weights`] with the geometry control points whose three weights (w, ∂w/∂s, ∂w/∂t) are
+/// not all zero, and those weights packed per point. Skipping a point whose weights are all
+/// zero changes nothing (its terms are ±0 on a finite point, and a running sum started at
+/// +0 is never −0), so an evaluation through the list is bitwise the full one; on an edge
+/// (one b_k = 0) about half the points drop out.
 #[derive(Clone, Copy, Debug)]
 pub struct SparseWeights {
     pub full: Weights,
-    idx: [[u8; MAX_POINTS]; 3],
-    len: [u8; 3],
+    idx: [u8; MAX_POINTS],
+    /// (w, ∂w/∂s, ∂w/∂t, 0) of point `idx[k]`.
+    terms: [[f64; 4]; MAX_POINTS],
+    len: u8,
 }
 
 impl SparseWeights {
-    /// The lists of `full` over the first `geometry` control points.
+    /// The list of `full` over the first `geometry` control points.
     pub fn new(full: Weights, geometry: usize) -> SparseWeights {
-        let mut idx = [[0u8; MAX_POINTS]; 3];
-        let mut len = [0u8; 3];
-        for (m, w) in [&full.w, &full.ws, &full.wt].into_iter().enumerate() {
-            for (j, &x) in w[..geometry.min(MAX_POINTS)].iter().enumerate() {
-                if x != 0.0 {
-                    idx[m][len[m] as usize] = j as u8;
-                    len[m] += 1;
-                }
+        let mut idx = [0u8; MAX_POINTS];
+        let mut terms = [[0.0; 4]; MAX_POINTS];
+        let mut len = 0;
+        for j in 0..geometry.min(MAX_POINTS) {
+            let t = [full.w[j], full.ws[j], full.wt[j], 0.0];
+            if t != [0.0; 4] {
+                idx[len] = j as u8;
+                terms[len] = t;
+                len += 1;
             }
         }
-        SparseWeights { full, idx, len }
+        SparseWeights {
+            full,
+            idx,
+            terms,
+            len: len as u8,
+        }
     }
 
-    /// Control points with a nonzero value (m = 0), ∂/∂s (1) or ∂/∂t (2) weight,
-    /// increasing.
+    /// The control points with a nonzero weight (increasing) and their weights.
     #[inline]
-    pub fn nonzero(&self, m: usize) -> &[u8] {
-        &self.idx[m][..self.len[m] as usize]
+    pub fn terms(&self) -> (&[u8], &[[f64; 4]]) {
+        let n = self.len as usize;
+        (&self.idx[..n], &self.terms[..n])
     }
 }
 
