@@ -294,7 +294,7 @@ impl Fold {
     /// Folds the samples of `pos`/`nrm` (pairs of points: each sample on its two
     /// patches); `crease(i)` says whether sample i (counted over the whole run) lies on a
     /// crease edge.
-    fn add(&mut self, pos: &[DVec3], nrm: &[DVec3], crease: &(dyn Fn(usize) -> bool + Sync)) {
+    fn add<F: Fn(usize) -> bool + Sync>(&mut self, pos: &[DVec3], nrm: &[DVec3], crease: &F) {
         let total = pos.len().min(nrm.len()) / 2;
         let pair = |q: usize| ([pos[2 * q], pos[2 * q + 1]], [nrm[2 * q], nrm[2 * q + 1]]);
         let mut k = 0;
