@@ -98,6 +98,8 @@ fn table1_competitor_rows_to_the_printed_digits() {
                     ),
                     Some(&(_, _, _, seven)) => {
                         assert_eq!(format!("{:.7}", ours[k]), seven, "{m} {scheme} {name}");
+                        // The paper rounded a value sitting on a digit boundary: ours is
+                        // within 2 units of its sixth decimal.
                         assert!((ours[k] - paper[k]).abs() < 2e-6, "{m} {scheme} {name}");
                     }
                 }
@@ -113,8 +115,10 @@ fn table1_competitor_rows_to_the_printed_digits() {
         }
         // G1: the tangent plane is shared to rounding (the paper printed 1e-16 / 1e-10).
         let g1 = report(&rs, Scheme::G1);
+        // 1e-12: many orders above rounding (~1e-16), many below any real kink.
         assert!(1.0 - g1.cos.min < 1e-12, "{mesh} g1 {:?}", g1.cos);
         assert!(g1.cos.std < 1e-12);
+        // One boundary curve per edge, built bitwise the same: rounding of the blends only.
         assert!(g1.max_gap_relative < 1e-12);
     }
 }
@@ -161,22 +165,26 @@ fn icosphere_convergence_orders_and_values() {
     // Observed order of the mean distance on the last refinement (1280 → 5120 triangles).
     for s in [Scheme::G1, Scheme::Nagata, Scheme::Pn, Scheme::Nlsa] {
         let o = row(&rows, s, 5120).order_mean.unwrap();
+        // Fourth order asymptotically; 3.5 allows the last refinement to be pre-asymptotic.
         assert!(o >= 3.5, "{s}: order {o}");
     }
     for s in [Scheme::Phong, Scheme::Flat] {
         let o = row(&rows, s, 5120).order_mean.unwrap();
+        // Second order asymptotically; ±0.3 for the pre-asymptotic last refinement.
         assert!((o - 2.0).abs() <= 0.3, "{s}: order {o}");
     }
     // The order is log(e0/e1)/log(h0/h1): recompute one from the rows themselves.
     let (a, b) = (row(&rows, Scheme::G1, 1280), row(&rows, Scheme::G1, 5120));
     let o = (a.mean / b.mean).ln() / (a.h / b.h).ln();
+    // Same formula, possibly a different association: rounding of a logarithm ratio.
     assert!((o - b.order_mean.unwrap()).abs() < 1e-12);
     assert_eq!(a.samples, 1280 * 153);
 
     // G1 and Nagata below PN at 320 triangles.
     let at = |s| row(&rows, s, 320).mean;
     assert!(at(Scheme::G1) < at(Scheme::Pn) && at(Scheme::Nagata) < at(Scheme::Pn));
-    // EVALUATION.md's values at 320 triangles, to 10 %.
+    // EVALUATION.md's values at 320 triangles, to 10 % (they are printed to two digits,
+    // and the 5% rounding of the smallest leaves the rest as margin).
     for (s, v) in [
         (Scheme::G1, 2.0e-5),
         (Scheme::Nagata, 2.1e-5),
@@ -193,6 +201,8 @@ fn icosphere_convergence_orders_and_values() {
     // multiple of 3), so the sampled maximum lies just below.
     let flat20 = row(&rows, Scheme::Flat, 20);
     let centre = 1.0 - ((5.0 + 2.0 * 5f64.sqrt()) / 15.0).sqrt();
+    // 1e-3: the nearest grid sample lies about δ = 0.02 from the centre (a third of a grid
+    // step of a 1.05-long edge), where the distance to the unit sphere falls by δ²/2 ≈ 2e-4.
     assert!(
         flat20.max <= centre && flat20.max > centre - 1e-3,
         "{} vs {centre}",

@@ -5,11 +5,13 @@
 
 mod common;
 
+use common::Rng;
 use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::eval::{Evaluator, PatchPoint, Pattern};
 use g1tess::mesh::{generators, LoadOptions, Mesh};
 use g1tess::output::distance::{distance, Surface};
-use g1tess::output::stats::continuity;
-use g1tess::patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
+use g1tess::output::stats::{continuity, Continuity, EdgeStats, CHUNK_EDGES, SAMPLES_PER_EDGE};
+use g1tess::patch::{PatchBuilder, PatchKind, PatchTable, Scheme, SchemeOptions, SCHEMES};
 use glam::DVec3;
 
 /// Meshes for the checks: exact, analytic and averaged normals, estimated normals on an
@@ -26,26 +28,6 @@ fn meshes() -> Vec<Mesh> {
         out.push(Mesh::load(&common::shared_spec(f), &LoadOptions::default()).unwrap());
     }
     out
-}
-
-/// Deterministic pseudo-random numbers in [0, 1) (xorshift64*).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    /// A barycentric point at least `m` inside the triangle.
-    fn interior(&mut self, m: f64) -> [f64; 3] {
-        loop {
-            let (s, t) = (self.next(), self.next());
-            if s >= m && t >= m && 1.0 - s - t >= m {
-                return [1.0 - s - t, s, t];
-            }
-        }
-    }
 }
 
 fn table(mesh: &Mesh, scheme: Scheme) -> PatchTable {
@@ -107,8 +89,8 @@ fn derivatives_match_central_differences() {
             let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ t.len() as u64);
             let mut worst = 0.0f64;
             for _ in 0..200 {
-                let i = (rng.next() * t.len() as f64) as usize;
-                let b = rng.interior(2e-3);
+                let i = (rng.f64() * t.len() as f64) as usize;
+                let b = rng.interior_b(2e-3);
                 let at = |ds: f64, dt: f64| t.eval(i, [b[0] - ds - dt, b[1] + ds, b[2] + dt]).p;
                 let sp = t.eval(i, b);
                 let fs = (at(h, 0.0) - at(-h, 0.0)) / (2.0 * h);
@@ -118,6 +100,9 @@ fn derivatives_match_central_differences() {
                     .max((fs - sp.ds).length() / scale)
                     .max((ft - sp.dt).length() / scale);
             }
+            // Central differences with h = 1e-5 err by O(h²) ≈ 1e-10 relative (times the
+            // third derivative) plus rounding O(ε/h) ≈ 1e-11; 1e-7 leaves room for the
+            // strongly curved patches of the coarse meshes.
             assert!(
                 worst < 1e-7,
                 "{} {scheme}: derivative vs finite difference, relative error {worst:e}",
@@ -155,11 +140,15 @@ fn corners_interpolate_points_and_normals() {
                     nabs = nabs.max(1.0 - c.abs());
                 }
             }
+            // The corner is a sum of weights 1 and 0 times control points: exact up to a
+            // few roundings of coordinates of size ≤ the diagonal.
             assert!(
                 gap <= 1e-14 * scale,
                 "{} {scheme}: corner off by {gap:e}",
                 mesh.name
             );
+            // Normals from a cross product of tangents, normalised: 1 − cos of a few
+            // roundings is ~1e-16; 1e-12 allows tangents of very different lengths.
             if exact {
                 assert!(
                     ncos < 1e-12,
@@ -187,7 +176,9 @@ fn shared_edges_are_watertight() {
         for scheme in Scheme::all() {
             let t = table(&mesh, scheme);
             let c = continuity(&mesh, &adj, &t, &ev).unwrap();
-            assert!(c.samples > 0);
+            assert_eq!(c.samples, SAMPLES_PER_EDGE as usize * adj.interior);
+            // Both patches evaluate the same boundary curve, built bitwise the same; their
+            // blends differ in rounding only (a few ε times the coordinates).
             assert!(
                 c.max_gap <= 1e-12 * mesh.diagonal(),
                 "{} {scheme}: gap {:e} (diagonal {})",
@@ -205,7 +196,7 @@ fn max_position_difference(a: &PatchTable, b: &PatchTable) -> f64 {
     let mut worst = 0.0f64;
     for i in 0..a.len() {
         for _ in 0..5 {
-            let p = rng.interior(0.0);
+            let p = rng.interior_b(0.0);
             worst = worst.max((a.eval(i, p).p - b.eval(i, p).p).length());
         }
     }
@@ -219,9 +210,11 @@ fn nlsa_is_phong_at_one_half_and_phong_at_zero_is_flat() {
         PatchTable::build(&mesh, Scheme::Phong, &SchemeOptions { phong_alpha: 0.5 }).unwrap();
     let zero =
         PatchTable::build(&mesh, Scheme::Phong, &SchemeOptions { phong_alpha: 0.0 }).unwrap();
+    // Same control points up to the rounding of differently ordered formulas (ε times
+    // coordinates below 1.5).
     assert!(max_position_difference(&table(&mesh, Scheme::Nlsa), &half) < 1e-15);
     assert!(max_position_difference(&table(&mesh, Scheme::Flat), &zero) < 1e-15);
-    // α changes the surface: 3/4 differs from 1/2.
+    // α changes the surface: 3/4 differs from 1/2 (by far more than any rounding).
     assert!(max_position_difference(&table(&mesh, Scheme::Phong), &half) > 1e-3);
 }
 
@@ -237,12 +230,13 @@ fn phong_matches_its_projection_definition() {
     for (i, tri) in mesh.triangles.iter().enumerate() {
         let q = tri.map(|v| mesh.positions[v as usize]);
         let n = mesh.corner_normals[i];
-        let b = rng.interior(0.0);
+        let b = rng.interior_b(0.0);
         let p: DVec3 = (0..3).map(|k| b[k] * q[k]).sum();
         let proj: DVec3 = (0..3)
             .map(|k| b[k] * (p - (p - q[k]).dot(n[k]) * n[k]))
             .sum();
         let expect = (1.0 - alpha) * p + alpha * proj;
+        // Two exact formulas for the same point: a few roundings of coordinates ≤ 1.5.
         assert!((t.eval(i, b).p - expect).length() < 1e-14);
     }
 }
@@ -269,6 +263,7 @@ fn nagata_edges_are_orthogonal_to_the_end_normals() {
                 _ => sp.dt,
             };
             let tangent = d(b) - d(a);
+            // Orthogonal by construction; the cosine is a few roundings of unit vectors.
             assert!(tangent.normalize().dot(n[a]).abs() < 1e-13);
         }
     }
@@ -304,6 +299,7 @@ fn nagata_guard_fires_only_where_xi_zero_folds() {
     let surface = Surface::Torus { big_r: 1.0, r: 0.5 };
     let d = |t: &PatchTable| distance(t, &surface, 16, &ev).unwrap().mean;
     let (db, dg, df) = (d(&bare), d(&guarded), d(&table(&torus, Scheme::Flat)));
+    // Not a tolerance: the guard must bring the surface at least 3× closer than both.
     assert!(
         dg < db / 3.0 && dg < df / 3.0,
         "bare {db:e} guarded {dg:e} flat {df:e}"
@@ -321,6 +317,9 @@ fn pn_normal_field_is_continuous_and_labelled_apart() {
     let exact = table(&mesh, Scheme::Pn);
     let cf = continuity(&mesh, &adj, &field, &ev).unwrap();
     let ce = continuity(&mesh, &adj, &exact, &ev).unwrap();
+    // The field's edge coefficients are built bitwise the same on both sides, so both
+    // normals are one value up to the rounding of the blend; the exact normal of the cubic
+    // differs across edges by the paper's 1e-3 order (Table 1's PN row on torus200).
     assert!(1.0 - cf.cos.min < 1e-12, "{cf:?}");
     assert!(1.0 - ce.cos.min > 1e-3, "{ce:?}");
     // Same geometry.
@@ -333,6 +332,7 @@ fn pn_normal_field_is_continuous_and_labelled_apart() {
         let q = tri.map(|v| sphere.positions[v as usize]);
         let n = t.eval(i, [0.5, 0.5, 0.0]).n;
         let expect = (q[0] + q[1]).normalize();
+        // Two normalisations of the same direction: 1 − cos of a few roundings.
         assert!(1.0 - n.dot(expect) < 1e-14);
     }
 }
@@ -349,4 +349,174 @@ fn bad_phong_alpha_is_an_error_not_a_nan() {
     );
     let msg = e.unwrap_err().to_string();
     assert!(msg.contains("phong") && msg.contains("finite"), "{msg}");
+}
+
+/// The registry is the one source of each scheme's name and kind: clap's and serde's
+/// spellings agree with it, and tables get its kind.
+#[test]
+fn registry_names_and_kinds_are_the_ones_used_everywhere() {
+    assert_eq!(SCHEMES.len(), Scheme::all().len());
+    let variants = <Scheme as clap::ValueEnum>::value_variants();
+    assert_eq!(variants.len(), SCHEMES.len());
+    let mesh = generators::icosphere(0);
+    for (i, info) in SCHEMES.iter().enumerate() {
+        assert_eq!(info.scheme, Scheme::all()[i]);
+        assert_eq!(info.scheme.info().name, info.name);
+        assert_eq!(
+            serde_json::to_string(&info.scheme).unwrap(),
+            format!("\"{}\"", info.name)
+        );
+        let clap_name = <Scheme as clap::ValueEnum>::to_possible_value(&info.scheme).unwrap();
+        assert_eq!(clap_name.get_name(), info.name);
+        assert_eq!(table(&mesh, info.scheme).kind, info.kind);
+        assert_eq!(info.scheme.kind(), info.kind);
+    }
+}
+
+/// A table built for any subset of the triangles holds bitwise the patches of the whole
+/// table, and counts fallbacks only for the triangles it is told to.
+#[test]
+fn tables_of_subsets_are_slices_of_the_whole() {
+    let mesh = generators::from_spec("torus:8x8:averaged")
+        .unwrap()
+        .unwrap();
+    for scheme in Scheme::all() {
+        let builder = PatchBuilder::new(&mesh, scheme, &SchemeOptions::default()).unwrap();
+        let whole = builder.table().unwrap();
+        let pick: Vec<u32> = (0..mesh.triangles.len() as u32).rev().step_by(3).collect();
+        let part = builder.table_of(&pick, pick.len()).unwrap();
+        for (i, &t) in pick.iter().enumerate() {
+            assert_eq!(part.patch(i), whole.patch(t as usize), "{scheme}");
+            assert_eq!(part.flat_normals[i], whole.flat_normals[t as usize]);
+        }
+        let all: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
+        assert_eq!(
+            builder.fallbacks_of(&all) + builder.prepared_fallbacks(),
+            whole.fallbacks
+        );
+        assert_eq!(builder.table_of(&pick, 0).unwrap().fallbacks, 0);
+    }
+}
+
+/// Streamed statistics do not depend on how the edges are chunked nor on how the evaluator
+/// chunks its output: chunks of 1, 7 and many edges, evaluator chunks of 1, 7 and many
+/// points, and the whole table at once all give bitwise the same numbers (the samples are
+/// folded in blocks numbered over the whole run). The mesh has crease edges (fandisk at
+/// 30°), so both kinds of edge are folded.
+#[test]
+fn streamed_stats_do_not_depend_on_chunking() {
+    let mesh = Mesh::load(
+        &common::shared_spec("fandisk.obj"),
+        &LoadOptions {
+            crease_angle: Some(30.0),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let adj = mesh.adjacency();
+    for scheme in [Scheme::G1, Scheme::PnNormals, Scheme::NagataGuarded] {
+        let whole = table(&mesh, scheme);
+        let reference: Continuity =
+            continuity(&mesh, &adj, &whole, &CpuEvaluator::default()).unwrap();
+        assert!(reference.crease_edges > 0 && reference.samples > 0);
+        assert_eq!(
+            reference.samples + reference.crease_samples,
+            SAMPLES_PER_EDGE as usize * adj.interior
+        );
+        let builder = PatchBuilder::new(&mesh, scheme, &SchemeOptions::default()).unwrap();
+        let mut stats = EdgeStats::new(&mesh);
+        for (edges, points) in [
+            (1, 7),
+            (7, 1),
+            (7, 1 << 20),
+            (CHUNK_EDGES, 7),
+            (1 << 30, 1 << 20),
+        ] {
+            stats.chunk_edges = edges;
+            let ev = CpuEvaluator {
+                chunk_samples: points,
+            };
+            let (c, fallbacks) = stats.continuity(&builder, &ev).unwrap();
+            assert_eq!(
+                c, reference,
+                "{scheme}: {edges} edges, {points} points a chunk"
+            );
+            assert_eq!(fallbacks, whole.fallbacks, "{scheme}");
+        }
+    }
+}
+
+/// Counts on closed tori, computed independently: an n × m torus has n m vertices, 2 n m
+/// triangles and, by Euler's formula V − E + F = 0, E = 3 n m edges, all interior (closed
+/// surface); 21 samples on each.
+#[test]
+fn torus_counts_are_exact() {
+    for (n, m) in [(3, 3), (4, 7), (9, 5), (16, 16)] {
+        let mesh = generators::from_spec(&format!("torus:{n}x{m}"))
+            .unwrap()
+            .unwrap();
+        assert_eq!(mesh.positions.len(), n * m);
+        assert_eq!(mesh.triangles.len(), 2 * n * m);
+        let stats = EdgeStats::new(&mesh);
+        let counts = stats.counts();
+        assert_eq!(counts.interior, 3 * n * m, "{n}x{m}");
+        assert_eq!(counts.boundary + counts.nonmanifold + counts.misoriented, 0);
+        let r = stats
+            .report(
+                Scheme::G1,
+                &SchemeOptions::default(),
+                &CpuEvaluator::default(),
+            )
+            .unwrap();
+        assert_eq!(r.samples, 21 * 3 * n * m, "{n}x{m}");
+        assert_eq!(r.crease_edges, 0);
+        assert_eq!(r.interior_edges, 3 * n * m);
+    }
+}
+
+/// Evaluation at explicit points (the CPU backend memoises the basis per distinct point and
+/// skips the control points whose weights vanish) is bitwise `PatchTable::eval`: at the
+/// corners, at the statistics' edge points and at random interior points, repeated so
+/// that the memo serves them.
+#[test]
+fn point_evaluation_is_bitwise_the_reference() {
+    let mut rng = Rng(0xC0FFEE);
+    for mesh in [
+        generators::from_spec("torus:7x9:averaged")
+            .unwrap()
+            .unwrap(),
+        Mesh::load(&common::shared_spec("spot.obj"), &LoadOptions::default()).unwrap(),
+    ] {
+        for scheme in Scheme::all() {
+            let t = table(&mesh, scheme);
+            let mut points = Vec::new();
+            for round in 0..3 {
+                for i in 0..t.len().min(300) {
+                    for k in 0..3 {
+                        for q in [0.0, 0.05, 0.5, 0.95, 1.0] {
+                            let mut b = [0.0; 3];
+                            b[k] = 1.0 - q;
+                            b[(k + 1) % 3] = q;
+                            points.push(PatchPoint { patch: i as u32, b });
+                        }
+                    }
+                    if round == 0 {
+                        points.push(PatchPoint {
+                            patch: i as u32,
+                            b: rng.interior_b(0.0),
+                        });
+                    }
+                }
+            }
+            let (pos, nrm) = CpuEvaluator::default()
+                .evaluate_all(&t, &Pattern::Points(points.clone()))
+                .unwrap();
+            for (pp, (p, n)) in points.iter().zip(pos.iter().zip(&nrm)) {
+                let r = t.eval(pp.patch as usize, pp.b);
+                let bits = |v: DVec3| v.to_array().map(f64::to_bits);
+                assert_eq!(bits(*p), bits(r.p), "{scheme} {pp:?}");
+                assert_eq!(bits(*n), bits(r.n), "{scheme} {pp:?}");
+            }
+        }
+    }
 }

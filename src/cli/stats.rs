@@ -3,7 +3,8 @@
 use clap::Args;
 
 use super::{BackendArgs, InputArgs};
-use crate::output::stats::{continuity, StatsReport};
+use crate::mesh::Mesh;
+use crate::output::stats::EdgeStats;
 
 #[derive(Args, Clone, Debug)]
 pub struct StatsArgs {
@@ -17,11 +18,14 @@ pub struct StatsArgs {
 }
 
 pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
-    let (mesh, table) = a.input.load()?;
-    let adjacency = mesh.adjacency();
+    // No whole patch table: the statistics build the patches a chunk of edges at a time.
+    let mesh = Mesh::load(&a.input.mesh, &a.input.load_options())?;
     let evaluator = a.backend.evaluator(crate::gpu::Precision::F64)?;
-    let c = continuity(&mesh, &adjacency, &table, evaluator.as_ref())?;
-    let report = StatsReport::new(&mesh, &adjacency, &table, c, evaluator.describe());
+    let report = EdgeStats::new(&mesh).report(
+        a.input.scheme,
+        &a.input.scheme_options(),
+        evaluator.as_ref(),
+    )?;
     if a.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {

@@ -76,21 +76,57 @@ impl Evaluator for CpuEvaluator {
                 Ok(())
             }
             Pattern::Points(points) => {
-                for (c, chunk) in points.chunks(self.chunk_samples.max(1)).enumerate() {
-                    let (pos, nrm): (Vec<DVec3>, Vec<DVec3>) = chunk
-                        .par_iter()
-                        .map(|pp| {
-                            let sp = table.eval(pp.patch as usize, pp.b);
-                            (sp.p, sp.n)
-                        })
-                        .unzip();
-                    sink(Chunk {
-                        first: c * self.chunk_samples.max(1),
+                if let Some(bad) = points.iter().find(|p| p.patch as usize >= table.len()) {
+                    return Err(crate::Error::Invalid(format!(
+                        "evaluation point on patch {} of a table of {} patches",
+                        bad.patch,
+                        table.len()
+                    )));
+                }
+                // Result buffers kept per calling thread between calls: a streaming caller
+                // (statistics) evaluates chunk after chunk without fresh pages each time.
+                // Taken out for the call, so a nested call just gets new ones.
+                thread_local! {
+                    static BUFFERS: std::cell::Cell<(Vec<DVec3>, Vec<DVec3>)> =
+                        const { std::cell::Cell::new((Vec::new(), Vec::new())) };
+                }
+                let step = self.chunk_samples.max(1);
+                let (mut pos, mut nrm) = BUFFERS.take();
+                if pos.capacity() > 2 * step.min(points.len()) {
+                    (pos, nrm) = (Vec::new(), Vec::new());
+                }
+                let mut result = Ok(());
+                for (c, chunk) in points.chunks(step).enumerate() {
+                    pos.resize(chunk.len(), DVec3::ZERO);
+                    nrm.resize(chunk.len(), DVec3::ZERO);
+                    // Blocks of points; each rayon job keeps a memo of basis weights per
+                    // distinct barycentric point (edge samples have few) and evaluates
+                    // through the nonzero ones: bitwise what `table.eval` returns.
+                    const BLOCK: usize = 4096;
+                    pos.par_chunks_mut(BLOCK)
+                        .zip(nrm.par_chunks_mut(BLOCK))
+                        .zip(chunk.par_chunks(BLOCK))
+                        .for_each_init(
+                            || crate::patch::basis::WeightMemo::new(table.kind),
+                            |memo, ((p, n), pts)| {
+                                for ((p, n), pp) in p.iter_mut().zip(n.iter_mut()).zip(pts) {
+                                    let sp = table.eval_sparse(pp.patch as usize, memo.get(pp.b));
+                                    *p = sp.p;
+                                    *n = sp.n;
+                                }
+                            },
+                        );
+                    result = sink(Chunk {
+                        first: c * step,
                         positions: &pos,
                         normals: &nrm,
-                    })?;
+                    });
+                    if result.is_err() {
+                        break;
+                    }
                 }
-                Ok(())
+                BUFFERS.set((pos, nrm));
+                result
             }
         }
     }

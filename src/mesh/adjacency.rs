@@ -1,4 +1,14 @@
 //! Edge adjacency: which triangles use each edge, and what is wrong with the topology.
+//!
+//! Two forms of the same edges, in the same order (by lower vertex, then upper vertex; the
+//! uses of an edge by triangle, then local edge):
+//! - [`EdgeIndex`]: compact (4 bytes per half-edge and per vertex), built without sorting
+//!   the whole mesh, walked in order by [`EdgeIndex::edges`]. Streaming consumers (the
+//!   continuity statistics, crease curves) use it.
+//! - [`Adjacency`]: every edge materialised as a [`MeshEdge`] (32 bytes each, uses stored
+//!   inline), for code that indexes edges.
+
+use std::ops::Deref;
 
 /// One use of an edge by a triangle: the triangle and its local edge k (from corner k to
 /// corner k+1).
@@ -8,17 +18,279 @@ pub struct EdgeUse {
     pub local: u8,
 }
 
+impl EdgeUse {
+    /// The use of half-edge `h` = 3 × triangle + local edge.
+    #[inline]
+    pub fn from_half_edge(h: u32) -> EdgeUse {
+        EdgeUse {
+            triangle: h / 3,
+            local: (h % 3) as u8,
+        }
+    }
+
+    /// Its half-edge index, 3 × triangle + local edge.
+    #[inline]
+    pub fn half_edge(self) -> u32 {
+        3 * self.triangle + self.local as u32
+    }
+}
+
+/// The uses of one edge: up to two stored inline (every manifold edge), more on the heap.
+/// Dereferences to `[EdgeUse]`.
+#[derive(Clone, PartialEq, Eq)]
+pub struct EdgeUses(UsesRepr);
+
+#[derive(Clone, PartialEq, Eq)]
+enum UsesRepr {
+    Inline(u8, [EdgeUse; 2]),
+    Heap(Box<[EdgeUse]>),
+}
+
+const NO_USE: EdgeUse = EdgeUse {
+    triangle: 0,
+    local: 0,
+};
+
+impl EdgeUses {
+    pub fn new(uses: &[EdgeUse]) -> EdgeUses {
+        EdgeUses(match *uses {
+            [] => UsesRepr::Inline(0, [NO_USE; 2]),
+            [a] => UsesRepr::Inline(1, [a, NO_USE]),
+            [a, b] => UsesRepr::Inline(2, [a, b]),
+            _ => UsesRepr::Heap(uses.into()),
+        })
+    }
+}
+
+impl Deref for EdgeUses {
+    type Target = [EdgeUse];
+    #[inline]
+    fn deref(&self) -> &[EdgeUse] {
+        match &self.0 {
+            UsesRepr::Inline(n, u) => &u[..*n as usize],
+            UsesRepr::Heap(u) => u,
+        }
+    }
+}
+
+impl<'a> IntoIterator for &'a EdgeUses {
+    type Item = &'a EdgeUse;
+    type IntoIter = std::slice::Iter<'a, EdgeUse>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
+impl From<Vec<EdgeUse>> for EdgeUses {
+    fn from(v: Vec<EdgeUse>) -> EdgeUses {
+        EdgeUses::new(&v)
+    }
+}
+
+impl std::fmt::Debug for EdgeUses {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
+    }
+}
+
 /// An undirected edge between welded vertices `v[0] < v[1]` and its uses.
 #[derive(Clone, Debug)]
 pub struct MeshEdge {
     pub v: [u32; 2],
-    pub uses: Vec<EdgeUse>,
+    pub uses: EdgeUses,
 }
 
 impl MeshEdge {
     /// Used by exactly two triangles.
     pub fn is_interior(&self) -> bool {
         self.uses.len() == 2
+    }
+}
+
+/// The counts of edges by kind that the statistics report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EdgeCounts {
+    /// Edges used by exactly two triangles.
+    pub interior: usize,
+    /// Edges used by one triangle.
+    pub boundary: usize,
+    /// Edges used by three or more triangles.
+    pub nonmanifold: usize,
+    /// Interior edges whose two triangles run along it in the same direction (inconsistent
+    /// orientation).
+    pub misoriented: usize,
+}
+
+/// The edges of a triangle mesh in compact form: the half-edges (3 × triangle + local edge)
+/// grouped by their lower vertex, each group sorted by upper vertex then half-edge. An
+/// edge is a run of equal upper vertices in a group.
+#[derive(Clone, Debug)]
+pub struct EdgeIndex<'a> {
+    triangles: &'a [[u32; 3]],
+    /// Group of vertex v: `half_edges[offsets[v]..offsets[v + 1]]`.
+    offsets: Vec<u32>,
+    half_edges: Vec<u32>,
+    /// Number of edges.
+    pub edges: usize,
+    pub counts: EdgeCounts,
+}
+
+/// One edge as [`EdgeIndex::edges`] yields it.
+#[derive(Clone, Copy, Debug)]
+pub struct EdgeRef<'a> {
+    /// End vertices, `v[0] < v[1]`.
+    pub v: [u32; 2],
+    /// Its half-edges (3 × triangle + local edge), increasing.
+    pub half_edges: &'a [u32],
+}
+
+impl EdgeRef<'_> {
+    /// Used by exactly two triangles.
+    #[inline]
+    pub fn is_interior(&self) -> bool {
+        self.half_edges.len() == 2
+    }
+
+    /// Use `i` of the edge.
+    #[inline]
+    pub fn use_at(&self, i: usize) -> EdgeUse {
+        EdgeUse::from_half_edge(self.half_edges[i])
+    }
+}
+
+#[inline]
+fn ends(triangles: &[[u32; 3]], h: u32) -> (u32, u32) {
+    let tri = triangles[(h / 3) as usize];
+    let k = (h % 3) as usize;
+    (tri[k], tri[(k + 1) % 3])
+}
+
+impl<'a> EdgeIndex<'a> {
+    /// Groups the half-edges of `triangles` (a counting sort by lower vertex, then a sort
+    /// of each small group). Meshes are limited to 2³² / 3 triangles (half-edge ids are
+    /// u32), as [`EdgeUse::triangle`] is.
+    pub fn new(triangles: &'a [[u32; 3]]) -> EdgeIndex<'a> {
+        let vertices = triangles
+            .iter()
+            .flatten()
+            .max()
+            .map_or(0, |&m| m as usize + 1);
+        let mut offsets = vec![0u32; vertices + 1];
+        for tri in triangles {
+            for k in 0..3 {
+                offsets[tri[k].min(tri[(k + 1) % 3]) as usize + 1] += 1;
+            }
+        }
+        for v in 0..vertices {
+            offsets[v + 1] += offsets[v];
+        }
+        let mut half_edges = vec![0u32; 3 * triangles.len()];
+        {
+            let mut cursor = offsets[..vertices].to_vec();
+            for (t, tri) in triangles.iter().enumerate() {
+                for k in 0..3 {
+                    let lo = tri[k].min(tri[(k + 1) % 3]) as usize;
+                    half_edges[cursor[lo] as usize] = (3 * t + k) as u32;
+                    cursor[lo] += 1;
+                }
+            }
+        }
+        // Each group holds increasing half-edges; order it by upper vertex, ties by
+        // half-edge (that is, by triangle then local edge).
+        for v in 0..vertices {
+            let g = &mut half_edges[offsets[v] as usize..offsets[v + 1] as usize];
+            if g.len() > 1 {
+                g.sort_unstable_by_key(|&h| {
+                    let (a, b) = ends(triangles, h);
+                    (a.max(b), h)
+                });
+            }
+        }
+        let mut index = EdgeIndex {
+            triangles,
+            offsets,
+            half_edges,
+            edges: 0,
+            counts: EdgeCounts::default(),
+        };
+        let mut counts = EdgeCounts::default();
+        let mut edges = 0;
+        for e in index.edges() {
+            edges += 1;
+            match e.half_edges.len() {
+                1 => counts.boundary += 1,
+                2 => {
+                    counts.interior += 1;
+                    let forward = |h: u32| ends(triangles, h).0 == e.v[0];
+                    if forward(e.half_edges[0]) == forward(e.half_edges[1]) {
+                        counts.misoriented += 1;
+                    }
+                }
+                _ => counts.nonmanifold += 1,
+            }
+        }
+        index.edges = edges;
+        index.counts = counts;
+        index
+    }
+
+    /// The triangles this index was built from.
+    pub fn triangles(&self) -> &'a [[u32; 3]] {
+        self.triangles
+    }
+
+    /// Every edge in order (lower vertex, then upper vertex).
+    pub fn edges(&self) -> Edges<'_> {
+        Edges {
+            index: self,
+            vertex: 0,
+            pos: 0,
+        }
+    }
+}
+
+/// Iterator over the edges of an [`EdgeIndex`].
+#[derive(Clone, Debug)]
+pub struct Edges<'i> {
+    index: &'i EdgeIndex<'i>,
+    vertex: usize,
+    pos: usize,
+}
+
+impl<'i> Iterator for Edges<'i> {
+    type Item = EdgeRef<'i>;
+
+    #[inline]
+    fn next(&mut self) -> Option<EdgeRef<'i>> {
+        let EdgeIndex {
+            triangles,
+            offsets,
+            half_edges,
+            ..
+        } = self.index;
+        let vertices = offsets.len() - 1;
+        while self.vertex < vertices && self.pos >= offsets[self.vertex + 1] as usize {
+            self.vertex += 1;
+        }
+        if self.vertex >= vertices {
+            return None;
+        }
+        let end = offsets[self.vertex + 1] as usize;
+        let start = self.pos;
+        let upper = |h: u32| {
+            let (a, b) = ends(triangles, h);
+            a.max(b)
+        };
+        let hi = upper(half_edges[start]);
+        let mut j = start + 1;
+        while j < end && upper(half_edges[j]) == hi {
+            j += 1;
+        }
+        self.pos = j;
+        Some(EdgeRef {
+            v: [self.vertex as u32, hi],
+            half_edges: &half_edges[start..j],
+        })
     }
 }
 
@@ -39,52 +311,127 @@ pub struct Adjacency {
 
 impl Adjacency {
     pub fn new(triangles: &[[u32; 3]]) -> Adjacency {
-        let mut uses: Vec<(u32, u32, EdgeUse)> = Vec::with_capacity(triangles.len() * 3);
-        for (t, tri) in triangles.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                uses.push((
-                    a.min(b),
-                    a.max(b),
-                    EdgeUse {
-                        triangle: t as u32,
-                        local: k as u8,
-                    },
-                ));
-            }
-        }
-        uses.sort_unstable_by_key(|&(a, b, u)| (a, b, u.triangle, u.local));
-        let mut adj = Adjacency::default();
-        let mut i = 0;
-        while i < uses.len() {
-            let (a, b, _) = uses[i];
-            let mut j = i;
-            while j < uses.len() && uses[j].0 == a && uses[j].1 == b {
-                j += 1;
-            }
-            let edge = MeshEdge {
-                v: [a, b],
-                uses: uses[i..j].iter().map(|u| u.2).collect(),
-            };
-            match edge.uses.len() {
-                1 => adj.boundary += 1,
-                2 => {
-                    adj.interior += 1;
-                    let dir = |u: EdgeUse| triangles[u.triangle as usize][u.local as usize] == a;
-                    if dir(edge.uses[0]) == dir(edge.uses[1]) {
-                        adj.misoriented += 1;
-                    }
+        let index = EdgeIndex::new(triangles);
+        let mut buf = Vec::new();
+        let edges = index
+            .edges()
+            .map(|e| {
+                buf.clear();
+                buf.extend(e.half_edges.iter().map(|&h| EdgeUse::from_half_edge(h)));
+                MeshEdge {
+                    v: e.v,
+                    uses: EdgeUses::new(&buf),
                 }
-                _ => adj.nonmanifold += 1,
-            }
-            adj.edges.push(edge);
-            i = j;
+            })
+            .collect();
+        let c = index.counts;
+        Adjacency {
+            edges,
+            interior: c.interior,
+            boundary: c.boundary,
+            nonmanifold: c.nonmanifold,
+            misoriented: c.misoriented,
         }
-        adj
+    }
+
+    /// The counts by kind.
+    pub fn counts(&self) -> EdgeCounts {
+        EdgeCounts {
+            interior: self.interior,
+            boundary: self.boundary,
+            nonmanifold: self.nonmanifold,
+            misoriented: self.misoriented,
+        }
     }
 
     /// The interior (two-triangle) edges.
     pub fn interior_edges(&self) -> impl Iterator<Item = &MeshEdge> {
         self.edges.iter().filter(|e| e.is_interior())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The edges by the obvious method: every use keyed by its sorted ends, sorted.
+    fn reference(triangles: &[[u32; 3]]) -> Vec<([u32; 2], Vec<EdgeUse>)> {
+        let mut uses = Vec::new();
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                uses.push((
+                    [a.min(b), a.max(b)],
+                    EdgeUse::from_half_edge((3 * t + k) as u32),
+                ));
+            }
+        }
+        uses.sort_by_key(|&(v, u)| (v, u.half_edge()));
+        let mut out: Vec<([u32; 2], Vec<EdgeUse>)> = Vec::new();
+        for (v, u) in uses {
+            match out.last_mut() {
+                Some(last) if last.0 == v => last.1.push(u),
+                _ => out.push((v, vec![u])),
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn index_matches_the_sorted_uses() {
+        // Interior, boundary and non-manifold edges, and an unused vertex id (7).
+        let tris = [
+            [0, 1, 2],
+            [0, 2, 3],
+            [0, 3, 4],
+            [2, 1, 5],
+            [1, 2, 6],
+            [0, 3, 8],
+            [8, 9, 4],
+        ];
+        let index = EdgeIndex::new(&tris);
+        let adj = Adjacency::new(&tris);
+        let expect = reference(&tris);
+        assert_eq!(index.edges, expect.len());
+        assert_eq!(adj.edges.len(), expect.len());
+        for ((e, m), (v, u)) in index.edges().zip(&adj.edges).zip(&expect) {
+            assert_eq!(e.v, *v);
+            assert_eq!(m.v, *v);
+            let got: Vec<EdgeUse> = (0..e.half_edges.len()).map(|i| e.use_at(i)).collect();
+            assert_eq!(&got, u);
+            assert_eq!(&m.uses[..], &u[..]);
+        }
+        // Edges: 01 02 03 04 08 12 15 16 23 25 26 34 38 48 49 89 (16); 02 is interior,
+        // 03 (triangles 1, 2, 5) and 12 (triangles 0, 3, 4) are non-manifold.
+        assert_eq!(
+            index.counts,
+            EdgeCounts {
+                interior: 1,
+                boundary: 13,
+                nonmanifold: 2,
+                misoriented: 0,
+            }
+        );
+        assert_eq!(adj.counts(), index.counts);
+        // A reversed copy of a triangle on the same edge is misoriented.
+        let flipped = EdgeIndex::new(&[[0, 1, 2], [1, 0, 3]]);
+        assert_eq!(flipped.counts.misoriented, 0);
+        let same = EdgeIndex::new(&[[0, 1, 2], [0, 1, 3]]);
+        assert_eq!(same.counts.misoriented, 1);
+    }
+
+    #[test]
+    fn uses_are_compact() {
+        assert!(std::mem::size_of::<MeshEdge>() <= 32);
+        let many = [
+            EdgeUse::from_half_edge(1),
+            EdgeUse::from_half_edge(5),
+            EdgeUse::from_half_edge(9),
+        ];
+        for n in 0..=3 {
+            let u = EdgeUses::new(&many[..n]);
+            assert_eq!(&u[..], &many[..n]);
+            assert_eq!((&u).into_iter().count(), n);
+        }
     }
 }

@@ -5,18 +5,35 @@
 //! Crease edges (the two triangles give an end vertex different normals, see
 //! [`crate::mesh::creases`]) are meant to break the tangent plane: they are left out of the
 //! cos statistics and reported on their own (`crease_edges`, `crease_max_gap`).
+//!
+//! Everything streams: the edges come from a compact [`EdgeIndex`] (or an [`Adjacency`]),
+//! a chunk of edges at a time gets its evaluation points, the patches of its triangles
+//! (built for the chunk by a [`PatchBuilder`], or read from a whole [`PatchTable`]), one
+//! [`Evaluator::evaluate`] call, and its samples are folded into running statistics. Memory
+//! beyond the mesh is the edge index (4 bytes per half-edge and per vertex, 4 per triangle
+//! for the chunk's patch numbering) and one chunk. The statistics are accumulated in sample
+//! order whatever the chunk size, so every chunking gives bitwise the same result.
 
 use glam::DVec3;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::eval::{Evaluator, PatchPoint, Pattern};
-use crate::mesh::creases::crease_edges;
-use crate::mesh::{Adjacency, LoadReport, Mesh};
-use crate::patch::PatchTable;
-use crate::Result;
+use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
+use crate::mesh::creases::{normal_key, use_normal};
+use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
+use crate::patch::{PatchBuilder, PatchTable, Scheme, SchemeOptions};
+use crate::{Error, Result};
 
 /// Samples per edge, end points included (t = 0, 0.05, ..., 1).
 pub const SAMPLES_PER_EDGE: u32 = 21;
+
+/// Evaluation points per edge: each sample on both triangles.
+const POINTS_PER_EDGE: usize = 2 * SAMPLES_PER_EDGE as usize;
+
+/// Interior edges per chunk by default: about 2¹⁸ evaluation points (a few MB of points,
+/// results and patches), large enough that per-chunk costs vanish.
+pub const CHUNK_EDGES: usize = (1 << 18) / POINTS_PER_EDGE;
 
 /// cos of the angle between the two patches' normals over all edge samples. Best values:
 /// all 1 and std 0; a cos below 0 is a folded patch.
@@ -49,143 +66,567 @@ pub struct Continuity {
     pub crease_max_gap: f64,
 }
 
-/// The evaluation points of every interior edge: for each edge and each t, the point on the
-/// first triangle then the same point on the second.
-pub fn edge_points(mesh: &Mesh, adjacency: &Adjacency) -> Vec<PatchPoint> {
-    edge_points_where(mesh, adjacency, &|_| true)
+/// An interior edge as the protocol walks it.
+#[derive(Clone, Copy, Debug)]
+struct Edge {
+    /// End vertices, `v[0] < v[1]`.
+    v: [u32; 2],
+    uses: [EdgeUse; 2],
+    /// The two triangles give an end vertex different normals.
+    crease: bool,
 }
 
-/// [`edge_points`] of the interior edges whose index in `adjacency.edges` passes `keep`.
-pub fn edge_points_where(
-    mesh: &Mesh,
-    adjacency: &Adjacency,
-    keep: &dyn Fn(usize) -> bool,
-) -> Vec<PatchPoint> {
-    let n = SAMPLES_PER_EDGE - 1;
-    let mut out = Vec::with_capacity(adjacency.interior * SAMPLES_PER_EDGE as usize * 2);
-    for (_, e) in adjacency
-        .edges
-        .iter()
-        .enumerate()
-        .filter(|(i, e)| e.is_interior() && keep(*i))
-    {
-        for i in 0..=n {
-            // Parameter from e.v[0] (t = 0) to e.v[1] (t = 1), both ends exact.
-            let t = i as f64 / n as f64;
-            let s = (n - i) as f64 / n as f64;
-            for u in &e.uses {
-                let tri = mesh.triangles[u.triangle as usize];
-                let k = u.local as usize;
-                let mut b = [0.0; 3];
-                if tri[k] == e.v[0] {
-                    b[k] = s;
-                    b[(k + 1) % 3] = t;
-                } else {
-                    b[k] = t;
-                    b[(k + 1) % 3] = s;
-                }
-                out.push(PatchPoint {
-                    patch: u.triangle,
-                    b,
-                });
+impl Edge {
+    fn new(mesh: &Mesh, v: [u32; 2], uses: [EdgeUse; 2]) -> Edge {
+        let crease = v.iter().any(|&x| {
+            normal_key(use_normal(mesh, uses[0], x)) != normal_key(use_normal(mesh, uses[1], x))
+        });
+        Edge { v, uses, crease }
+    }
+
+    /// Its evaluation points into `out` (42): for each t from e.v[0] (t = 0) to e.v[1]
+    /// (t = 1), the point on the first triangle then the same point on the second, which
+    /// are patches `patch[0]` and `patch[1]` of the table evaluated.
+    fn points(&self, triangles: &[[u32; 3]], patch: [u32; 2], out: &mut [PatchPoint]) {
+        for (j, u) in self.uses.iter().enumerate() {
+            let k = u.local as usize;
+            // Coordinate slots of the edge's ends v[0] and v[1] on this triangle.
+            let (a, b) = if triangles[u.triangle as usize][k] == self.v[0] {
+                (k, (k + 1) % 3)
+            } else {
+                ((k + 1) % 3, k)
+            };
+            for (i, &(s, t)) in EDGE_PARAMS.iter().enumerate() {
+                let at = |m: usize| {
+                    if m == a {
+                        s
+                    } else if m == b {
+                        t
+                    } else {
+                        0.0
+                    }
+                };
+                out[2 * i + j] = PatchPoint {
+                    patch: patch[j],
+                    b: [at(0), at(1), at(2)],
+                };
             }
         }
+    }
+}
+
+/// (1 − t, t) at the samples of an edge, t = i / 20: both ends exact.
+const EDGE_PARAMS: [(f64, f64); SAMPLES_PER_EDGE as usize] = {
+    let n = SAMPLES_PER_EDGE - 1;
+    let mut out = [(0.0, 0.0); SAMPLES_PER_EDGE as usize];
+    let mut i = 0;
+    while i <= n {
+        out[i as usize] = ((n - i) as f64 / n as f64, i as f64 / n as f64);
+        i += 1;
+    }
+    out
+};
+
+/// The interior edges of an adjacency.
+fn adjacency_edges<'a>(
+    mesh: &'a Mesh,
+    adjacency: &'a Adjacency,
+) -> impl Iterator<Item = Edge> + 'a {
+    adjacency
+        .interior_edges()
+        .map(move |e| Edge::new(mesh, e.v, [e.uses[0], e.uses[1]]))
+}
+
+/// The interior edges of an edge index.
+fn index_edges<'a>(mesh: &'a Mesh, index: &'a EdgeIndex<'a>) -> impl Iterator<Item = Edge> + 'a {
+    index
+        .edges()
+        .filter(|e| e.is_interior())
+        .map(move |e| Edge::new(mesh, e.v, [e.use_at(0), e.use_at(1)]))
+}
+
+/// The evaluation points of every interior edge: for each edge and each t, the point on the
+/// first triangle then the same point on the second (patch = triangle index).
+pub fn edge_points(mesh: &Mesh, adjacency: &Adjacency) -> Vec<PatchPoint> {
+    let mut out = Vec::with_capacity(adjacency.interior * POINTS_PER_EDGE);
+    for e in adjacency_edges(mesh, adjacency) {
+        let at = out.len();
+        out.resize(
+            at + POINTS_PER_EDGE,
+            PatchPoint {
+                patch: 0,
+                b: [0.0; 3],
+            },
+        );
+        e.points(&mesh.triangles, e.uses.map(|u| u.triangle), &mut out[at..]);
     }
     out
 }
 
-/// Streaming accumulator of cos and gap samples (Welford's mean and variance).
-#[derive(Default)]
-struct Acc {
+/// Edge samples (pairs of evaluations) per block of the running statistics: 48 edges.
+/// Blocks are numbered in sample order over the whole run, whatever the chunks, and folded
+/// in parallel.
+const BLOCK_PAIRS: usize = 48 * SAMPLES_PER_EDGE as usize;
+
+/// Statistics of the samples of one block (or the first samples of it). The cos values are
+/// summed with the block's first value subtracted (exact for nearby values, so the sums
+/// keep the digits that matter); blocks are merged with Chan et al.'s pairwise update.
+#[derive(Clone, Copy, Debug)]
+struct Part {
     n: usize,
-    mean: f64,
-    m2: f64,
+    shift: f64,
+    s1: f64,
+    s2: f64,
     min: f64,
     max: f64,
     worst_abs: f64,
-    gap: f64,
+    /// Largest squared gap (its square root is the largest gap, exactly).
+    gap2: f64,
     folded: usize,
+    crease_n: usize,
+    crease_gap2: f64,
 }
 
-impl Acc {
-    fn push(&mut self, p: [DVec3; 2], n: [DVec3; 2]) {
-        let c = n[0].dot(n[1]);
-        if self.n == 0 {
-            self.min = c;
-            self.max = c;
-        }
-        self.n += 1;
-        let d = c - self.mean;
-        self.mean += d / self.n as f64;
-        self.m2 += d * (c - self.mean);
-        self.min = self.min.min(c);
-        self.max = self.max.max(c);
-        self.worst_abs = self.worst_abs.max(1.0 - c.abs());
-        self.gap = self.gap.max(p[0].distance(p[1]));
-        if c < 0.0 {
-            self.folded += 1;
+impl Part {
+    fn new() -> Part {
+        Part {
+            n: 0,
+            shift: 0.0,
+            s1: 0.0,
+            s2: 0.0,
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+            worst_abs: 0.0,
+            gap2: 0.0,
+            folded: 0,
+            crease_n: 0,
+            crease_gap2: 0.0,
         }
     }
 
-    fn finish(self) -> Continuity {
+    #[inline]
+    fn push(&mut self, p: [DVec3; 2], n: [DVec3; 2], crease: bool) {
+        let gap2 = (p[0] - p[1]).length_squared();
+        if crease {
+            self.crease_n += 1;
+            self.crease_gap2 = self.crease_gap2.max(gap2);
+            return;
+        }
+        let c = n[0].dot(n[1]);
+        if self.n == 0 {
+            self.shift = c;
+        }
+        let d = c - self.shift;
+        self.n += 1;
+        self.s1 += d;
+        self.s2 += d * d;
+        self.min = self.min.min(c);
+        self.max = self.max.max(c);
+        self.worst_abs = self.worst_abs.max(1.0 - c.abs());
+        self.gap2 = self.gap2.max(gap2);
+        self.folded += (c < 0.0) as usize;
+    }
+}
+
+/// The statistics of every block so far, merged in order.
+#[derive(Clone, Copy, Debug)]
+struct Totals {
+    n: usize,
+    mean: f64,
+    m2: f64,
+    part: Part,
+}
+
+impl Totals {
+    fn merge(&mut self, b: &Part) {
+        let t = &mut self.part;
+        t.min = t.min.min(b.min);
+        t.max = t.max.max(b.max);
+        t.worst_abs = t.worst_abs.max(b.worst_abs);
+        t.gap2 = t.gap2.max(b.gap2);
+        t.folded += b.folded;
+        t.crease_n += b.crease_n;
+        t.crease_gap2 = t.crease_gap2.max(b.crease_gap2);
+        if b.n == 0 {
+            return;
+        }
+        let nb = b.n as f64;
+        let mean_b = b.shift + b.s1 / nb;
+        let m2_b = (b.s2 - b.s1 * b.s1 / nb).max(0.0);
+        if self.n == 0 {
+            self.mean = mean_b;
+            self.m2 = m2_b;
+        } else {
+            let na = self.n as f64;
+            let total = na + nb;
+            let delta = mean_b - self.mean;
+            self.mean += delta * (nb / total);
+            self.m2 += m2_b + delta * delta * (na * nb / total);
+        }
+        self.n += b.n;
+    }
+}
+
+/// Folds edge samples, in order, into [`Totals`]: the open block continues across calls,
+/// whole blocks are folded in parallel, so any split of the samples into calls gives
+/// bitwise the same result.
+struct Fold {
+    totals: Totals,
+    open: Part,
+    /// Samples folded so far.
+    pairs: usize,
+}
+
+impl Fold {
+    fn new() -> Fold {
+        Fold {
+            totals: Totals {
+                n: 0,
+                mean: 0.0,
+                m2: 0.0,
+                part: Part::new(),
+            },
+            open: Part::new(),
+            pairs: 0,
+        }
+    }
+
+    /// Folds the samples of `pos`/`nrm` (pairs of points: each sample on its two
+    /// patches); `crease(i)` says whether sample i (counted over the whole run) lies on a
+    /// crease edge.
+    fn add<F: Fn(usize) -> bool + Sync>(&mut self, pos: &[DVec3], nrm: &[DVec3], crease: &F) {
+        let total = pos.len().min(nrm.len()) / 2;
+        let pair = |q: usize| ([pos[2 * q], pos[2 * q + 1]], [nrm[2 * q], nrm[2 * q + 1]]);
+        let mut k = 0;
+        // Finish the open block.
+        let done = self.pairs % BLOCK_PAIRS;
+        if done != 0 {
+            let take = (BLOCK_PAIRS - done).min(total);
+            for q in 0..take {
+                let (p, n) = pair(q);
+                self.open.push(p, n, crease(self.pairs + q));
+            }
+            k = take;
+            self.pairs += take;
+            if self.pairs % BLOCK_PAIRS == 0 {
+                self.totals.merge(&self.open);
+                self.open = Part::new();
+            }
+        }
+        // Whole blocks, in parallel, merged in order.
+        let full = (total - k) / BLOCK_PAIRS;
+        if full > 0 {
+            let first = self.pairs;
+            let parts: Vec<Part> = (0..full)
+                .into_par_iter()
+                .map(|b| {
+                    let mut part = Part::new();
+                    for q in k + b * BLOCK_PAIRS..k + (b + 1) * BLOCK_PAIRS {
+                        let (p, n) = pair(q);
+                        part.push(p, n, crease(first + q - k));
+                    }
+                    part
+                })
+                .collect();
+            for part in &parts {
+                self.totals.merge(part);
+            }
+            k += full * BLOCK_PAIRS;
+            self.pairs += full * BLOCK_PAIRS;
+        }
+        // Open the next block.
+        for q in k..total {
+            let (p, n) = pair(q);
+            self.open.push(p, n, crease(self.pairs));
+            self.pairs += 1;
+        }
+    }
+
+    fn finish(mut self, crease_edges: usize) -> Continuity {
+        let open = self.open;
+        self.totals.merge(&open);
+        let Totals { n, mean, m2, part } = self.totals;
+        let (min, max) = if n > 0 {
+            (part.min, part.max)
+        } else {
+            (0.0, 0.0)
+        };
         Continuity {
-            samples: self.n,
+            samples: n,
             cos: CosStats {
-                min: self.min,
-                max: self.max,
-                mean: self.mean,
-                std: if self.n > 1 {
-                    (self.m2 / (self.n - 1) as f64).sqrt()
+                min,
+                max,
+                mean,
+                std: if n > 1 {
+                    (m2 / (n - 1) as f64).sqrt()
                 } else {
                     0.0
                 },
             },
-            max_one_minus_abs_cos: self.worst_abs,
-            max_gap: self.gap,
-            folded: self.folded,
-            ..Default::default()
+            max_one_minus_abs_cos: part.worst_abs,
+            max_gap: part.gap2.sqrt(),
+            folded: part.folded,
+            crease_edges,
+            crease_samples: part.crease_n,
+            crease_max_gap: part.crease_gap2.sqrt(),
         }
     }
 }
 
+/// Where the patches of a chunk come from.
+#[derive(Clone, Copy)]
+enum Patches<'a, 'm> {
+    /// A whole table (patch i = triangle i).
+    Table(&'a PatchTable),
+    /// Built per chunk.
+    Builder(&'a PatchBuilder<'m>),
+}
+
+/// Slot of a triangle never built (in [`run`]'s per-triangle numbering).
+const NEVER: u32 = u32::MAX;
+/// Slot of a triangle built in an earlier chunk.
+const BUILT: u32 = u32::MAX - 1;
+/// Slots of a triangle of the current chunk before it is numbered: first build, or again.
+const FRESH: u32 = u32::MAX - 2;
+const AGAIN: u32 = u32::MAX - 3;
+
+/// The protocol over `edges`, `chunk_edges` edges per evaluation: the continuity and the
+/// fallbacks of the construction (each triangle counted once).
+fn run(
+    mesh: &Mesh,
+    edges: &mut dyn Iterator<Item = Edge>,
+    patches: Patches<'_, '_>,
+    evaluator: &dyn Evaluator,
+    chunk_edges: usize,
+) -> Result<(Continuity, usize)> {
+    let chunk_edges = chunk_edges.max(1);
+    let triangles = &mesh.triangles;
+    if triangles.len() >= AGAIN as usize {
+        return Err(Error::mesh(
+            &mesh.name,
+            "too many triangles for the statistics",
+        ));
+    }
+    let mut fold = Fold::new();
+    let mut crease_edges = 0;
+    let mut batch: Vec<Edge> = Vec::with_capacity(chunk_edges.min(CHUNK_EDGES));
+    let mut points: Vec<PatchPoint> = Vec::new();
+    // Per triangle: its patch in the chunk's table, or one of the marks above.
+    let mut slot: Vec<u32> = match patches {
+        Patches::Table(_) => Vec::new(),
+        Patches::Builder(_) => vec![NEVER; triangles.len()],
+    };
+    let (mut fresh, mut again) = (Vec::new(), Vec::new());
+    // The chunk's table (builder only), its arrays reused chunk after chunk.
+    let mut built = match patches {
+        Patches::Table(t) => PatchTable {
+            points: Vec::new(),
+            flat_normals: Vec::new(),
+            ..*t
+        },
+        Patches::Builder(b) => b.empty_table(),
+    };
+    let mut fallbacks = 0;
+    loop {
+        batch.clear();
+        batch.extend(edges.take(chunk_edges));
+        if batch.is_empty() {
+            break;
+        }
+        crease_edges += batch.iter().filter(|e| e.crease).count();
+        let table = match patches {
+            Patches::Table(t) => t,
+            Patches::Builder(b) => {
+                fresh.clear();
+                again.clear();
+                for u in batch.iter().flat_map(|e| e.uses) {
+                    let s = &mut slot[u.triangle as usize];
+                    if *s == NEVER {
+                        *s = FRESH;
+                        fresh.push(u.triangle);
+                    } else if *s == BUILT {
+                        *s = AGAIN;
+                        again.push(u.triangle);
+                    }
+                }
+                let counted = fresh.len();
+                fresh.append(&mut again);
+                for (i, &t) in fresh.iter().enumerate() {
+                    slot[t as usize] = i as u32;
+                }
+                b.table_of_into(&fresh, counted, &mut built)?;
+                fallbacks += built.fallbacks;
+                &built
+            }
+        };
+        points.resize(
+            batch.len() * POINTS_PER_EDGE,
+            PatchPoint {
+                patch: 0,
+                b: [0.0; 3],
+            },
+        );
+        let slot_ref = &slot;
+        points
+            .par_chunks_mut(POINTS_PER_EDGE)
+            .zip(batch.par_iter())
+            .with_min_len(256)
+            .for_each(|(out, e)| {
+                let patch = e.uses.map(|u| match patches {
+                    Patches::Table(_) => u.triangle,
+                    Patches::Builder(_) => slot_ref[u.triangle as usize],
+                });
+                e.points(triangles, patch, out);
+            });
+        let pattern = Pattern::Points(std::mem::take(&mut points));
+        let mut pending: Option<(DVec3, DVec3)> = None;
+        let mut next = 0usize;
+        let first_pair = fold.pairs;
+        let crease = |i: usize| {
+            batch
+                .get((i - first_pair) / SAMPLES_PER_EDGE as usize)
+                .is_some_and(|e| e.crease)
+        };
+        evaluator.evaluate(table, &pattern, &mut |chunk| {
+            let (mut pos, mut nrm) = (chunk.positions, chunk.normals);
+            if chunk.first != next || pos.len() != nrm.len() {
+                return Err(Error::Invalid(format!(
+                    "evaluator delivered points from {} where {next} was due",
+                    chunk.first
+                )));
+            }
+            next += pos.len();
+            if let (Some((p0, n0)), Some(p1), Some(n1)) = (pending, pos.first(), nrm.first()) {
+                fold.add(&[p0, *p1], &[n0, *n1], &crease);
+                pending = None;
+                (pos, nrm) = (&pos[1..], &nrm[1..]);
+            }
+            fold.add(pos, nrm, &crease);
+            if pos.len() % 2 == 1 {
+                pending = Some((pos[pos.len() - 1], nrm[nrm.len() - 1]));
+            }
+            Ok(())
+        })?;
+        if let Pattern::Points(p) = pattern {
+            points = p;
+        }
+        let expected = batch.len() * SAMPLES_PER_EDGE as usize;
+        if fold.pairs - first_pair != expected || pending.is_some() {
+            return Err(Error::Invalid(format!(
+                "evaluator returned {next} of {} edge points",
+                2 * expected
+            )));
+        }
+        for &t in &fresh {
+            slot[t as usize] = BUILT;
+        }
+    }
+    match patches {
+        Patches::Table(t) => fallbacks = t.fallbacks,
+        Patches::Builder(b) => {
+            // Triangles without interior edges were never built; their fallbacks count too.
+            let never: Vec<u32> = (0..triangles.len() as u32)
+                .filter(|&t| slot[t as usize] == NEVER)
+                .collect();
+            fallbacks += b.fallbacks_of(&never) + b.prepared_fallbacks();
+        }
+    }
+    Ok((fold.finish(crease_edges), fallbacks))
+}
+
 /// Continuity statistics of `table` over the interior edges of `mesh`, evaluated by
 /// `evaluator`: cos and gap over the non-crease edges, the gap alone over crease edges.
+/// Streams (edge points a chunk at a time); the table is the whole mesh's.
 pub fn continuity(
     mesh: &Mesh,
     adjacency: &Adjacency,
     table: &PatchTable,
     evaluator: &dyn Evaluator,
 ) -> Result<Continuity> {
-    let creases = crease_edges(mesh, adjacency);
-    let mut points = edge_points_where(mesh, adjacency, &|i| !creases[i]);
-    let smooth_pairs = points.len() / 2;
-    points.extend(edge_points_where(mesh, adjacency, &|i| creases[i]));
-    let mut acc = Acc::default();
-    let mut crease = Acc::default();
-    let mut pairs = 0usize;
-    let mut pending: Option<(DVec3, DVec3)> = None;
-    evaluator.evaluate(table, &Pattern::Points(points), &mut |chunk| {
-        for (p, n) in chunk.positions.iter().zip(chunk.normals) {
-            match pending.take() {
-                None => pending = Some((*p, *n)),
-                Some((p0, n0)) => {
-                    let target = if pairs < smooth_pairs {
-                        &mut acc
-                    } else {
-                        &mut crease
-                    };
-                    target.push([p0, *p], [n0, *n]);
-                    pairs += 1;
-                }
-            }
+    if table.len() != mesh.triangles.len() {
+        return Err(Error::mesh(
+            &mesh.name,
+            format!(
+                "patch table of {} patches for {} triangles",
+                table.len(),
+                mesh.triangles.len()
+            ),
+        ));
+    }
+    let mut edges = adjacency_edges(mesh, adjacency);
+    Ok(run(
+        mesh,
+        &mut edges,
+        Patches::Table(table),
+        evaluator,
+        CHUNK_EDGES,
+    )?
+    .0)
+}
+
+/// The continuity protocol on one mesh, for any scheme, in bounded memory: the mesh's
+/// compact edge index, and per chunk of edges only the patches of their triangles.
+pub struct EdgeStats<'m> {
+    mesh: &'m Mesh,
+    index: EdgeIndex<'m>,
+    /// Interior edges per chunk (default [`CHUNK_EDGES`]).
+    pub chunk_edges: usize,
+}
+
+impl<'m> EdgeStats<'m> {
+    pub fn new(mesh: &'m Mesh) -> EdgeStats<'m> {
+        EdgeStats {
+            mesh,
+            index: EdgeIndex::new(&mesh.triangles),
+            chunk_edges: CHUNK_EDGES,
         }
-        Ok(())
-    })?;
-    let mut c = acc.finish();
-    c.crease_edges = creases.iter().filter(|&&x| x).count();
-    c.crease_samples = crease.n;
-    c.crease_max_gap = crease.gap;
-    Ok(c)
+    }
+
+    /// The mesh's edge counts.
+    pub fn counts(&self) -> EdgeCounts {
+        self.index.counts
+    }
+
+    /// The continuity of `builder`'s patches (built chunk by chunk) and the fallbacks of
+    /// its whole construction (as [`PatchTable::fallbacks`] of the whole table).
+    pub fn continuity(
+        &self,
+        builder: &PatchBuilder<'_>,
+        evaluator: &dyn Evaluator,
+    ) -> Result<(Continuity, usize)> {
+        if !std::ptr::eq(builder.mesh(), self.mesh) {
+            return Err(Error::Invalid(
+                "statistics: the patch builder belongs to another mesh".into(),
+            ));
+        }
+        let mut edges = index_edges(self.mesh, &self.index);
+        run(
+            self.mesh,
+            &mut edges,
+            Patches::Builder(builder),
+            evaluator,
+            self.chunk_edges,
+        )
+    }
+
+    /// The full report of `scheme`.
+    pub fn report(
+        &self,
+        scheme: Scheme,
+        opts: &SchemeOptions,
+        evaluator: &dyn Evaluator,
+    ) -> Result<StatsReport> {
+        let builder = PatchBuilder::new(self.mesh, scheme, opts)?;
+        let (c, fallbacks) = self.continuity(&builder, evaluator)?;
+        Ok(StatsReport::new(
+            self.mesh,
+            self.counts(),
+            scheme,
+            fallbacks,
+            c,
+            evaluator.describe(),
+        ))
+    }
 }
 
 /// Everything `g1tess stats --json` prints for one mesh and scheme.
@@ -223,22 +664,23 @@ pub struct StatsReport {
 impl StatsReport {
     pub fn new(
         mesh: &Mesh,
-        adjacency: &Adjacency,
-        table: &PatchTable,
+        counts: EdgeCounts,
+        scheme: Scheme,
+        fallbacks: usize,
         c: Continuity,
         backend: String,
     ) -> StatsReport {
         let diagonal = mesh.diagonal();
         StatsReport {
             mesh: mesh.name.clone(),
-            scheme: table.scheme.to_string(),
+            scheme: scheme.to_string(),
             triangles: mesh.triangles.len(),
             vertices: mesh.positions.len(),
-            interior_edges: adjacency.interior,
+            interior_edges: counts.interior,
             crease_edges: c.crease_edges,
-            boundary_edges: adjacency.boundary,
-            nonmanifold_edges: adjacency.nonmanifold,
-            misoriented_edges: adjacency.misoriented,
+            boundary_edges: counts.boundary,
+            nonmanifold_edges: counts.nonmanifold,
+            misoriented_edges: counts.misoriented,
             samples: c.samples,
             cos: c.cos,
             max_one_minus_abs_cos: c.max_one_minus_abs_cos,
@@ -253,7 +695,7 @@ impl StatsReport {
             crease_samples: c.crease_samples,
             crease_max_gap: c.crease_max_gap,
             backend,
-            fallbacks: table.fallbacks,
+            fallbacks,
             load: mesh.load_report.clone(),
         }
     }

@@ -3,8 +3,8 @@
 
 use crate::eval::Evaluator;
 use crate::mesh::{LoadOptions, Mesh};
-use crate::output::stats::{continuity, StatsReport};
-use crate::patch::{PatchTable, Scheme, SchemeOptions};
+use crate::output::stats::{EdgeStats, StatsReport};
+use crate::patch::{Scheme, SchemeOptions};
 use crate::Result;
 
 /// The values the paper printed (min, max, mean, std) for a built-in mesh and scheme, as
@@ -33,20 +33,10 @@ pub fn compare_mesh(
     opts: &SchemeOptions,
     evaluator: &dyn Evaluator,
 ) -> Result<Vec<StatsReport>> {
-    let adjacency = mesh.adjacency();
+    let stats = EdgeStats::new(mesh);
     schemes
         .iter()
-        .map(|&s| {
-            let table = PatchTable::build(mesh, s, opts)?;
-            let c = continuity(mesh, &adjacency, &table, evaluator)?;
-            Ok(StatsReport::new(
-                mesh,
-                &adjacency,
-                &table,
-                c,
-                evaluator.describe(),
-            ))
-        })
+        .map(|&s| stats.report(s, opts, evaluator))
         .collect()
 }
 

@@ -5,6 +5,8 @@
 //!
 //! `shaders/common.wgsl` and the per-scheme shaders compute the same functions.
 
+use super::PatchKind;
+
 /// Most control points of any patch kind (G1: 12 boundary + 6 Gregory points).
 pub const MAX_POINTS: usize = 18;
 
@@ -171,6 +173,99 @@ pub fn pn_normals(b: [f64; 3]) -> Weights {
     out.n = 16;
     out.w[10..16].copy_from_slice(&quad.w[..6]);
     out
+}
+
+/// [`Weights`] with the geometry control points whose three weights (w, ∂w/∂s, ∂w/∂t) are
+/// not all zero, and those weights packed per point. Skipping a point whose weights are all
+/// zero changes nothing (its terms are ±0 on a finite point, and a running sum started at
+/// +0 is never −0), so an evaluation through the list is bitwise the full one; on an edge
+/// (one b_k = 0) about half the points drop out.
+#[derive(Clone, Copy, Debug)]
+pub struct SparseWeights {
+    pub full: Weights,
+    idx: [u8; MAX_POINTS],
+    /// (w, ∂w/∂s, ∂w/∂t, 0) of point `idx[k]`.
+    terms: [[f64; 4]; MAX_POINTS],
+    len: u8,
+}
+
+impl SparseWeights {
+    /// The list of `full` over the first `geometry` control points.
+    pub fn new(full: Weights, geometry: usize) -> SparseWeights {
+        let mut idx = [0u8; MAX_POINTS];
+        let mut terms = [[0.0; 4]; MAX_POINTS];
+        let mut len = 0;
+        for j in 0..geometry.min(MAX_POINTS) {
+            let t = [full.w[j], full.ws[j], full.wt[j], 0.0];
+            if t != [0.0; 4] {
+                idx[len] = j as u8;
+                terms[len] = t;
+                len += 1;
+            }
+        }
+        SparseWeights {
+            full,
+            idx,
+            terms,
+            len: len as u8,
+        }
+    }
+
+    /// The control points with a nonzero weight (increasing) and their weights.
+    #[inline]
+    pub fn terms(&self) -> (&[u8], &[[f64; 4]]) {
+        let n = self.len as usize;
+        (&self.idx[..n], &self.terms[..n])
+    }
+}
+
+/// Basis weights of one patch kind per distinct barycentric point (keyed by its bits), for
+/// up to [`WeightMemo::CAPACITY`] / 2 points; beyond that, weights are computed per point.
+pub struct WeightMemo {
+    kind: PatchKind,
+    /// Open addressing: the key and index into `weights` + 1 (0: an empty slot).
+    slots: Box<[([u64; 3], u16); WeightMemo::CAPACITY]>,
+    weights: Vec<SparseWeights>,
+    scratch: Option<Box<SparseWeights>>,
+}
+
+impl WeightMemo {
+    const CAPACITY: usize = 256;
+
+    pub fn new(kind: PatchKind) -> WeightMemo {
+        WeightMemo {
+            kind,
+            slots: Box::new([([0; 3], 0); WeightMemo::CAPACITY]),
+            weights: Vec::new(),
+            scratch: None,
+        }
+    }
+
+    /// The weights at `b`.
+    #[inline]
+    pub fn get(&mut self, b: [f64; 3]) -> &SparseWeights {
+        let key = b.map(f64::to_bits);
+        let h = (key[0] ^ key[1].rotate_left(21) ^ key[2].rotate_left(42))
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let mut i = (h >> 56) as usize;
+        loop {
+            let (k, s) = self.slots[i];
+            if s == 0 {
+                break;
+            }
+            if k == key {
+                return &self.weights[s as usize - 1];
+            }
+            i = (i + 1) % WeightMemo::CAPACITY;
+        }
+        let w = SparseWeights::new(self.kind.weights(b), self.kind.geometry());
+        if self.weights.len() < WeightMemo::CAPACITY / 2 {
+            self.weights.push(w);
+            self.slots[i] = (key, self.weights.len() as u16);
+            return &self.weights[self.weights.len() - 1];
+        }
+        self.scratch.insert(Box::new(w))
+    }
 }
 
 #[cfg(test)]

@@ -19,8 +19,11 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
-use crate::mesh::creases::{split_ends, use_normal};
+use super::{SchemeOptions, TriangleBuilder};
+use crate::mesh::adjacency::EdgeIndex;
+use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::Mesh;
+use crate::Result;
 
 /// The Walton–Meek cubic between (qa, na) and (qb, nb) (Theorem 2.1, Γ the unit edge
 /// vector). Normals must be unit vectors.
@@ -226,20 +229,57 @@ pub fn crease_curve(
     v
 }
 
-/// Control points of every triangle of `mesh`, and the number of fallbacks taken.
-/// Crease edges (split normals at an end, see [`crate::mesh::creases`]) get one shared
-/// [`crease_curve`].
-pub fn build(mesh: &Mesh) -> (Vec<DVec3>, usize) {
+/// The G1 scheme prepared for one mesh: the shared curves of its crease edges, built once,
+/// from which any triangle's patch is built on demand.
+struct G1Builder<'a> {
+    mesh: &'a Mesh,
+    /// Shared curves of crease edges, keyed by half-edge 3t + k, running from corner k to
+    /// corner k + 1.
+    curves: HashMap<u32, [DVec3; 4]>,
+    /// Fallbacks taken while building the crease curves.
+    fallbacks: usize,
+}
+
+impl TriangleBuilder for G1Builder<'_> {
+    fn build(&self, t: usize, out: &mut [DVec3]) -> usize {
+        let mesh = self.mesh;
+        let tri = mesh.triangles[t];
+        let q = tri.map(|v| mesh.positions[v as usize]);
+        let given = if self.curves.is_empty() {
+            [None; 3]
+        } else {
+            std::array::from_fn(|k| self.curves.get(&(3 * t as u32 + k as u32)).copied())
+        };
+        let mut fallbacks = 0;
+        out.copy_from_slice(&patch_points_with_curves(
+            q,
+            mesh.corner_normals[t],
+            tri,
+            given,
+            &mut fallbacks,
+        ));
+        fallbacks
+    }
+
+    fn prepared_fallbacks(&self) -> usize {
+        self.fallbacks
+    }
+}
+
+/// The G1 scheme prepared for `mesh`: crease edges (split normals at an end, see
+/// [`crate::mesh::creases`]) get one shared [`crease_curve`], built here once.
+pub fn prepare<'a>(mesh: &'a Mesh, _: &SchemeOptions) -> Result<Box<dyn TriangleBuilder + 'a>> {
     let mut fallbacks = 0;
-    // Shared curves of crease edges, keyed by edge use 3t + k, running from corner k to k+1.
     let mut curves: HashMap<u32, [DVec3; 4]> = HashMap::new();
-    let adjacency = mesh.adjacency();
-    for (e, split) in adjacency.edges.iter().zip(split_ends(mesh, &adjacency)) {
-        if !e.is_interior() || !(split[0] || split[1]) {
+    let index = EdgeIndex::new(&mesh.triangles);
+    for e in index.edges().filter(|e| e.is_interior()) {
+        let [u0, u1] = [e.use_at(0), e.use_at(1)];
+        let [a, b] = e.v;
+        let split =
+            e.v.map(|v| normal_key(use_normal(mesh, u0, v)) != normal_key(use_normal(mesh, u1, v)));
+        if !(split[0] || split[1]) {
             continue;
         }
-        let [u0, u1] = [e.uses[0], e.uses[1]];
-        let [a, b] = e.v;
         let curve = crease_curve(
             mesh.positions[a as usize],
             mesh.positions[b as usize],
@@ -255,20 +295,12 @@ pub fn build(mesh: &Mesh) -> (Vec<DVec3>, usize) {
             } else {
                 [curve[3], curve[2], curve[1], curve[0]]
             };
-            curves.insert(3 * u.triangle + u.local as u32, c);
+            curves.insert(u.half_edge(), c);
         }
     }
-    let mut points = Vec::with_capacity(mesh.triangles.len() * 18);
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        let q = tri.map(|v| mesh.positions[v as usize]);
-        let given = std::array::from_fn(|k| curves.get(&(3 * t as u32 + k as u32)).copied());
-        points.extend_from_slice(&patch_points_with_curves(
-            q,
-            mesh.corner_normals[t],
-            *tri,
-            given,
-            &mut fallbacks,
-        ));
-    }
-    (points, fallbacks)
+    Ok(Box::new(G1Builder {
+        mesh,
+        curves,
+        fallbacks,
+    }))
 }

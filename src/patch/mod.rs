@@ -1,8 +1,11 @@
 //! Patch tables: for each triangle of a mesh, the control points of one curved patch,
 //! in f64, ignorant of the backend that evaluates them (OpenSubdiv's Far/Osd split).
 //!
-//! One scheme = one file here + one WGSL file in `shaders/`. A table is plain arrays
-//! (`stride` points per patch, patch-major) so a GPU can take it as it is.
+//! A scheme is one file here (its construction, as a [`TriangleBuilder`]) plus one line of
+//! [`SCHEMES`], the registry every name, kind and construction is read from, plus its
+//! variant of [`Scheme`]. A table is plain arrays (`stride` points per patch, patch-major)
+//! so a GPU can take it as it is; [`PatchBuilder`] builds the table of any subset of the
+//! triangles (streaming consumers build patches chunk by chunk).
 
 pub mod basis;
 pub mod flat;
@@ -14,6 +17,7 @@ pub mod pn;
 pub mod quadratic;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::mesh::Mesh;
 use crate::{Error, Result};
@@ -44,41 +48,124 @@ pub enum Scheme {
     Flat,
 }
 
+/// Builds the control points of any triangle's patch of one scheme on one mesh (the scheme
+/// prepared by its [`SchemeInfo::prepare`]).
+pub trait TriangleBuilder: Sync {
+    /// Writes the `stride` control points of triangle `t` into `out` and returns the number
+    /// of documented fallbacks the construction took for it.
+    fn build(&self, t: usize, out: &mut [DVec3]) -> usize;
+
+    /// Fallbacks taken once for the whole mesh while preparing (G1's crease curves).
+    fn prepared_fallbacks(&self) -> usize {
+        0
+    }
+}
+
+/// Prepares a scheme for one mesh (precomputing whatever is shared between triangles).
+pub type Prepare = for<'a> fn(&'a Mesh, &SchemeOptions) -> Result<Box<dyn TriangleBuilder + 'a>>;
+
+/// One scheme's line of the registry.
+#[derive(Clone, Copy)]
+pub struct SchemeInfo {
+    pub scheme: Scheme,
+    /// The name on the command line and in reports (clap's and serde's kebab-case spelling
+    /// of the variant; `tests/schemes.rs` checks they agree).
+    pub name: &'static str,
+    /// How its tables are evaluated (layout, basis, shader).
+    pub kind: PatchKind,
+    pub prepare: Prepare,
+}
+
+/// The registry: every scheme, in the order reports list them, and in the order of the
+/// [`Scheme`] variants (checked at compile time).
+pub const SCHEMES: &[SchemeInfo] = &[
+    SchemeInfo {
+        scheme: Scheme::G1,
+        name: "g1",
+        kind: PatchKind::Gregory,
+        prepare: g1::prepare,
+    },
+    SchemeInfo {
+        scheme: Scheme::Phong,
+        name: "phong",
+        kind: PatchKind::Bezier(2),
+        prepare: phong::prepare,
+    },
+    SchemeInfo {
+        scheme: Scheme::Nagata,
+        name: "nagata",
+        kind: PatchKind::Bezier(2),
+        prepare: nagata::prepare,
+    },
+    SchemeInfo {
+        scheme: Scheme::NagataGuarded,
+        name: "nagata-guarded",
+        kind: PatchKind::Bezier(2),
+        prepare: nagata::prepare_guarded,
+    },
+    SchemeInfo {
+        scheme: Scheme::Nlsa,
+        name: "nlsa",
+        kind: PatchKind::Bezier(2),
+        prepare: nlsa::prepare,
+    },
+    SchemeInfo {
+        scheme: Scheme::Pn,
+        name: "pn",
+        kind: PatchKind::Bezier(3),
+        prepare: pn::prepare,
+    },
+    SchemeInfo {
+        scheme: Scheme::PnNormals,
+        name: "pn-normals",
+        kind: PatchKind::PnNormals,
+        prepare: pn::prepare_normals,
+    },
+    SchemeInfo {
+        scheme: Scheme::Flat,
+        name: "flat",
+        kind: PatchKind::Bezier(1),
+        prepare: flat::prepare,
+    },
+];
+
+// Registry line i describes the variant with discriminant i, so `Scheme::info` indexes.
+const _: () = {
+    let mut i = 0;
+    while i < SCHEMES.len() {
+        assert!(SCHEMES[i].scheme as usize == i);
+        i += 1;
+    }
+};
+
 impl Scheme {
+    /// Its line of [`SCHEMES`].
+    pub fn info(self) -> &'static SchemeInfo {
+        &SCHEMES[self as usize]
+    }
+
     /// Every scheme, in the order reports list them.
     pub fn all() -> Vec<Scheme> {
-        vec![
-            Scheme::G1,
-            Scheme::Phong,
-            Scheme::Nagata,
-            Scheme::NagataGuarded,
-            Scheme::Nlsa,
-            Scheme::Pn,
-            Scheme::PnNormals,
-            Scheme::Flat,
-        ]
+        SCHEMES.iter().map(|i| i.scheme).collect()
     }
 
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {
-        match self {
-            Scheme::G1 => "g1",
-            Scheme::Phong => "phong",
-            Scheme::Nagata => "nagata",
-            Scheme::NagataGuarded => "nagata-guarded",
-            Scheme::Nlsa => "nlsa",
-            Scheme::Pn => "pn",
-            Scheme::PnNormals => "pn-normals",
-            Scheme::Flat => "flat",
-        }
+        self.info().name
+    }
+
+    /// How its tables are evaluated.
+    pub fn kind(self) -> PatchKind {
+        self.info().kind
     }
 
     pub fn parse(s: &str) -> Result<Scheme> {
-        Scheme::all()
-            .into_iter()
-            .find(|x| x.name() == s)
+        SCHEMES
+            .iter()
+            .find(|x| x.name == s)
+            .map(|x| x.scheme)
             .ok_or_else(|| {
-                let names: Vec<_> = Scheme::all().iter().map(|x| x.name()).collect();
+                let names: Vec<_> = SCHEMES.iter().map(|x| x.name).collect();
                 Error::Invalid(format!(
                     "unknown scheme '{s}' (known: {})",
                     names.join(", ")
@@ -253,54 +340,7 @@ pub struct PatchTable {
 impl PatchTable {
     /// Builds the table of `scheme` for every triangle of `mesh`.
     pub fn build(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<PatchTable> {
-        let (kind, (points, fallbacks)) = match scheme {
-            Scheme::G1 => (PatchKind::Gregory, g1::build(mesh)),
-            Scheme::Phong => {
-                if !opts.phong_alpha.is_finite() {
-                    return Err(Error::Invalid(format!(
-                        "phong: shape factor α must be finite, got {}",
-                        opts.phong_alpha
-                    )));
-                }
-                (PatchKind::Bezier(2), phong::build(mesh, opts.phong_alpha))
-            }
-            Scheme::Nagata => (
-                PatchKind::Bezier(2),
-                nagata::build(mesh, nagata::Guard::None),
-            ),
-            Scheme::NagataGuarded => (
-                PatchKind::Bezier(2),
-                nagata::build(mesh, nagata::Guard::Bounded),
-            ),
-            Scheme::Nlsa => (PatchKind::Bezier(2), nlsa::build(mesh)),
-            Scheme::Pn => (PatchKind::Bezier(3), pn::build(mesh, false)),
-            Scheme::PnNormals => (PatchKind::PnNormals, pn::build(mesh, true)),
-            Scheme::Flat => (PatchKind::Bezier(1), flat::build(mesh)),
-        };
-        let flat_normals = mesh
-            .triangles
-            .iter()
-            .map(|t| crate::mesh::normals::face_normal(t.map(|v| mesh.positions[v as usize])))
-            .collect();
-        let table = PatchTable {
-            scheme,
-            kind,
-            stride: kind.stride(),
-            points,
-            flat_normals,
-            fallbacks,
-        };
-        debug_assert_eq!(table.points.len(), table.stride * mesh.triangles.len());
-        if let Some(i) = table.points.iter().position(|p| !p.is_finite()) {
-            return Err(Error::mesh(
-                &mesh.name,
-                format!(
-                    "{scheme}: patch {} has a non-finite control point (degenerate input)",
-                    i / table.stride
-                ),
-            ));
-        }
-        Ok(table)
+        PatchBuilder::new(mesh, scheme, opts)?.table()
     }
 
     /// Number of patches.
@@ -342,8 +382,219 @@ impl PatchTable {
         SurfacePoint { p, ds, dt, n }
     }
 
+    /// [`Self::eval_weights`] through the nonzero weights only: bitwise the same result
+    /// (see [`basis::SparseWeights`]; the AVX path multiplies and adds lane by lane, with
+    /// no fused operations, in the same order), faster where weights vanish (edges).
+    #[inline]
+    pub fn eval_sparse(&self, i: usize, s: &basis::SparseWeights) -> SurfacePoint {
+        let c = self.patch(i);
+        #[cfg(target_arch = "x86_64")]
+        let [p, ds, dt] = if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (checked just above).
+            unsafe { sparse_sums_avx(c, s) }
+        } else {
+            sparse_sums(c, s)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let [p, ds, dt] = sparse_sums(c, s);
+        let geometry = self.kind.geometry();
+        let n = if geometry < self.stride {
+            let w = &s.full;
+            let field: DVec3 = (geometry..self.stride).map(|j| w.w[j] * c[j]).sum();
+            field.try_normalize().unwrap_or(self.flat_normals[i])
+        } else {
+            unit_normal(ds, dt, self.flat_normals[i])
+        };
+        SurfacePoint { p, ds, dt, n }
+    }
+
     /// Evaluates patch `i` at barycentric `b` (b0 + b1 + b2 = 1; b_k weighs corner k).
     pub fn eval(&self, i: usize, b: [f64; 3]) -> SurfacePoint {
         self.eval_weights(i, &self.kind.weights(b))
+    }
+}
+
+/// S, S_s and S_t of control points `c` through sparse weights (see
+/// [`PatchTable::eval_sparse`]).
+#[inline(always)]
+fn sparse_sums(c: &[DVec3], s: &basis::SparseWeights) -> [DVec3; 3] {
+    let (mut p, mut ds, mut dt) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+    let (idx, terms) = s.terms();
+    for (&j, w) in idx.iter().zip(terms) {
+        let cj = c[j as usize];
+        p += w[0] * cj;
+        ds += w[1] * cj;
+        dt += w[2] * cj;
+    }
+    [p, ds, dt]
+}
+
+/// [`sparse_sums`] with the three coordinates in one AVX register: the same products and
+/// sums per coordinate, so bitwise the same result.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn sparse_sums_avx(c: &[DVec3], s: &basis::SparseWeights) -> [DVec3; 3] {
+    use std::arch::x86_64::*;
+    let mask = _mm256_setr_epi64x(-1, -1, -1, 0);
+    let (mut p, mut ds, mut dt) = (
+        _mm256_setzero_pd(),
+        _mm256_setzero_pd(),
+        _mm256_setzero_pd(),
+    );
+    let (idx, terms) = s.terms();
+    for (&j, w) in idx.iter().zip(terms) {
+        let cj: &DVec3 = &c[j as usize];
+        // SAFETY: reads the three f64 of `cj` (DVec3 is repr(C) x, y, z); the fourth lane
+        // is masked off and not read.
+        let v = unsafe { _mm256_maskload_pd(cj as *const DVec3 as *const f64, mask) };
+        p = _mm256_add_pd(p, _mm256_mul_pd(_mm256_broadcast_sd(&w[0]), v));
+        ds = _mm256_add_pd(ds, _mm256_mul_pd(_mm256_broadcast_sd(&w[1]), v));
+        dt = _mm256_add_pd(dt, _mm256_mul_pd(_mm256_broadcast_sd(&w[2]), v));
+    }
+    let out = |r: __m256d| {
+        let mut a = [0.0f64; 4];
+        // SAFETY: stores four f64 into a four-element array.
+        unsafe { _mm256_storeu_pd(a.as_mut_ptr(), r) };
+        DVec3::new(a[0], a[1], a[2])
+    };
+    [out(p), out(ds), out(dt)]
+}
+
+/// One scheme prepared for one mesh: builds the patch table of all or any of its triangles
+/// (in parallel), so a consumer can hold only the patches it is evaluating.
+pub struct PatchBuilder<'a> {
+    mesh: &'a Mesh,
+    scheme: Scheme,
+    kind: PatchKind,
+    inner: Box<dyn TriangleBuilder + 'a>,
+}
+
+impl<'a> PatchBuilder<'a> {
+    /// Prepares `scheme` for `mesh` (errors: invalid options).
+    pub fn new(mesh: &'a Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<PatchBuilder<'a>> {
+        let info = scheme.info();
+        Ok(PatchBuilder {
+            mesh,
+            scheme,
+            kind: info.kind,
+            inner: (info.prepare)(mesh, opts)?,
+        })
+    }
+
+    pub fn mesh(&self) -> &'a Mesh {
+        self.mesh
+    }
+
+    pub fn scheme(&self) -> Scheme {
+        self.scheme
+    }
+
+    pub fn kind(&self) -> PatchKind {
+        self.kind
+    }
+
+    /// Fallbacks taken once for the whole mesh while preparing (counted in [`Self::table`]
+    /// but in no [`Self::table_of`]).
+    pub fn prepared_fallbacks(&self) -> usize {
+        self.inner.prepared_fallbacks()
+    }
+
+    /// The table of every triangle; its `fallbacks` count the whole construction.
+    pub fn table(&self) -> Result<PatchTable> {
+        let n = self.mesh.triangles.len();
+        let mut t = self.empty_table();
+        self.build_with(n, n, &|i| i, &mut t)?;
+        t.fallbacks += self.prepared_fallbacks();
+        Ok(t)
+    }
+
+    /// The table of `triangles` (patch i is triangle `triangles[i]`); its `fallbacks` count
+    /// the fallbacks of the first `counted` of them only (so that a consumer building
+    /// triangles more than once counts each once).
+    pub fn table_of(&self, triangles: &[u32], counted: usize) -> Result<PatchTable> {
+        let mut t = self.empty_table();
+        self.table_of_into(triangles, counted, &mut t)?;
+        Ok(t)
+    }
+
+    /// [`Self::table_of`] into `table`, reusing its arrays (a streaming consumer builds
+    /// one chunk's table after another in the same memory).
+    pub fn table_of_into(
+        &self,
+        triangles: &[u32],
+        counted: usize,
+        table: &mut PatchTable,
+    ) -> Result<()> {
+        self.build_with(triangles.len(), counted, &|i| triangles[i] as usize, table)
+    }
+
+    /// A table of no patches of this scheme.
+    pub fn empty_table(&self) -> PatchTable {
+        PatchTable {
+            scheme: self.scheme,
+            kind: self.kind,
+            stride: self.kind.stride(),
+            points: Vec::new(),
+            flat_normals: Vec::new(),
+            fallbacks: 0,
+        }
+    }
+
+    /// The fallbacks of `triangles` (built and dropped).
+    pub fn fallbacks_of(&self, triangles: &[u32]) -> usize {
+        let stride = self.kind.stride();
+        triangles
+            .par_iter()
+            .map_init(
+                || vec![DVec3::ZERO; stride],
+                |buf, &t| self.inner.build(t as usize, buf),
+            )
+            .sum()
+    }
+
+    fn build_with(
+        &self,
+        n: usize,
+        counted: usize,
+        triangle: &(dyn Fn(usize) -> usize + Sync),
+        table: &mut PatchTable,
+    ) -> Result<()> {
+        let mesh = self.mesh;
+        let stride = self.kind.stride();
+        *table = PatchTable {
+            points: std::mem::take(&mut table.points),
+            flat_normals: std::mem::take(&mut table.flat_normals),
+            ..self.empty_table()
+        };
+        table.points.resize(n * stride, DVec3::ZERO);
+        table.flat_normals.resize(n, DVec3::ZERO);
+        table.fallbacks = table
+            .points
+            .par_chunks_mut(stride)
+            .zip(table.flat_normals.par_iter_mut())
+            .enumerate()
+            .map(|(i, (out, flat))| {
+                let t = triangle(i);
+                let tri = mesh.triangles[t];
+                *flat = crate::mesh::normals::face_normal(tri.map(|v| mesh.positions[v as usize]));
+                let f = self.inner.build(t, out);
+                if i < counted {
+                    f
+                } else {
+                    0
+                }
+            })
+            .sum();
+        if let Some(i) = table.points.par_iter().position_first(|p| !p.is_finite()) {
+            return Err(Error::mesh(
+                &mesh.name,
+                format!(
+                    "{}: patch {} has a non-finite control point (degenerate input)",
+                    self.scheme,
+                    triangle(i / stride)
+                ),
+            ));
+        }
+        Ok(())
     }
 }

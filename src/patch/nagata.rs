@@ -26,7 +26,10 @@
 
 use glam::DVec3;
 
+use super::quadratic::QuadraticBuilder;
+use super::{SchemeOptions, TriangleBuilder};
 use crate::mesh::Mesh;
+use crate::Result;
 
 /// How many times the bend implied by the normals (|dx| tan(θ/2)) the guarded variant
 /// accepts before it straightens an edge.
@@ -80,7 +83,22 @@ pub fn edge_point(pi: DVec3, ni: DVec3, pj: DVec3, nj: DVec3, guard: Guard) -> (
     (0.5 * (pi + pj) - 0.5 * c, fallback)
 }
 
-/// Control points of every triangle (quadratic, 6 per triangle) and the fallbacks taken.
-pub fn build(mesh: &Mesh, guard: Guard) -> (Vec<DVec3>, usize) {
-    super::quadratic::build(mesh, &|pi, ni, pj, nj| edge_point(pi, ni, pj, nj, guard))
+fn prepare_with<'a>(mesh: &'a Mesh, guard: Guard) -> Result<Box<dyn TriangleBuilder + 'a>> {
+    Ok(Box::new(QuadraticBuilder {
+        mesh,
+        edge_point: move |pi, ni, pj, nj| edge_point(pi, ni, pj, nj, guard),
+    }))
+}
+
+/// `nagata`: ξ = 0 ([`Guard::None`]), the paper's row.
+pub fn prepare<'a>(mesh: &'a Mesh, _: &SchemeOptions) -> Result<Box<dyn TriangleBuilder + 'a>> {
+    prepare_with(mesh, Guard::None)
+}
+
+/// `nagata-guarded` ([`Guard::Bounded`]).
+pub fn prepare_guarded<'a>(
+    mesh: &'a Mesh,
+    _: &SchemeOptions,
+) -> Result<Box<dyn TriangleBuilder + 'a>> {
+    prepare_with(mesh, Guard::Bounded)
 }

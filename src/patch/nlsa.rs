@@ -10,7 +10,10 @@
 
 use glam::DVec3;
 
+use super::quadratic::QuadraticBuilder;
+use super::{SchemeOptions, TriangleBuilder};
 use crate::mesh::Mesh;
+use crate::Result;
 
 /// Edge point of the edge from (pi, ni) to (pj, nj).
 pub fn edge_point(pi: DVec3, ni: DVec3, pj: DVec3, nj: DVec3) -> DVec3 {
@@ -18,7 +21,10 @@ pub fn edge_point(pi: DVec3, ni: DVec3, pj: DVec3, nj: DVec3) -> DVec3 {
     0.5 * (pi + pj) - 0.25 * (e.dot(ni) * ni - e.dot(nj) * nj)
 }
 
-/// Control points of every triangle (quadratic, 6 per triangle) and the fallbacks (none).
-pub fn build(mesh: &Mesh) -> (Vec<DVec3>, usize) {
-    super::quadratic::build(mesh, &|pi, ni, pj, nj| (edge_point(pi, ni, pj, nj), false))
+/// The scheme prepared for `mesh` (no options, no fallbacks).
+pub fn prepare<'a>(mesh: &'a Mesh, _: &SchemeOptions) -> Result<Box<dyn TriangleBuilder + 'a>> {
+    Ok(Box::new(QuadraticBuilder {
+        mesh,
+        edge_point: |pi, ni, pj, nj| (edge_point(pi, ni, pj, nj), false),
+    }))
 }

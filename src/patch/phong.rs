@@ -10,7 +10,10 @@
 
 use glam::DVec3;
 
+use super::quadratic::QuadraticBuilder;
+use super::{SchemeOptions, TriangleBuilder};
 use crate::mesh::Mesh;
+use crate::{Error, Result};
 
 /// Edge point of the edge from (pi, ni) to (pj, nj).
 pub fn edge_point(pi: DVec3, ni: DVec3, pj: DVec3, nj: DVec3, alpha: f64) -> DVec3 {
@@ -18,9 +21,16 @@ pub fn edge_point(pi: DVec3, ni: DVec3, pj: DVec3, nj: DVec3, alpha: f64) -> DVe
     0.5 * (pi + pj) - (0.5 * alpha) * (e.dot(ni) * ni + (-e).dot(nj) * nj)
 }
 
-/// Control points of every triangle (quadratic, 6 per triangle) and the fallbacks (none).
-pub fn build(mesh: &Mesh, alpha: f64) -> (Vec<DVec3>, usize) {
-    super::quadratic::build(mesh, &|pi, ni, pj, nj| {
-        (edge_point(pi, ni, pj, nj, alpha), false)
-    })
+/// The scheme prepared for `mesh` with the shape factor of `opts` (which must be finite).
+pub fn prepare<'a>(mesh: &'a Mesh, opts: &SchemeOptions) -> Result<Box<dyn TriangleBuilder + 'a>> {
+    let alpha = opts.phong_alpha;
+    if !alpha.is_finite() {
+        return Err(Error::Invalid(format!(
+            "phong: shape factor α must be finite, got {alpha}"
+        )));
+    }
+    Ok(Box::new(QuadraticBuilder {
+        mesh,
+        edge_point: move |pi, ni, pj, nj| (edge_point(pi, ni, pj, nj, alpha), false),
+    }))
 }

@@ -19,7 +19,9 @@
 use glam::DVec3;
 
 use super::basis::bezier_index;
+use super::{SchemeOptions, TriangleBuilder};
 use crate::mesh::Mesh;
+use crate::Result;
 
 /// The 10 cubic control points of one triangle in `bezier_powers(3)` order.
 pub fn geometry(q: [DVec3; 3], n: [DVec3; 3]) -> [DVec3; 10] {
@@ -91,18 +93,42 @@ pub fn normal_field(
     c
 }
 
-/// Control points of every triangle: 10 per triangle, or 16 with the normal field.
-pub fn build(mesh: &Mesh, with_normal_field: bool) -> (Vec<DVec3>, usize) {
-    let mut fallbacks = 0;
-    let per = if with_normal_field { 16 } else { 10 };
-    let mut points = Vec::with_capacity(mesh.triangles.len() * per);
-    for (t, tri) in mesh.triangles.iter().enumerate() {
+struct PnBuilder<'a> {
+    mesh: &'a Mesh,
+    with_normal_field: bool,
+}
+
+impl TriangleBuilder for PnBuilder<'_> {
+    /// The 10 cubic points, then (with the normal field) its 6 coefficients.
+    fn build(&self, t: usize, out: &mut [DVec3]) -> usize {
+        let mesh = self.mesh;
+        let tri = mesh.triangles[t];
         let q = tri.map(|v| mesh.positions[v as usize]);
         let n = mesh.corner_normals[t];
-        points.extend_from_slice(&geometry(q, n));
-        if with_normal_field {
-            points.extend_from_slice(&normal_field(q, n, *tri, &mut fallbacks));
+        out[..10].copy_from_slice(&geometry(q, n));
+        let mut fallbacks = 0;
+        if self.with_normal_field {
+            out[10..16].copy_from_slice(&normal_field(q, n, tri, &mut fallbacks));
         }
+        fallbacks
     }
-    (points, fallbacks)
+}
+
+/// `pn`: the cubic geometry with its exact normal.
+pub fn prepare<'a>(mesh: &'a Mesh, _: &SchemeOptions) -> Result<Box<dyn TriangleBuilder + 'a>> {
+    Ok(Box::new(PnBuilder {
+        mesh,
+        with_normal_field: false,
+    }))
+}
+
+/// `pn-normals`: the cubic geometry with the quadratic normal field.
+pub fn prepare_normals<'a>(
+    mesh: &'a Mesh,
+    _: &SchemeOptions,
+) -> Result<Box<dyn TriangleBuilder + 'a>> {
+    Ok(Box::new(PnBuilder {
+        mesh,
+        with_normal_field: true,
+    }))
 }
