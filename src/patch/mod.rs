@@ -24,7 +24,8 @@ use crate::{Error, Result};
 use basis::Weights;
 
 /// The surface construction applied to every triangle.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum Scheme {
     /// Bézier G1 (Walton & Meek 1996): quartic boundary, Gregory interior, shared tangent
