@@ -12,5 +12,7 @@ pub mod gpu;
 pub mod mesh;
 pub mod output;
 pub mod patch;
+pub mod progress;
+pub mod tess;
 
 pub use error::{Error, Result};

@@ -254,9 +254,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     };
 
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let cpu = CpuEvaluator {
-        chunk_samples: a.cpu_chunk_samples.max(1),
-    };
+    let cpu = CpuEvaluator::with_chunk_samples(a.cpu_chunk_samples.max(1));
     let min = Duration::from_millis(500);
     let mut rows = Vec::new();
     for spec in &meshes {
@@ -293,7 +291,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                     let mut pos = vec![[0f32; 3]; samples];
                     let mut nrm = vec![[0f32; 3]; samples];
                     let mut run = || {
-                        cpu.grid_f32_into(&table, &weights, F32Kernel::Auto, &mut pos, &mut nrm)
+                        cpu.grid_f32_into(&table, &weights, &mut pos, &mut nrm)
                             .map_err(anyhow::Error::from)
                     };
                     run()?; // first touch of every page, untimed

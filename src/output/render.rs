@@ -13,8 +13,8 @@ use glam::DVec3;
 use plotters::prelude::*;
 
 use super::plot::register_font;
-use super::weld::WeldedMesh;
 use crate::gpu::GpuContext;
+use crate::tess::stitch::StitchedMesh;
 use crate::{Error, Result};
 
 /// Background of the panels (white).
@@ -155,7 +155,7 @@ const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// The camera: an orthonormal frame (right, up, towards the viewer) and the orthographic
 /// map fitted to the surface's bounding box in that frame.
-fn camera(mesh: &WeldedMesh, opts: &RenderOptions) -> Result<[[f32; 4]; 3]> {
+fn camera(mesh: &StitchedMesh, opts: &RenderOptions) -> Result<[[f32; 4]; 3]> {
     let z = opts
         .view
         .try_normalize()
@@ -199,7 +199,7 @@ fn camera(mesh: &WeldedMesh, opts: &RenderOptions) -> Result<[[f32; 4]; 3]> {
 
 /// Draws `mesh` (welded, with its record normals) in three panels coloured by n_x, n_y,
 /// n_z.
-pub fn render_panels(mesh: &WeldedMesh, opts: &RenderOptions) -> Result<Panels> {
+pub fn render_panels(mesh: &StitchedMesh, opts: &RenderOptions) -> Result<Panels> {
     use wgpu::util::DeviceExt;
     if mesh.triangles.is_empty() {
         return Err(Error::Invalid("render: no triangles".into()));

@@ -1,6 +1,8 @@
-//! Welded, indexed output of a grid evaluation, built while the samples stream in.
+//! Stitching: the indexed output surface of a grid evaluation, built while the samples
+//! stream in (output side; input welding of coincident file vertices is
+//! [`crate::mesh`]'s).
 //!
-//! Every patch is evaluated on the grid of level n ([`Pattern::Grid`]); the welded mesh
+//! Every patch is evaluated on the grid of level n ([`Pattern::Grid`]); the stitched mesh
 //! keeps
 //! - one position per input vertex, taken from the first triangle that uses the vertex;
 //! - n − 1 positions per edge, taken from the first triangle that uses the edge (its
@@ -13,7 +15,11 @@
 //! Euler characteristic. Boundary and non-manifold edges are kept as they are: each use of
 //! a non-manifold edge maps onto the owner's samples.
 //!
-//! **Split normals.** Positions are always welded. Normals are carried by *vertex records*
+//! **Precision.** The stitcher is generic over the sample precision ([`Vector`]): `DVec3`
+//! for the f64 reference, `[f32; 3]` for files, which then go kernel → stitcher → writer in
+//! f32 with no f64 round trip.
+//!
+//! **Split normals.** Positions are always shared. Normals are carried by *vertex records*
 //! (a position id and a normal): a position has one record, except where the input splits
 //! normals: an input vertex has one record per distinct corner normal around it (bitwise,
 //! see [`crate::mesh::creases`]), and each sample inside an edge whose triangles disagree
@@ -22,9 +28,9 @@
 //! records, `f p//r`); formats with one attribute set per vertex (PLY, glTF) write the
 //! records, so their meshes are cut along creases, as split normals require there.
 //!
-//! Memory: the plan is O(triangles); while streaming, the welder keeps the positions of the
-//! input vertices and edge samples (V + E(n − 1) points) and nothing else, so big outputs
-//! never need the whole sample array.
+//! Memory: the plan is O(triangles); while streaming, the stitcher keeps the positions of
+//! the input vertices and edge samples (V + E(n − 1) points) and nothing else, so big
+//! outputs never need the whole sample array.
 //!
 //! Order: positions and records are numbered in the order they first appear when the
 //! patches are visited in order, and within a patch: corners 0, 1, 2, edges 0, 1, 2 (each
@@ -36,24 +42,26 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use crate::eval::pattern::grid_index;
-use crate::eval::{grid_len, grid_triangles, Chunk};
+use crate::eval::{grid_len, grid_triangles, Chunk, Evaluator, Pattern, Vector};
 use crate::mesh::creases::{normal_key, split_ends};
 use crate::mesh::{Adjacency, Mesh};
+use crate::patch::PatchTable;
+use crate::progress::{NoProgress, Progress};
 use crate::{Error, Result};
 
 const NONE: u32 = u32::MAX;
 
-/// One vertex record of the welded mesh: a welded position with the normal of one side.
+/// One vertex record of the stitched mesh: a shared position with the normal of one side.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Record {
-    pub position: DVec3,
-    pub normal: DVec3,
+pub struct VertexRecord<V = DVec3> {
+    pub position: V,
+    pub normal: V,
     pub position_id: u32,
 }
 
-/// What welding found in the input topology.
+/// What stitching found in the input topology.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-pub struct WeldReport {
+pub struct StitchReport {
     pub boundary_edges: usize,
     pub nonmanifold_edges: usize,
     /// Edges whose triangles disagree on an end normal: their samples get one record per
@@ -63,17 +71,17 @@ pub struct WeldReport {
     pub extra_records: usize,
 }
 
-/// The numbering of a welded grid output, from the topology alone.
+/// The numbering of a stitched grid output, from the topology alone.
 #[derive(Clone, Debug)]
-pub struct WeldPlan {
+pub struct StitchPlan {
     pub level: u32,
-    /// Welded positions.
+    /// Shared positions.
     pub positions: usize,
     /// Vertex records (≥ positions; more where normals are split).
     pub records: usize,
     /// Output triangles: level² per patch.
     pub triangles: usize,
-    pub report: WeldReport,
+    pub report: StitchReport,
     tris: Vec<[u32; 3]>,
     vertices: usize,
     /// Per edge use 3t + k: the edge (index in the adjacency).
@@ -116,9 +124,9 @@ fn interior_grid(n: u32) -> impl Iterator<Item = usize> {
     (1..n.saturating_sub(1)).flat_map(move |j| (1..n - j).map(move |i| grid_index(n, i, j)))
 }
 
-impl WeldPlan {
-    /// Plans the welded output of `mesh` on the grid of level `level` (≥ 1).
-    pub fn new(mesh: &Mesh, adjacency: &Adjacency, level: u32) -> Result<WeldPlan> {
+impl StitchPlan {
+    /// Plans the stitched output of `mesh` on the grid of level `level` (≥ 1).
+    pub fn new(mesh: &Mesh, adjacency: &Adjacency, level: u32) -> Result<StitchPlan> {
         if level == 0 {
             return Err(Error::Invalid("level must be at least 1".into()));
         }
@@ -136,12 +144,12 @@ impl WeldPlan {
                 mesh.name
             )));
         }
-        let mut plan = WeldPlan {
+        let mut plan = StitchPlan {
             level,
             positions: 0,
             records: 0,
             triangles: nf * (n as usize) * (n as usize),
-            report: WeldReport {
+            report: StitchReport {
                 boundary_edges: adjacency.boundary,
                 nonmanifold_edges: adjacency.nonmanifold,
                 ..Default::default()
@@ -285,59 +293,108 @@ impl WeldPlan {
     }
 }
 
-/// What the welder hands to a [`WeldSink`] for one patch.
-pub struct PatchOut<'a> {
+/// What the stitcher hands to a [`StitchSink`] for one patch. The fields a sink does not
+/// ask for in [`StitchSink::needs`] are empty.
+pub struct PatchOut<'a, V = DVec3> {
     pub patch: usize,
     /// Positions first appearing in this patch, in id order.
-    pub new_positions: &'a [DVec3],
+    pub new_positions: &'a [V],
     /// Records first appearing in this patch, in id order.
-    pub new_records: &'a [Record],
-    /// This patch's triangles as record ids.
+    pub new_records: &'a [VertexRecord<V>],
+    /// This patch's triangles as record ids ([`Needs::triangles`]).
     pub triangles: &'a [[u32; 3]],
-    /// The same triangles as position ids.
+    /// The same triangles as position ids ([`Needs::triangles`]).
     pub position_triangles: &'a [[u32; 3]],
-    /// Welded position of every grid point of the patch (grid order).
-    pub grid_positions: &'a [DVec3],
+    /// Shared position of every grid point of the patch, grid order
+    /// ([`Needs::grid_positions`]).
+    pub grid_positions: &'a [V],
     /// The patch's triangles as grid indices (the same for every patch).
     pub grid_triangles: &'a [[u32; 3]],
 }
 
-/// A consumer of welded output, patch after patch.
-pub trait WeldSink {
-    fn patch(&mut self, out: &PatchOut<'_>) -> Result<()>;
+/// Which parts of [`PatchOut`] a sink reads (the stitcher skips building the others).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Needs {
+    /// `triangles` and `position_triangles`.
+    pub triangles: bool,
+    /// `grid_positions`.
+    pub grid_positions: bool,
 }
 
-/// Turns the chunks of a grid evaluation into welded output, patch by patch.
-pub struct Welder<'a> {
-    plan: &'a WeldPlan,
-    store: Vec<DVec3>,
+impl Needs {
+    pub const ALL: Needs = Needs {
+        triangles: true,
+        grid_positions: true,
+    };
+    /// New positions and records only.
+    pub const VERTICES: Needs = Needs {
+        triangles: false,
+        grid_positions: false,
+    };
+}
+
+/// A consumer of stitched output, patch after patch.
+pub trait StitchSink<V = DVec3> {
+    /// What the sink reads of each [`PatchOut`] (default: everything).
+    fn needs(&self) -> Needs {
+        Needs::ALL
+    }
+    fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()>;
+}
+
+/// A sink that keeps nothing: counts what it was handed (throughput measurements).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CountingSink {
+    pub patches: usize,
+    pub positions: usize,
+    pub records: usize,
+}
+
+impl<V> StitchSink<V> for CountingSink {
+    fn needs(&self) -> Needs {
+        Needs::VERTICES
+    }
+    fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()> {
+        self.patches += 1;
+        self.positions += out.new_positions.len();
+        self.records += out.new_records.len();
+        Ok(())
+    }
+}
+
+/// Turns the chunks of a grid evaluation into stitched output, patch by patch.
+pub struct Stitcher<'a, V = DVec3> {
+    plan: &'a StitchPlan,
+    store: Vec<V>,
     next_patch: usize,
     next_pos: u32,
     next_rec: u32,
-    /// Largest distance between a patch's own evaluation of a shared point and the welded
+    /// Largest distance between a patch's own evaluation of a shared point and the shared
     /// position it was mapped onto (0 for the owner; rounding for a surface whose patches
     /// meet; the size of the crack otherwise).
     pub max_snap: f64,
     grid: Vec<[u32; 3]>,
+    interior: Vec<u32>,
     local_rec: Vec<u32>,
     local_pos: Vec<u32>,
-    grid_positions: Vec<DVec3>,
-    new_positions: Vec<DVec3>,
-    new_records: Vec<Record>,
+    grid_positions: Vec<V>,
+    new_positions: Vec<V>,
+    new_records: Vec<VertexRecord<V>>,
     triangles: Vec<[u32; 3]>,
     position_triangles: Vec<[u32; 3]>,
 }
 
-impl<'a> Welder<'a> {
-    pub fn new(plan: &'a WeldPlan) -> Welder<'a> {
-        Welder {
+impl<'a, V: Vector> Stitcher<'a, V> {
+    pub fn new(plan: &'a StitchPlan) -> Stitcher<'a, V> {
+        Stitcher {
             plan,
-            store: vec![DVec3::NAN; plan.store_len()],
+            store: vec![V::NAN; plan.store_len()],
             next_patch: 0,
             next_pos: 0,
             next_rec: 0,
             max_snap: 0.0,
             grid: grid_triangles(plan.level),
+            interior: interior_grid(plan.level).map(|g| g as u32).collect(),
             local_rec: Vec::new(),
             local_pos: Vec::new(),
             grid_positions: Vec::new(),
@@ -353,28 +410,31 @@ impl<'a> Welder<'a> {
         self.next_patch == self.plan.patches()
     }
 
-    /// Consumes one chunk of a [`Pattern::Grid`](crate::eval::Pattern::Grid) evaluation at
-    /// the plan's level (chunks must arrive in patch order).
-    pub fn push_chunk(&mut self, chunk: &Chunk<'_>, sink: &mut dyn WeldSink) -> Result<()> {
+    /// Consumes one chunk of a [`Pattern::Grid`] evaluation at the plan's level (chunks
+    /// must arrive in patch order).
+    pub fn push_chunk(&mut self, chunk: &Chunk<'_, V>, sink: &mut dyn StitchSink<V>) -> Result<()> {
         let per = grid_len(self.plan.level);
         if chunk.first != self.next_patch
             || chunk.positions.len() % per != 0
             || chunk.normals.len() != chunk.positions.len()
+            || chunk.first + chunk.positions.len() / per > self.plan.patches()
         {
             return Err(Error::Invalid(format!(
-                "welding: chunk at patch {} with {} samples does not continue patch {} (grid of {per})",
+                "stitching: chunk at patch {} with {} samples does not continue patch {} of {} (grid of {per})",
                 chunk.first,
                 chunk.positions.len(),
-                self.next_patch
+                self.next_patch,
+                self.plan.patches()
             )));
         }
+        let needs = sink.needs();
         for (i, (pos, nrm)) in chunk
             .positions
             .chunks_exact(per)
             .zip(chunk.normals.chunks_exact(per))
             .enumerate()
         {
-            self.push_patch(chunk.first + i, pos, nrm, sink)?;
+            self.push_patch(chunk.first + i, pos, nrm, needs, sink)?;
         }
         Ok(())
     }
@@ -382,38 +442,45 @@ impl<'a> Welder<'a> {
     fn push_patch(
         &mut self,
         p: usize,
-        pos: &[DVec3],
-        nrm: &[DVec3],
-        sink: &mut dyn WeldSink,
+        pos: &[V],
+        nrm: &[V],
+        needs: Needs,
+        sink: &mut dyn StitchSink<V>,
     ) -> Result<()> {
         let plan = self.plan;
         let n = plan.level;
-        plan.local_ids(p, &mut self.local_rec, &mut self.local_pos);
         self.grid_positions.clear();
-        self.grid_positions.extend_from_slice(pos);
+        if needs.grid_positions {
+            self.grid_positions.extend_from_slice(pos);
+        }
         self.new_positions.clear();
         self.new_records.clear();
         let tri = plan.tris[p];
-        // Maps grid point g onto store slot `slot`: the owner fills it, others snap to it.
-        let visit = |this: &mut Self, g: usize, slot: usize, owner: bool, new_rec: bool| {
-            if owner {
-                this.store[slot] = pos[g];
-                this.new_positions.push(pos[g]);
-                this.next_pos += 1;
-            } else {
-                this.max_snap = this.max_snap.max(pos[g].distance(this.store[slot]));
-            }
-            let q = this.store[slot];
-            this.grid_positions[g] = q;
-            if new_rec {
-                this.new_records.push(Record {
-                    position: q,
-                    normal: nrm[g],
-                    position_id: this.local_pos[g],
-                });
-                this.next_rec += 1;
-            }
-        };
+        // Maps grid point g (position id `pid`) onto store slot `slot`: the owner fills
+        // it, the others snap to it.
+        let mut snap = self.max_snap;
+        let mut visit =
+            |this: &mut Self, g: usize, slot: usize, pid: u32, owner: bool, new_rec: bool| {
+                if owner {
+                    this.store[slot] = pos[g];
+                    this.new_positions.push(pos[g]);
+                    this.next_pos += 1;
+                } else {
+                    snap = snap.max(pos[g].to_dvec3().distance(this.store[slot].to_dvec3()));
+                }
+                let q = this.store[slot];
+                if needs.grid_positions {
+                    this.grid_positions[g] = q;
+                }
+                if new_rec {
+                    this.new_records.push(VertexRecord {
+                        position: q,
+                        normal: nrm[g],
+                        position_id: pid,
+                    });
+                    this.next_rec += 1;
+                }
+            };
         for (k, &vk) in tri.iter().enumerate() {
             let v = vk as usize;
             let owner = plan.vertex_owner[v] == p as u32;
@@ -422,6 +489,7 @@ impl<'a> Welder<'a> {
                 self,
                 corner_grid(n, k),
                 v,
+                plan.vertex_pos[v],
                 owner,
                 plan.corner_new_rec[3 * p + k],
             );
@@ -435,27 +503,44 @@ impl<'a> Welder<'a> {
             for m in 1..n {
                 let i = if plan.use_rev[u] { n - m } else { m };
                 let slot = plan.edge_slot(e, m);
-                visit(self, edge_grid(n, k, i), slot, owner, plan.use_new_rec[u]);
+                let pid = plan.edge_pos[e as usize] + m - 1;
+                visit(
+                    self,
+                    edge_grid(n, k, i),
+                    slot,
+                    pid,
+                    owner,
+                    plan.use_new_rec[u],
+                );
             }
         }
+        self.max_snap = snap;
         debug_assert_eq!(plan.interior_pos[p], self.next_pos);
         debug_assert_eq!(plan.interior_rec[p], self.next_rec);
-        for g in interior_grid(n) {
-            self.new_positions.push(pos[g]);
-            self.new_records.push(Record {
-                position: pos[g],
-                normal: nrm[g],
-                position_id: self.local_pos[g],
-            });
-            self.next_pos += 1;
-            self.next_rec += 1;
-        }
+        let first_pos = self.next_pos;
+        self.new_positions
+            .extend(self.interior.iter().map(|&g| pos[g as usize]));
+        self.new_records.extend(
+            self.interior
+                .iter()
+                .enumerate()
+                .map(|(idx, &g)| VertexRecord {
+                    position: pos[g as usize],
+                    normal: nrm[g as usize],
+                    position_id: first_pos + idx as u32,
+                }),
+        );
+        self.next_pos += self.interior.len() as u32;
+        self.next_rec += self.interior.len() as u32;
         self.triangles.clear();
         self.position_triangles.clear();
-        for t in &self.grid {
-            self.triangles.push(t.map(|i| self.local_rec[i as usize]));
-            self.position_triangles
-                .push(t.map(|i| self.local_pos[i as usize]));
+        if needs.triangles {
+            plan.local_ids(p, &mut self.local_rec, &mut self.local_pos);
+            for t in &self.grid {
+                self.triangles.push(t.map(|i| self.local_rec[i as usize]));
+                self.position_triangles
+                    .push(t.map(|i| self.local_pos[i as usize]));
+            }
         }
         self.next_patch = p + 1;
         sink.patch(&PatchOut {
@@ -470,21 +555,39 @@ impl<'a> Welder<'a> {
     }
 }
 
-/// A welded mesh held in memory (small runs, tests, pictures).
-#[derive(Clone, Debug, Default)]
-pub struct WeldedMesh {
-    /// Welded positions.
-    pub positions: Vec<DVec3>,
+/// A stitched mesh held in memory (small runs, tests, pictures).
+#[derive(Clone, Debug)]
+pub struct StitchedMesh<V = DVec3> {
+    /// Shared positions.
+    pub positions: Vec<V>,
     /// Normal of each vertex record.
-    pub normals: Vec<DVec3>,
+    pub normals: Vec<V>,
     /// Position id of each vertex record.
     pub record_position: Vec<u32>,
     /// Triangles as record ids.
     pub triangles: Vec<[u32; 3]>,
 }
 
-impl WeldSink for WeldedMesh {
-    fn patch(&mut self, out: &PatchOut<'_>) -> Result<()> {
+impl<V> Default for StitchedMesh<V> {
+    fn default() -> Self {
+        StitchedMesh {
+            positions: Vec::new(),
+            normals: Vec::new(),
+            record_position: Vec::new(),
+            triangles: Vec::new(),
+        }
+    }
+}
+
+impl<V: Vector> StitchSink<V> for StitchedMesh<V> {
+    fn needs(&self) -> Needs {
+        Needs {
+            triangles: true,
+            grid_positions: false,
+        }
+    }
+
+    fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()> {
         self.positions.extend_from_slice(out.new_positions);
         for r in out.new_records {
             self.normals.push(r.normal);
@@ -495,8 +598,8 @@ impl WeldSink for WeldedMesh {
     }
 }
 
-impl WeldedMesh {
-    /// Triangles as position ids (the welded topology).
+impl<V: Vector> StitchedMesh<V> {
+    /// Triangles as position ids (the stitched topology).
     pub fn position_triangles(&self) -> Vec<[u32; 3]> {
         self.triangles
             .iter()
@@ -505,7 +608,7 @@ impl WeldedMesh {
     }
 
     /// Position of every vertex record.
-    pub fn record_positions(&self) -> Vec<DVec3> {
+    pub fn record_positions(&self) -> Vec<V> {
         self.record_position
             .iter()
             .map(|&p| self.positions[p as usize])
@@ -513,44 +616,64 @@ impl WeldedMesh {
     }
 }
 
-/// Evaluates `table` on the grid of `plan.level` with `evaluator` and welds the result into
-/// `sink`; returns the largest snap distance ([`Welder::max_snap`]). `on_chunk` receives
-/// the number of patches of each chunk (for progress bars).
-pub fn weld_into(
-    plan: &WeldPlan,
-    table: &crate::patch::PatchTable,
-    evaluator: &dyn crate::eval::Evaluator,
-    sink: &mut dyn WeldSink,
-    on_chunk: &mut dyn FnMut(usize),
+/// Evaluates `table` on the grid of `plan.level` with `evaluator` in the precision `V`
+/// ([`Vector::evaluate`]: f32 runs the evaluator's native f32 path) and stitches the result
+/// into `sink`; returns the largest snap distance ([`Stitcher::max_snap`]). `progress`
+/// gets the phase "evaluating" over the patches, advanced chunk by chunk.
+pub fn stitch_into<V: Vector>(
+    plan: &StitchPlan,
+    table: &PatchTable,
+    evaluator: &dyn Evaluator,
+    sink: &mut dyn StitchSink<V>,
+    progress: &dyn Progress,
 ) -> Result<f64> {
-    let mut welder = Welder::new(plan);
+    if table.len() != plan.patches() {
+        return Err(Error::Invalid(format!(
+            "stitching: a table of {} patches for a plan of {}",
+            table.len(),
+            plan.patches()
+        )));
+    }
+    let mut stitcher = Stitcher::<V>::new(plan);
     let per = grid_len(plan.level);
-    evaluator.evaluate(
+    progress.start("evaluating", plan.patches() as u64);
+    V::evaluate(
+        evaluator,
         table,
-        &crate::eval::Pattern::Grid { level: plan.level },
+        &Pattern::Grid { level: plan.level },
         &mut |chunk| {
-            welder.push_chunk(&chunk, sink)?;
-            on_chunk(chunk.positions.len() / per);
+            stitcher.push_chunk(&chunk, sink)?;
+            progress.inc((chunk.positions.len() / per) as u64);
             Ok(())
         },
     )?;
-    if !welder.is_complete() {
+    if !stitcher.is_complete() {
         return Err(Error::Invalid(
-            "welding: the evaluator did not deliver every patch".into(),
+            "stitching: the evaluator did not deliver every patch".into(),
         ));
     }
-    Ok(welder.max_snap)
+    Ok(stitcher.max_snap)
 }
 
-/// Welds the whole grid evaluation in memory.
-pub fn weld(
+/// Stitches the whole grid evaluation of `level` in memory, in precision `V`.
+pub fn stitch_in<V: Vector>(
     mesh: &Mesh,
-    table: &crate::patch::PatchTable,
-    evaluator: &dyn crate::eval::Evaluator,
+    table: &PatchTable,
+    evaluator: &dyn Evaluator,
     level: u32,
-) -> Result<(WeldedMesh, WeldPlan, f64)> {
-    let plan = WeldPlan::new(mesh, &mesh.adjacency(), level)?;
-    let mut out = WeldedMesh::default();
-    let snap = weld_into(&plan, table, evaluator, &mut out, &mut |_| {})?;
+) -> Result<(StitchedMesh<V>, StitchPlan, f64)> {
+    let plan = StitchPlan::new(mesh, &mesh.adjacency(), level)?;
+    let mut out = StitchedMesh::default();
+    let snap = stitch_into(&plan, table, evaluator, &mut out, &NoProgress)?;
     Ok((out, plan, snap))
+}
+
+/// [`stitch_in`] in f64 (the reference: pictures, tests).
+pub fn stitch(
+    mesh: &Mesh,
+    table: &PatchTable,
+    evaluator: &dyn Evaluator,
+    level: u32,
+) -> Result<(StitchedMesh, StitchPlan, f64)> {
+    stitch_in::<DVec3>(mesh, table, evaluator, level)
 }
