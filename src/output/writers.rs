@@ -27,6 +27,8 @@ use std::fs::File;
 use std::io::{self, BufWriter, Seek, SeekFrom, Write};
 use std::path::Path;
 
+use rayon::prelude::*;
+
 use super::atomic::write_atomic_with;
 use crate::eval::{grid_triangles, Vector};
 use crate::progress::Progress;
@@ -168,28 +170,69 @@ pub fn write_stitched<V: Vector>(
     })
 }
 
-/// Calls `f` with every patch's triangles (record ids), in order, reporting the phase
-/// "writing faces" to `progress`.
-fn for_each_patch_triangles(
+/// Appends the bytes of one patch's triangles (record ids) to a buffer.
+type EncodeTriangles = dyn Fn(&[[u32; 3]], &mut Vec<u8>) + Sync;
+
+/// Writes every patch's triangles (record ids), in order, each patch encoded by `encode`;
+/// batches of patches are encoded in parallel (rayon), then written in order. Reports the
+/// phase "writing faces" to `progress`.
+fn write_triangles(
     plan: &StitchPlan,
     progress: &dyn Progress,
-    f: &mut dyn FnMut(&[[u32; 3]]) -> io::Result<()>,
+    w: &mut BufWriter<File>,
+    encode: &EncodeTriangles,
 ) -> io::Result<()> {
-    let grid = grid_triangles(plan.level);
-    let mut scratch = (Vec::new(), Vec::new());
-    let mut tris = Vec::with_capacity(grid.len());
-    let step = 1024;
-    progress.start("writing faces", plan.patches() as u64);
-    for p in 0..plan.patches() {
-        tris.clear();
-        plan.patch_triangles(p, &grid, &mut scratch, &mut tris);
-        f(&tris)?;
-        if (p + 1) % step == 0 {
-            progress.inc(step as u64);
-        }
+    /// Patches encoded per batch (bounds the buffers: a few MiB at level 32).
+    const BATCH: usize = 256;
+    struct Slot {
+        bytes: Vec<u8>,
+        scratch: (Vec<u32>, Vec<u32>),
+        tris: Vec<[u32; 3]>,
     }
-    progress.inc((plan.patches() % step) as u64);
+    let grid = grid_triangles(plan.level);
+    let patches = plan.patches();
+    let mut slots: Vec<Slot> = (0..BATCH.min(patches))
+        .map(|_| Slot {
+            bytes: Vec::new(),
+            scratch: (Vec::new(), Vec::new()),
+            tris: Vec::with_capacity(grid.len()),
+        })
+        .collect();
+    progress.start("writing faces", patches as u64);
+    let mut start = 0;
+    while start < patches {
+        let len = BATCH.min(patches - start);
+        slots[..len]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(j, slot)| {
+                slot.tris.clear();
+                plan.patch_triangles(start + j, &grid, &mut slot.scratch, &mut slot.tris);
+                slot.bytes.clear();
+                encode(&slot.tris, &mut slot.bytes);
+            });
+        for slot in &slots[..len] {
+            w.write_all(&slot.bytes)?;
+        }
+        progress.inc(len as u64);
+        start += len;
+    }
     Ok(())
+}
+
+/// Appends a vertex record's position and normal as six f32, little-endian.
+#[inline]
+fn push_record<V: Vector>(buf: &mut Vec<u8>, position: V, normal: V) {
+    let mut b = [0u8; 24];
+    for (k, x) in position
+        .to_f32()
+        .into_iter()
+        .chain(normal.to_f32())
+        .enumerate()
+    {
+        b[4 * k..4 * k + 4].copy_from_slice(&x.to_le_bytes());
+    }
+    buf.extend_from_slice(&b);
 }
 
 /// Appends the f32 little-endian bytes of `v`.
@@ -293,23 +336,20 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
     fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
         for r in out.new_records {
-            push_f32s(&mut self.buf, r.position);
-            push_f32s(&mut self.buf, r.normal);
+            push_record(&mut self.buf, r.position, r.normal);
         }
         w.write_all(&self.buf)
     }
 
     fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()> {
-        let buf = &mut self.buf;
-        for_each_patch_triangles(self.plan, progress, &mut |tris| {
-            buf.clear();
+        write_triangles(self.plan, progress, w, &|tris, buf| {
             for t in tris {
-                buf.push(3);
-                for i in t {
-                    buf.extend_from_slice(&(*i as i32).to_le_bytes());
+                let mut b = [3u8; 13];
+                for (k, &i) in t.iter().enumerate() {
+                    b[1 + 4 * k..5 + 4 * k].copy_from_slice(&(i as i32).to_le_bytes());
                 }
+                buf.extend_from_slice(&b);
             }
-            w.write_all(buf)
         })
     }
 }
@@ -455,22 +495,18 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
                 self.min[k] = self.min[k].min(x);
                 self.max[k] = self.max[k].max(x);
             }
-            push_f32s(&mut self.buf, r.position);
-            push_f32s(&mut self.buf, r.normal);
+            push_record(&mut self.buf, r.position, r.normal);
         }
         w.write_all(&self.buf)
     }
 
     fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()> {
-        let buf = &mut self.buf;
-        for_each_patch_triangles(self.plan, progress, &mut |tris| {
-            buf.clear();
+        write_triangles(self.plan, progress, w, &|tris, buf| {
             for t in tris {
                 for i in t {
                     buf.extend_from_slice(&i.to_le_bytes());
                 }
             }
-            w.write_all(buf)
         })?;
         let json = glb_json(self.plan, self.title, self.min, self.max);
         if json.len() as u64 > glb_layout(self.plan, self.title).json_bytes {

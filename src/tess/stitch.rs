@@ -38,8 +38,10 @@
 //! can therefore emit each patch's new positions and records as soon as it arrives.
 
 use std::collections::HashMap;
+use std::ops::Range;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::eval::pattern::grid_index;
 use crate::eval::{grid_len, grid_triangles, Chunk, Evaluator, Pattern, Vector};
@@ -117,6 +119,14 @@ fn edge_grid(n: u32, k: usize, i: u32) -> usize {
         1 => grid_index(n, n - i, i),
         _ => grid_index(n, 0, n - i),
     }
+}
+
+/// Interior grid points as runs of consecutive grid indices (one per grid row j ≥ 1:
+/// i = 1..n − j − 1), in grid order.
+fn interior_rows(n: u32) -> Vec<Range<usize>> {
+    (1..n.saturating_sub(1))
+        .map(|j| grid_index(n, 1, j)..grid_index(n, n - j, j))
+        .collect()
 }
 
 /// Interior grid points (i, j ≥ 1, i + j ≤ n − 1) in grid order.
@@ -362,26 +372,54 @@ impl<V> StitchSink<V> for CountingSink {
     }
 }
 
+/// Patches whose output is built in parallel before the sink sees them in order (bounds
+/// the stitcher's buffers).
+const BATCH: usize = 32;
+
+/// One patch's output, built in parallel, handed to the sink in order.
+struct PatchBuf<V> {
+    new_positions: Vec<V>,
+    new_records: Vec<VertexRecord<V>>,
+    triangles: Vec<[u32; 3]>,
+    position_triangles: Vec<[u32; 3]>,
+    grid_positions: Vec<V>,
+    local_rec: Vec<u32>,
+    local_pos: Vec<u32>,
+    snap: f64,
+}
+
+impl<V> Default for PatchBuf<V> {
+    fn default() -> Self {
+        PatchBuf {
+            new_positions: Vec::new(),
+            new_records: Vec::new(),
+            triangles: Vec::new(),
+            position_triangles: Vec::new(),
+            grid_positions: Vec::new(),
+            local_rec: Vec::new(),
+            local_pos: Vec::new(),
+            snap: 0.0,
+        }
+    }
+}
+
 /// Turns the chunks of a grid evaluation into stitched output, patch by patch.
+///
+/// Each chunk is stitched in three passes: the owners of vertices and edges in the chunk
+/// store their samples (in patch order, a few per patch); every patch's output is then
+/// built in parallel (rayon), reading shared samples from the store; the sink receives the
+/// patches in order.
 pub struct Stitcher<'a, V = DVec3> {
     plan: &'a StitchPlan,
     store: Vec<V>,
     next_patch: usize,
-    next_pos: u32,
-    next_rec: u32,
     /// Largest distance between a patch's own evaluation of a shared point and the shared
     /// position it was mapped onto (0 for the owner; rounding for a surface whose patches
     /// meet; the size of the crack otherwise).
     pub max_snap: f64,
     grid: Vec<[u32; 3]>,
-    interior: Vec<u32>,
-    local_rec: Vec<u32>,
-    local_pos: Vec<u32>,
-    grid_positions: Vec<V>,
-    new_positions: Vec<V>,
-    new_records: Vec<VertexRecord<V>>,
-    triangles: Vec<[u32; 3]>,
-    position_triangles: Vec<[u32; 3]>,
+    interior: Vec<Range<usize>>,
+    bufs: Vec<PatchBuf<V>>,
 }
 
 impl<'a, V: Vector> Stitcher<'a, V> {
@@ -390,18 +428,10 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             plan,
             store: vec![V::NAN; plan.store_len()],
             next_patch: 0,
-            next_pos: 0,
-            next_rec: 0,
             max_snap: 0.0,
             grid: grid_triangles(plan.level),
-            interior: interior_grid(plan.level).map(|g| g as u32).collect(),
-            local_rec: Vec::new(),
-            local_pos: Vec::new(),
-            grid_positions: Vec::new(),
-            new_positions: Vec::new(),
-            new_records: Vec::new(),
-            triangles: Vec::new(),
-            position_triangles: Vec::new(),
+            interior: interior_rows(plan.level),
+            bufs: Vec::new(),
         }
     }
 
@@ -413,145 +443,187 @@ impl<'a, V: Vector> Stitcher<'a, V> {
     /// Consumes one chunk of a [`Pattern::Grid`] evaluation at the plan's level (chunks
     /// must arrive in patch order).
     pub fn push_chunk(&mut self, chunk: &Chunk<'_, V>, sink: &mut dyn StitchSink<V>) -> Result<()> {
-        let per = grid_len(self.plan.level);
+        let plan = self.plan;
+        let per = grid_len(plan.level);
         if chunk.first != self.next_patch
             || chunk.positions.len() % per != 0
             || chunk.normals.len() != chunk.positions.len()
-            || chunk.first + chunk.positions.len() / per > self.plan.patches()
+            || chunk.first + chunk.positions.len() / per > plan.patches()
         {
             return Err(Error::Invalid(format!(
                 "stitching: chunk at patch {} with {} samples does not continue patch {} of {} (grid of {per})",
                 chunk.first,
                 chunk.positions.len(),
                 self.next_patch,
-                self.plan.patches()
+                plan.patches()
             )));
         }
-        let needs = sink.needs();
-        for (i, (pos, nrm)) in chunk
-            .positions
-            .chunks_exact(per)
-            .zip(chunk.normals.chunks_exact(per))
-            .enumerate()
-        {
-            self.push_patch(chunk.first + i, pos, nrm, needs, sink)?;
+        let count = chunk.positions.len() / per;
+        // Owners store their shared samples, in patch order.
+        for j in 0..count {
+            self.store_owned(chunk.first + j, &chunk.positions[j * per..(j + 1) * per]);
         }
+        let needs = sink.needs();
+        if self.bufs.len() < BATCH.min(count) {
+            self.bufs.resize_with(BATCH.min(count), PatchBuf::default);
+        }
+        let mut start = 0;
+        while start < count {
+            let len = BATCH.min(count - start);
+            let (store, grid, interior) = (&self.store, &self.grid, &self.interior);
+            let build = |(j, buf): (usize, &mut PatchBuf<V>)| {
+                let k = start + j;
+                build_patch(
+                    plan,
+                    store,
+                    grid,
+                    interior,
+                    chunk.first + k,
+                    &chunk.positions[k * per..(k + 1) * per],
+                    &chunk.normals[k * per..(k + 1) * per],
+                    needs,
+                    buf,
+                )
+            };
+            let bufs = &mut self.bufs[..len];
+            if len > 1 {
+                bufs.par_iter_mut().enumerate().for_each(build);
+            } else {
+                bufs.iter_mut().enumerate().for_each(build);
+            }
+            for (j, buf) in bufs.iter().enumerate() {
+                self.max_snap = self.max_snap.max(buf.snap);
+                sink.patch(&PatchOut {
+                    patch: chunk.first + start + j,
+                    new_positions: &buf.new_positions,
+                    new_records: &buf.new_records,
+                    triangles: &buf.triangles,
+                    position_triangles: &buf.position_triangles,
+                    grid_positions: &buf.grid_positions,
+                    grid_triangles: &self.grid,
+                })?;
+            }
+            start += len;
+        }
+        self.next_patch = chunk.first + count;
         Ok(())
     }
 
-    fn push_patch(
-        &mut self,
-        p: usize,
-        pos: &[V],
-        nrm: &[V],
-        needs: Needs,
-        sink: &mut dyn StitchSink<V>,
-    ) -> Result<()> {
+    /// Stores the samples patch `p` owns (its first uses of vertices and edges).
+    fn store_owned(&mut self, p: usize, pos: &[V]) {
         let plan = self.plan;
         let n = plan.level;
-        self.grid_positions.clear();
-        if needs.grid_positions {
-            self.grid_positions.extend_from_slice(pos);
-        }
-        self.new_positions.clear();
-        self.new_records.clear();
-        let tri = plan.tris[p];
-        // Maps grid point g (position id `pid`) onto store slot `slot`: the owner fills
-        // it, the others snap to it.
-        let mut snap = self.max_snap;
-        let mut visit =
-            |this: &mut Self, g: usize, slot: usize, pid: u32, owner: bool, new_rec: bool| {
-                if owner {
-                    this.store[slot] = pos[g];
-                    this.new_positions.push(pos[g]);
-                    this.next_pos += 1;
-                } else {
-                    snap = snap.max(pos[g].to_dvec3().distance(this.store[slot].to_dvec3()));
-                }
-                let q = this.store[slot];
-                if needs.grid_positions {
-                    this.grid_positions[g] = q;
-                }
-                if new_rec {
-                    this.new_records.push(VertexRecord {
-                        position: q,
-                        normal: nrm[g],
-                        position_id: pid,
-                    });
-                    this.next_rec += 1;
-                }
-            };
-        for (k, &vk) in tri.iter().enumerate() {
-            let v = vk as usize;
-            let owner = plan.vertex_owner[v] == p as u32;
-            debug_assert!(!owner || plan.vertex_pos[v] == self.next_pos);
-            visit(
-                self,
-                corner_grid(n, k),
-                v,
-                plan.vertex_pos[v],
-                owner,
-                plan.corner_new_rec[3 * p + k],
-            );
+        for (k, &vk) in plan.tris[p].iter().enumerate() {
+            if plan.vertex_owner[vk as usize] == p as u32 {
+                self.store[vk as usize] = pos[corner_grid(n, k)];
+            }
         }
         for k in 0..3 {
             let u = 3 * p + k;
             let e = plan.use_edge[u];
-            let owner = plan.edge_owner[e as usize] == u as u32;
-            debug_assert!(!owner || plan.edge_pos[e as usize] == self.next_pos);
-            debug_assert!(!plan.use_new_rec[u] || plan.use_rec[u] == self.next_rec);
-            for m in 1..n {
-                let i = if plan.use_rev[u] { n - m } else { m };
-                let slot = plan.edge_slot(e, m);
-                let pid = plan.edge_pos[e as usize] + m - 1;
-                visit(
-                    self,
-                    edge_grid(n, k, i),
-                    slot,
-                    pid,
-                    owner,
-                    plan.use_new_rec[u],
-                );
+            if plan.edge_owner[e as usize] == u as u32 {
+                for m in 1..n {
+                    let i = if plan.use_rev[u] { n - m } else { m };
+                    self.store[plan.edge_slot(e, m)] = pos[edge_grid(n, k, i)];
+                }
             }
         }
-        self.max_snap = snap;
-        debug_assert_eq!(plan.interior_pos[p], self.next_pos);
-        debug_assert_eq!(plan.interior_rec[p], self.next_rec);
-        let first_pos = self.next_pos;
-        self.new_positions
-            .extend(self.interior.iter().map(|&g| pos[g as usize]));
-        self.new_records.extend(
-            self.interior
-                .iter()
-                .enumerate()
-                .map(|(idx, &g)| VertexRecord {
-                    position: pos[g as usize],
-                    normal: nrm[g as usize],
-                    position_id: first_pos + idx as u32,
-                }),
+    }
+}
+
+/// Builds patch `p`'s output into `buf` (its shared samples already in `store`).
+#[allow(clippy::too_many_arguments)]
+fn build_patch<V: Vector>(
+    plan: &StitchPlan,
+    store: &[V],
+    grid: &[[u32; 3]],
+    interior: &[Range<usize>],
+    p: usize,
+    pos: &[V],
+    nrm: &[V],
+    needs: Needs,
+    buf: &mut PatchBuf<V>,
+) {
+    let n = plan.level;
+    buf.new_positions.clear();
+    buf.new_records.clear();
+    buf.grid_positions.clear();
+    if needs.grid_positions {
+        buf.grid_positions.extend_from_slice(pos);
+    }
+    // Largest squared snap distance.
+    let mut snap2 = 0f64;
+    // Grid point g (position id `pid`) maps onto store slot `slot`.
+    let mut visit =
+        |buf: &mut PatchBuf<V>, g: usize, slot: usize, pid: u32, owner: bool, new_rec: bool| {
+            let q = store[slot];
+            if owner {
+                buf.new_positions.push(q);
+            } else {
+                snap2 = snap2.max(pos[g].to_dvec3().distance_squared(q.to_dvec3()));
+            }
+            if needs.grid_positions {
+                buf.grid_positions[g] = q;
+            }
+            if new_rec {
+                buf.new_records.push(VertexRecord {
+                    position: q,
+                    normal: nrm[g],
+                    position_id: pid,
+                });
+            }
+        };
+    for (k, &vk) in plan.tris[p].iter().enumerate() {
+        let v = vk as usize;
+        visit(
+            buf,
+            corner_grid(n, k),
+            v,
+            plan.vertex_pos[v],
+            plan.vertex_owner[v] == p as u32,
+            plan.corner_new_rec[3 * p + k],
         );
-        self.next_pos += self.interior.len() as u32;
-        self.next_rec += self.interior.len() as u32;
-        self.triangles.clear();
-        self.position_triangles.clear();
-        if needs.triangles {
-            plan.local_ids(p, &mut self.local_rec, &mut self.local_pos);
-            for t in &self.grid {
-                self.triangles.push(t.map(|i| self.local_rec[i as usize]));
-                self.position_triangles
-                    .push(t.map(|i| self.local_pos[i as usize]));
-            }
+    }
+    for k in 0..3 {
+        let u = 3 * p + k;
+        let e = plan.use_edge[u];
+        let owner = plan.edge_owner[e as usize] == u as u32;
+        let new_rec = plan.use_new_rec[u];
+        for m in 1..n {
+            let i = if plan.use_rev[u] { n - m } else { m };
+            let slot = plan.edge_slot(e, m);
+            let pid = plan.edge_pos[e as usize] + m - 1;
+            visit(buf, edge_grid(n, k, i), slot, pid, owner, new_rec);
         }
-        self.next_patch = p + 1;
-        sink.patch(&PatchOut {
-            patch: p,
-            new_positions: &self.new_positions,
-            new_records: &self.new_records,
-            triangles: &self.triangles,
-            position_triangles: &self.position_triangles,
-            grid_positions: &self.grid_positions,
-            grid_triangles: &self.grid,
-        })
+    }
+    buf.snap = snap2.sqrt();
+    let mut id = plan.interior_pos[p];
+    for row in interior {
+        buf.new_positions.extend_from_slice(&pos[row.clone()]);
+        buf.new_records
+            .extend(
+                pos[row.clone()]
+                    .iter()
+                    .zip(&nrm[row.clone()])
+                    .map(|(&position, &normal)| {
+                        id += 1;
+                        VertexRecord {
+                            position,
+                            normal,
+                            position_id: id - 1,
+                        }
+                    }),
+            );
+    }
+    buf.triangles.clear();
+    buf.position_triangles.clear();
+    if needs.triangles {
+        plan.local_ids(p, &mut buf.local_rec, &mut buf.local_pos);
+        let (rec, pid) = (&buf.local_rec, &buf.local_pos);
+        buf.triangles
+            .extend(grid.iter().map(|t| t.map(|i| rec[i as usize])));
+        buf.position_triangles
+            .extend(grid.iter().map(|t| t.map(|i| pid[i as usize])));
     }
 }
 
