@@ -20,8 +20,10 @@
 //! PLY and glTF list every vertex before any triangle: their triangles are regenerated
 //! from the plan (topology only) after the vertices are written.
 //!
-//! Files go through one 1 MiB buffer to the temporary file (large sequential writes);
-//! progress is reported through [`Progress`], never drawn here.
+//! Files go to the temporary file through one 1 MiB buffer, written from the thread that
+//! produces the bytes (large sequential writes whose source is still in that core's cache;
+//! handing blocks to a writer thread measured slower); progress is reported through
+//! [`Progress`], never drawn here.
 
 use std::fs::File;
 use std::io::{self, BufWriter, Seek, SeekFrom, Write};
@@ -252,6 +254,7 @@ struct ObjWriter<'a> {
 impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
     fn needs(&self) -> Needs {
         Needs {
+            positions: true,
             triangles: true,
             grid_positions: false,
         }
@@ -307,7 +310,7 @@ struct PlyWriter<'a> {
 
 impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
     fn needs(&self) -> Needs {
-        Needs::VERTICES
+        Needs::RECORDS
     }
 
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
@@ -363,6 +366,7 @@ struct StlWriter<'a> {
 impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
     fn needs(&self) -> Needs {
         Needs {
+            positions: false,
             triangles: false,
             grid_positions: true,
         }
@@ -468,7 +472,7 @@ struct GlbWriter<'a> {
 
 impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
     fn needs(&self) -> Needs {
-        Needs::VERTICES
+        Needs::RECORDS
     }
 
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {

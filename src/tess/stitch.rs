@@ -307,7 +307,7 @@ impl StitchPlan {
 /// ask for in [`StitchSink::needs`] are empty.
 pub struct PatchOut<'a, V = DVec3> {
     pub patch: usize,
-    /// Positions first appearing in this patch, in id order.
+    /// Positions first appearing in this patch, in id order ([`Needs::positions`]).
     pub new_positions: &'a [V],
     /// Records first appearing in this patch, in id order.
     pub new_records: &'a [VertexRecord<V>],
@@ -325,6 +325,8 @@ pub struct PatchOut<'a, V = DVec3> {
 /// Which parts of [`PatchOut`] a sink reads (the stitcher skips building the others).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Needs {
+    /// `new_positions`.
+    pub positions: bool,
     /// `triangles` and `position_triangles`.
     pub triangles: bool,
     /// `grid_positions`.
@@ -333,11 +335,13 @@ pub struct Needs {
 
 impl Needs {
     pub const ALL: Needs = Needs {
+        positions: true,
         triangles: true,
         grid_positions: true,
     };
-    /// New positions and records only.
-    pub const VERTICES: Needs = Needs {
+    /// The new vertex records alone (each carries its position).
+    pub const RECORDS: Needs = Needs {
+        positions: false,
         triangles: false,
         grid_positions: false,
     };
@@ -352,21 +356,24 @@ pub trait StitchSink<V = DVec3> {
     fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()>;
 }
 
-/// A sink that keeps nothing: counts what it was handed (throughput measurements).
+/// A sink that keeps nothing: counts what it was handed (throughput measurements). It
+/// asks for the records alone.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CountingSink {
     pub patches: usize,
+    /// One more than the largest position id seen (the positions, once every patch is in).
     pub positions: usize,
     pub records: usize,
 }
 
 impl<V> StitchSink<V> for CountingSink {
     fn needs(&self) -> Needs {
-        Needs::VERTICES
+        Needs::RECORDS
     }
     fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()> {
         self.patches += 1;
-        self.positions += out.new_positions.len();
+        let top = out.new_records.iter().map(|r| r.position_id).max();
+        self.positions = self.positions.max(top.map_or(0, |t| t as usize + 1));
         self.records += out.new_records.len();
         Ok(())
     }
@@ -599,7 +606,9 @@ fn build_patch<V: Vector>(
     buf.snap = snap2.sqrt();
     let mut id = plan.interior_pos[p];
     for row in interior {
-        buf.new_positions.extend_from_slice(&pos[row.clone()]);
+        if needs.positions {
+            buf.new_positions.extend_from_slice(&pos[row.clone()]);
+        }
         buf.new_records
             .extend(
                 pos[row.clone()]
@@ -654,6 +663,7 @@ impl<V> Default for StitchedMesh<V> {
 impl<V: Vector> StitchSink<V> for StitchedMesh<V> {
     fn needs(&self) -> Needs {
         Needs {
+            positions: true,
             triangles: true,
             grid_positions: false,
         }
