@@ -29,8 +29,8 @@
 //! records, so their meshes are cut along creases, as split normals require there.
 //!
 //! Memory: the plan is O(triangles); while streaming, the stitcher keeps the positions of
-//! the input vertices and edge samples (V + E(n − 1) points) and nothing else, so big
-//! outputs never need the whole sample array.
+//! the input vertices and edge samples (V + E(n − 1) points) and the output of one batch
+//! of patches, so big outputs never need the whole sample array.
 //!
 //! Order: positions and records are numbered in the order they first appear when the
 //! patches are visited in order, and within a patch: corners 0, 1, 2, edges 0, 1, 2 (each
