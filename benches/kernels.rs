@@ -1,5 +1,5 @@
 //! Criterion benches of the kernels `g1tess bench` measures, kept quick: the patch-table
-//! build, the CPU f32 fast path, the f64 CPU reference, and the GPU with and without
+//! build, the CPU f32 grid kernel (`evaluate_f32`), the f64 CPU reference, and the GPU with and without
 //! readback (when a Vulkan adapter is present), for G1 and the flat baseline on spot.obj
 //! at level 16. `cargo bench --bench kernels`.
 
@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
-use g1tess::eval::cpu::{CpuEvaluator, GridWeightsF32};
+use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::eval::gpu::GpuEvaluator;
 use g1tess::eval::{grid_len, Evaluator, Pattern};
 use g1tess::gpu::{GpuContext, Precision};
@@ -17,7 +17,7 @@ use g1tess::patch::{PatchTable, Scheme};
 const LEVEL: u32 = 16;
 
 fn kernels(c: &mut Criterion) {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes/spot.obj");
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/spot.obj");
     let mesh = Mesh::load(path, &LoadOptions::default()).expect("spot.obj");
     let gpu = match GpuContext::shared().and_then(|ctx| GpuEvaluator::new(ctx, Precision::F32)) {
         Ok(g) => Some(g),
@@ -37,17 +37,16 @@ fn kernels(c: &mut Criterion) {
         });
         let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
         g.throughput(Throughput::Elements((grid_len(LEVEL) * table.len()) as u64));
-        let weights = GridWeightsF32::new(table.kind, LEVEL);
+        let pattern = Pattern::Grid { level: LEVEL };
         g.bench_function(format!("cpu_f32_level{LEVEL}"), |b| {
             b.iter(|| {
-                cpu.grid_f32(&table, &weights, &mut |c| {
+                cpu.evaluate_f32(&table, &pattern, &mut |c| {
                     std::hint::black_box(c.positions.last());
                     Ok(())
                 })
                 .unwrap()
             })
         });
-        let pattern = Pattern::Grid { level: LEVEL };
         g.bench_function(format!("cpu_f64_level{LEVEL}"), |b| {
             b.iter(|| {
                 cpu.evaluate(&table, &pattern, &mut |c| {

@@ -23,6 +23,8 @@ pub mod gpu;
 pub mod mesh;
 pub mod output;
 pub mod patch;
+pub mod progress;
 pub mod render;
+pub mod tess;
 
 pub use error::{Error, Result};

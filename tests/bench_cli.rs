@@ -20,13 +20,18 @@ fn bench(args: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).expect("one JSON object")
 }
 
+/// Rates, fractions and bandwidths are quotients of the reported numbers; JSON carries
+/// f64 to the last bit, so they agree to a few f64 ulps (1e-9 is far above that and far
+/// below any real inconsistency).
+const QUOTIENT: f64 = 1e-9;
+
 fn check_rate(r: &serde_json::Value, samples: f64, roofline: f64) {
     let s = r["seconds"].as_f64().unwrap();
     let rate = r["samples_per_s"].as_f64().unwrap();
     assert!(s > 0.0 && s.is_finite(), "{r}");
-    assert!((rate * s / samples - 1.0).abs() < 1e-9, "{r}");
+    assert!((rate * s / samples - 1.0).abs() < QUOTIENT, "{r}");
     let f = r["roofline_fraction"].as_f64().unwrap();
-    assert!((f * roofline / rate - 1.0).abs() < 1e-9, "{r}");
+    assert!((f * roofline / rate - 1.0).abs() < QUOTIENT, "{r}");
 }
 
 #[test]
@@ -49,7 +54,7 @@ fn bench_json_rows_and_rates_are_consistent() {
     let bw = m["write_bandwidth_gbs"].as_f64().unwrap();
     assert!(bw > 0.0 && m["write_bandwidth_1_thread_gbs"].as_f64().unwrap() > 0.0);
     let roofline = m["roofline_samples_per_s"].as_f64().unwrap();
-    assert!((roofline * 24.0 / (bw * 1e9) - 1.0).abs() < 1e-9);
+    assert!((roofline * 24.0 / (bw * 1e9) - 1.0).abs() < QUOTIENT);
     assert_eq!(m["gpu"].is_string(), gpu, "{m}");
     let rows = v["rows"].as_array().unwrap();
     let keys: Vec<_> = rows
@@ -100,4 +105,107 @@ fn bench_without_gpu_says_why() {
     assert_eq!(v["machine"]["gpu_note"], "--no-gpu");
     let r = &v["rows"][0];
     assert!(r["gpu_dispatch_only"].is_null() && r["cpu_f64_reference_all_threads"].is_null());
+}
+
+/// `bench --end-to-end --json` on a small mesh: every step once (wc -w where the system has
+/// it), sample and byte counts from the mesh and the files, rates consistent with the
+/// times, ratios with the baselines of the same run, the machine named, no file left.
+#[test]
+fn bench_end_to_end_rows_are_consistent() {
+    let dir = std::env::temp_dir().join(format!("g1tess-bench-e2e-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let v = bench(&[
+        "sphere320",
+        "--end-to-end",
+        "--tess-level",
+        "5",
+        "--stats-level",
+        "2",
+        "--dir",
+        dir.to_str().unwrap(),
+        "--json",
+        "--quiet",
+    ]);
+    let m = &v["machine"];
+    assert!(!m["cpu"].as_str().unwrap().is_empty());
+    assert!(m["cpus"].as_u64().unwrap() >= 1 && m["threads"].as_u64().unwrap() >= 1);
+    assert_eq!(v["triangles"], 320);
+    // Level 2 splits each triangle into 4.
+    assert_eq!(v["stats_triangles"], 320 * 4);
+    let rows = v["rows"].as_array().unwrap();
+    let steps: Vec<&str> = rows.iter().map(|r| r["step"].as_str().unwrap()).collect();
+    let wc = std::process::Command::new("wc")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    let mut want = vec![
+        "tessellate_memory",
+        "tessellate_ply_file",
+        "plain_write",
+        "load_obj",
+        "count_words",
+    ];
+    if wc {
+        want.push("wc_w");
+    }
+    want.push("stats");
+    assert_eq!(steps, want);
+    let row = |step: &str| rows.iter().find(|r| r["step"] == step).unwrap();
+    for r in rows {
+        let s = r["seconds"].as_f64().unwrap();
+        assert!(s > 0.0 && s.is_finite(), "{r}");
+        // Rates are the counts over the time (to f64 rounding).
+        if let Some(n) = r["samples"].as_f64() {
+            assert!((r["samples_per_s"].as_f64().unwrap() * s / n - 1.0).abs() < QUOTIENT);
+        }
+        if let Some(b) = r["bytes"].as_f64() {
+            assert!((r["mb_per_s"].as_f64().unwrap() * 1e6 * s / b - 1.0).abs() < QUOTIENT);
+        }
+    }
+    let samples = 320 * grid_len(5) as u64;
+    assert_eq!(row("tessellate_memory")["samples"], samples);
+    let file = row("tessellate_ply_file");
+    assert_eq!(file["samples"], samples);
+    // PLY: header, then 24 bytes per vertex record and 13 per triangle. The sphere is
+    // smooth: records = positions = V + E(n − 1) + F(n − 1)(n − 2)/2.
+    let records = 162 + 480 * 4 + 320 * 6;
+    let body = 24 * records + 13 * 320 * 25;
+    let bytes = file["bytes"].as_u64().unwrap();
+    assert!(bytes > body && bytes < body + 400, "{bytes} vs body {body}");
+    let plain = row("plain_write");
+    assert_eq!(plain["bytes"], bytes);
+    let ratio = file["ratio_to_baseline"].as_f64().unwrap();
+    assert!(
+        (ratio * plain["seconds"].as_f64().unwrap() / file["seconds"].as_f64().unwrap() - 1.0)
+            .abs()
+            < QUOTIENT
+    );
+    let load = row("load_obj");
+    let count = row("count_words");
+    assert_eq!(load["bytes"], count["bytes"]);
+    // The OBJ at level 2: 162 + 480 positions and as many normals (smooth), 1280 faces,
+    // 4 words per v, vn and f line, and 2 + 11 words in the two header comments.
+    let positions = 162 + 480;
+    let words = 4 * (2 * positions + 320 * 4) + 13;
+    assert!(
+        count["what"]
+            .as_str()
+            .unwrap()
+            .contains(&format!("({words} words)")),
+        "{count}"
+    );
+    if wc {
+        assert!(row("wc_w")["what"]
+            .as_str()
+            .unwrap()
+            .contains(&format!("({words} words)")));
+    }
+    // Stats: 21 samples on each of the 1280 × 3 / 2 interior edges of the closed mesh.
+    assert_eq!(row("stats")["samples"], 21 * 1920);
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        0,
+        "files left behind"
+    );
+    std::fs::remove_dir(&dir).unwrap();
 }

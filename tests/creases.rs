@@ -12,9 +12,9 @@ use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::creases::crease_edges;
 use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::output::stats::{continuity, Continuity};
-use g1tess::output::weld::weld;
 use g1tess::patch::g1::{crease_curve, patch_points, walton_meek};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+use g1tess::tess::stitch::stitch;
 
 fn tmp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("g1tess-creases-{}", std::process::id()));
@@ -78,7 +78,7 @@ fn cube_is_reproduced_exactly() {
         assert!(c.crease_max_gap < 1e-15, "crease gap {}", c.crease_max_gap);
         assert!(1.0 - c.cos.min < 1e-15);
         let level = 6;
-        let (w, plan, snap) = weld(&mesh, &table, &CpuEvaluator::default(), level).unwrap();
+        let (w, plan, snap) = stitch(&mesh, &table, &CpuEvaluator::default(), level).unwrap();
         assert!(snap < 1e-15);
         // 8 corners with 3 normals, 12 edges × 5 samples with 2 normals.
         assert_eq!(plan.records - plan.positions, 8 * 2 + 12 * 5);
@@ -141,7 +141,7 @@ fn fandisk_creases_without_cracks() {
     );
     assert!(c.max_gap <= 1e-14 * diag);
 
-    let (w, plan, snap) = weld(&mesh, &table, &CpuEvaluator::default(), 3).unwrap();
+    let (w, plan, snap) = stitch(&mesh, &table, &CpuEvaluator::default(), 3).unwrap();
     assert!(snap <= 1e-14 * diag, "snap {snap}");
     assert_eq!(plan.report.split_edges, c.crease_edges);
     assert!(plan.records > plan.positions);

@@ -1,18 +1,22 @@
-//! OBJ, binary PLY, binary STL and glTF binary output, read back (tobj, a PLY and an STL
-//! reader written here, the `gltf` crate) and compared with the welded mesh in memory;
-//! atomic writes; the command line.
+//! OBJ, binary PLY, binary STL and glTF binary output, read back (readers written here,
+//! the project's own OBJ reader, the `gltf` crate) and compared with the stitched mesh in
+//! memory of the same precision (files are written from f32 samples, as `tessellate` does,
+//! and from f64 ones); atomic writes; the command line.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::DVec3;
-use indicatif::ProgressBar;
 
 use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::eval::Vector;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::weld::{weld, weld_into, WeldPlan, WeldSink, WeldedMesh};
-use g1tess::output::writers::{write_welded, MeshFormat};
+use g1tess::output::writers::{write_stitched, MeshFormat};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+use g1tess::progress::NoProgress;
+use g1tess::tess::stitch::{
+    stitch_in, stitch_into, PatchOut, StitchPlan, StitchSink, StitchedMesh,
+};
 
 fn dir() -> PathBuf {
     let d = std::env::temp_dir().join(format!("g1tess-formats-{}", std::process::id()));
@@ -49,35 +53,34 @@ fn meshes() -> Vec<Mesh> {
     ]
 }
 
-/// Writes `mesh` at `level` to `path` and returns the in-memory welded mesh of the same run.
-fn write(mesh: &Mesh, level: u32, path: &Path) -> (WeldedMesh, WeldPlan) {
+/// Writes `mesh` at `level` to `path` from samples of precision `V` and returns the
+/// in-memory stitched mesh of the same precision.
+fn write_in<V: Vector>(mesh: &Mesh, level: u32, path: &Path) -> (StitchedMesh<V>, StitchPlan) {
     let table = PatchTable::build(mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
-    let (w, plan, _) = weld(mesh, &table, &CpuEvaluator::default(), level).unwrap();
+    let (w, plan, _) = stitch_in::<V>(mesh, &table, &CpuEvaluator::default(), level).unwrap();
     let format = MeshFormat::from_path(path).unwrap();
-    write_welded(
-        path,
-        format,
-        &plan,
-        "test",
-        &ProgressBar::hidden(),
-        &mut |sink| {
-            weld_into(&plan, &table, &CpuEvaluator::default(), sink, &mut |_| {}).map(|_| ())
-        },
-    )
+    write_stitched::<V>(path, format, &plan, "test", &NoProgress, &mut |sink| {
+        stitch_into(&plan, &table, &CpuEvaluator::default(), sink, &NoProgress).map(|_| ())
+    })
     .unwrap();
     (w, plan)
 }
 
-fn f32s(v: DVec3) -> [f32; 3] {
-    [v.x as f32, v.y as f32, v.z as f32]
+/// [`write_in`] in f32, as `tessellate` writes.
+fn write(mesh: &Mesh, level: u32, path: &Path) -> (StitchedMesh<[f32; 3]>, StitchPlan) {
+    write_in::<[f32; 3]>(mesh, level, path)
+}
+
+fn f32s<V: Vector>(v: V) -> [f32; 3] {
+    v.to_f32()
 }
 
 /// Equal lengths and bitwise equal entries, reporting the first difference.
-fn same(got: &[DVec3], want: &[DVec3], what: &str) {
+fn same<V: Vector>(got: &[DVec3], want: &[V], what: &str) {
     assert_eq!(got.len(), want.len(), "{what}: lengths");
-    if let Some(i) = (0..got.len()).find(|&i| got[i] != want[i]) {
+    if let Some(i) = (0..got.len()).find(|&i| got[i] != want[i].to_dvec3()) {
         panic!(
-            "{what}: entry {i} reads back as {} instead of {}",
+            "{what}: entry {i} reads back as {} instead of {:?}",
             got[i], want[i]
         );
     }
@@ -131,21 +134,49 @@ fn obj_reads_back_exactly() {
         let path = dir().join(format!("{}.obj", mesh.name));
         let (w, _) = write(&mesh, 4, &path);
         let (pos, nrm, fp, fr) = read_obj(&path);
-        // 17 significant digits: every f64 reads back exactly.
-        same(&pos, &w.positions, &mesh.name);
-        same(&nrm, &w.normals, &mesh.name);
+        // The shortest decimal that reads back to the same f32: parsed as f64 it is not
+        // the f32 itself, but rounds to it (read as f32 by any reader).
+        let f32_back = |v: &[DVec3]| -> Vec<DVec3> {
+            v.iter()
+                .map(|p| DVec3::from(f32s(*p).map(f64::from)))
+                .collect()
+        };
+        same(&f32_back(&pos), &w.positions, &mesh.name);
+        same(&f32_back(&nrm), &w.normals, &mesh.name);
+        // Shortest: no value has more than 9 significant digits (f32 needs at most 9).
+        let text = std::fs::read_to_string(&path).unwrap();
+        for line in text.lines().filter(|l| l.starts_with('v')) {
+            for x in line.split(' ').skip(1) {
+                let digits = x
+                    .split(['e', 'E'])
+                    .next()
+                    .unwrap()
+                    .chars()
+                    .filter(char::is_ascii_digit)
+                    .collect::<String>();
+                let significant = digits.trim_start_matches('0').len();
+                assert!(significant <= 9, "{x} in {line}");
+            }
+        }
         assert_eq!(fp, w.position_triangles());
         assert_eq!(fr, w.triangles);
+        // From f64 samples every value reads back exactly as f64.
+        let path64 = dir().join(format!("{}-f64.obj", mesh.name));
+        let (w64, _) = write_in::<DVec3>(&mesh, 4, &path64);
+        let (pos64, nrm64, fp64, _) = read_obj(&path64);
+        same(&pos64, &w64.positions, &mesh.name);
+        same(&nrm64, &w64.normals, &mesh.name);
+        assert_eq!(fp64, fp);
         // The project's own reader (which renumbers vertices in order of first use) welds
         // it back to a mesh with the same positions at every triangle corner.
-        let back = Mesh::load(path.to_str().unwrap(), &LoadOptions::default()).unwrap();
+        let back = Mesh::load(path64.to_str().unwrap(), &LoadOptions::default()).unwrap();
         assert_eq!(back.positions.len(), w.positions.len());
         let corners = |tris: &[[u32; 3]], pos: &[DVec3]| -> Vec<DVec3> {
             tris.iter().flatten().map(|&i| pos[i as usize]).collect()
         };
         same(
             &corners(&back.triangles, &back.positions),
-            &corners(&w.position_triangles(), &w.positions),
+            &corners(&w64.position_triangles(), &w64.positions),
             &mesh.name,
         );
     }
@@ -246,7 +277,8 @@ fn stl_reads_back() {
                 let at = base + 12 + 12 * c;
                 assert_eq!([f(at), f(at + 4), f(at + 8)], f32s(*q));
             }
-            let flat = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+            let d = p.map(|q| q.to_dvec3());
+            let flat = (d[1] - d[0]).cross(d[2] - d[0]).normalize();
             assert_eq!(normal, f32s(flat));
         }
     }
@@ -317,44 +349,34 @@ fn glb_reads_back() {
 fn failed_write_leaves_target_untouched() {
     let mesh = Mesh::load("sphere320", &LoadOptions::default()).unwrap();
     let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
-    let plan = WeldPlan::new(&mesh, &mesh.adjacency(), 3).unwrap();
+    let plan = StitchPlan::new(&mesh, &mesh.adjacency(), 3).unwrap();
     let d = dir().join("atomic");
     std::fs::create_dir_all(&d).unwrap();
     for ext in ["obj", "ply", "stl", "glb"] {
         let path = d.join(format!("keep.{ext}"));
         std::fs::write(&path, b"previous").unwrap();
         let format = MeshFormat::from_path(&path).unwrap();
-        let err = write_welded(
-            &path,
-            format,
-            &plan,
-            "t",
-            &ProgressBar::hidden(),
-            &mut |sink| {
-                struct Failing<'a>(&'a mut dyn WeldSink, usize);
-                impl WeldSink for Failing<'_> {
-                    fn patch(
-                        &mut self,
-                        out: &g1tess::output::weld::PatchOut<'_>,
-                    ) -> g1tess::Result<()> {
-                        self.1 += 1;
-                        if self.1 > 100 {
-                            return Err(g1tess::Error::Invalid("stopped".into()));
-                        }
-                        self.0.patch(out)
+        let err = write_stitched::<[f32; 3]>(&path, format, &plan, "t", &NoProgress, &mut |sink| {
+            struct Failing<'a>(&'a mut dyn StitchSink<[f32; 3]>, usize);
+            impl StitchSink<[f32; 3]> for Failing<'_> {
+                fn patch(&mut self, out: &PatchOut<'_, [f32; 3]>) -> g1tess::Result<()> {
+                    self.1 += 1;
+                    if self.1 > 100 {
+                        return Err(g1tess::Error::Invalid("stopped".into()));
                     }
+                    self.0.patch(out)
                 }
-                let mut f = Failing(sink, 0);
-                weld_into(
-                    &plan,
-                    &table,
-                    &CpuEvaluator { chunk_samples: 50 },
-                    &mut f,
-                    &mut |_| {},
-                )
-                .map(|_| ())
-            },
-        )
+            }
+            let mut f = Failing(sink, 0);
+            stitch_into(
+                &plan,
+                &table,
+                &CpuEvaluator::with_chunk_samples(50),
+                &mut f,
+                &NoProgress,
+            )
+            .map(|_| ())
+        })
         .unwrap_err();
         assert_eq!(err.to_string(), "stopped");
         assert_eq!(std::fs::read(&path).unwrap(), b"previous");
@@ -396,6 +418,35 @@ fn cli_tessellate_json_and_errors() {
     let (verts, faces) = read_ply(&out);
     assert_eq!(verts.len(), 162 + 480 * 2 + 320);
     assert_eq!(faces.len(), 320 * 9);
+    // The CPU's f32 path keeps the input vertices (rounded once) bit for bit.
+    let o = g1tess(&[
+        "tessellate",
+        "sphere320",
+        "--level",
+        "3",
+        "--backend",
+        "cpu",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["precision"], "f32");
+    let (verts, _) = read_ply(&out);
+    let written: std::collections::HashSet<[u32; 3]> = verts
+        .iter()
+        .map(|v| [v[0], v[1], v[2]].map(f32::to_bits))
+        .collect();
+    let input = Mesh::load("sphere320", &LoadOptions::default()).unwrap();
+    assert_eq!(input.positions.len(), 162);
+    for p in &input.positions {
+        assert!(
+            written.contains(&f32s(*p).map(f32::to_bits)),
+            "input vertex {p} not written bit for bit"
+        );
+    }
 
     // Without --quiet but with stderr not a terminal: no progress bar, one summary line.
     let o = g1tess(&[

@@ -11,9 +11,9 @@ use glam::DVec3;
 
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::weld::weld;
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::render::{device, ramp, render_panels, Panels, RenderOptions, BACKGROUND};
+use g1tess::tess::stitch::stitch;
 
 /// Whether a Vulkan device is there; fails under CI=true when it is not.
 fn gpu_or_skip(test: &str) -> bool {
@@ -32,7 +32,7 @@ fn gpu_or_skip(test: &str) -> bool {
 fn panels(spec: &str, scheme: Scheme, size: u32) -> Panels {
     let mesh = Mesh::load(spec, &LoadOptions::default()).unwrap();
     let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
-    let (w, _, _) = weld(&mesh, &table, &CpuEvaluator::default(), 6).unwrap();
+    let (w, _, _) = stitch(&mesh, &table, &CpuEvaluator::default(), 6).unwrap();
     render_panels(
         &w,
         &RenderOptions {

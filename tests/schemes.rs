@@ -433,9 +433,7 @@ fn streamed_stats_do_not_depend_on_chunking() {
             (1 << 30, 1 << 20),
         ] {
             stats.chunk_edges = edges;
-            let ev = CpuEvaluator {
-                chunk_samples: points,
-            };
+            let ev = CpuEvaluator::with_chunk_samples(points);
             let (c, fallbacks) = stats.continuity(&builder, &ev).unwrap();
             assert_eq!(
                 c, reference,

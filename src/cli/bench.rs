@@ -7,6 +7,11 @@
 //! the GPU without readback (uploads + dispatches) and with readback (results in host
 //! memory as f64, chunk by chunk). Each throughput is also given as a fraction of the
 //! write roofline: bandwidth / 24 bytes (an f32 position and normal per sample).
+//!
+//! `--end-to-end` instead times what a user runs, in one process (see [`run_end_to_end`]):
+//! `tessellate` into memory and to a binary PLY file, `stats` on a ~1 M-triangle mesh and
+//! loading an OBJ, each beside a same-run baseline (a plain sequential write of the same
+//! bytes, a `wc -w`-equivalent read of the same file).
 
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
@@ -63,6 +68,21 @@ pub struct BenchArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Time the commands end to end instead of the kernels: tessellate (into memory and to
+    /// a binary PLY file), stats and OBJ loading, beside a plain write and a word count.
+    #[arg(long)]
+    pub end_to_end: bool,
+    /// End to end: grid level of the tessellation.
+    #[arg(long, default_value_t = 32)]
+    pub tess_level: u32,
+    /// End to end: level at which the mesh is tessellated into the OBJ that is loaded and
+    /// given to stats (4: the bunny becomes a 1.1 M-triangle mesh).
+    #[arg(long, default_value_t = 4)]
+    pub stats_level: u32,
+    /// End to end: folder for the temporary files (default: the system's temporary folder);
+    /// they are removed afterwards.
+    #[arg(long)]
+    pub dir: Option<std::path::PathBuf>,
 }
 
 /// One throughput figure.
@@ -193,6 +213,9 @@ fn load_mesh(spec: &str) -> anyhow::Result<Mesh> {
 }
 
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
+    if a.end_to_end {
+        return run_end_to_end(a);
+    }
     anyhow::ensure!(
         a.levels.iter().all(|&l| l >= 1),
         "--levels must be at least 1"
@@ -254,9 +277,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     };
 
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let cpu = CpuEvaluator {
-        chunk_samples: a.cpu_chunk_samples.max(1),
-    };
+    let cpu = CpuEvaluator::with_chunk_samples(a.cpu_chunk_samples.max(1));
     let min = Duration::from_millis(500);
     let mut rows = Vec::new();
     for spec in &meshes {
@@ -293,7 +314,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                     let mut pos = vec![[0f32; 3]; samples];
                     let mut nrm = vec![[0f32; 3]; samples];
                     let mut run = || {
-                        cpu.grid_f32_into(&table, &weights, F32Kernel::Auto, &mut pos, &mut nrm)
+                        cpu.grid_f32_into(&table, &weights, &mut pos, &mut nrm)
                             .map_err(anyhow::Error::from)
                     };
                     run()?; // first touch of every page, untimed
@@ -406,6 +427,416 @@ pub fn to_text(r: &BenchReport) -> String {
                 .unwrap_or_else(|| "–".into()),
             cell(row.gpu_dispatch_only.as_ref()),
             cell(row.gpu_with_readback.as_ref()),
+        );
+    }
+    s
+}
+
+// ---- end to end ----
+
+/// One end-to-end measurement.
+#[derive(Clone, Debug, Serialize)]
+pub struct EndToEndRow {
+    /// What was timed: "tessellate_memory", "tessellate_ply_file", "plain_write",
+    /// "load_obj", "count_words", "wc_w", "stats".
+    pub step: String,
+    /// How, in words.
+    pub what: String,
+    pub seconds: f64,
+    /// CPU seconds of this process during the step (all threads; none for `wc_w`, another
+    /// process).
+    pub cpu_seconds: Option<f64>,
+    /// Samples produced or consumed (tessellation grid samples, stats edge samples).
+    pub samples: Option<u64>,
+    pub samples_per_s: Option<f64>,
+    /// Bytes written or read.
+    pub bytes: Option<u64>,
+    /// bytes / seconds / 10^6.
+    pub mb_per_s: Option<f64>,
+    /// seconds / the baseline's seconds (tessellate_ply_file: plain_write; load_obj:
+    /// count_words).
+    pub ratio_to_baseline: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct EndToEndMachine {
+    pub cpu: String,
+    /// CPUs the process may use.
+    pub cpus: usize,
+    pub threads: usize,
+    pub os: String,
+    pub cpu_kernel: String,
+    /// Folder of the temporary files.
+    pub dir: String,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct EndToEndReport {
+    pub machine: EndToEndMachine,
+    pub mesh: String,
+    pub triangles: usize,
+    pub scheme: String,
+    pub tess_level: u32,
+    pub stats_level: u32,
+    /// Triangles of the mesh given to stats and loaded from OBJ.
+    pub stats_triangles: usize,
+    pub rows: Vec<EndToEndRow>,
+}
+
+/// Removes a file when dropped (temporary files of the end-to-end run).
+struct TempFile(std::path::PathBuf);
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+/// A plain sequential write of `bytes` bytes (1 MiB blocks through one buffer, then
+/// fsync, as the writers do): the baseline of writing a file of that size here.
+fn plain_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
+    use std::io::Write;
+    let block = vec![0x5au8; 1 << 20];
+    let mut f = std::fs::File::create(path)?;
+    let mut left = bytes;
+    while left > 0 {
+        let n = left.min(block.len() as u64) as usize;
+        f.write_all(&block[..n])?;
+        left -= n as u64;
+    }
+    f.sync_all()?;
+    Ok(())
+}
+
+/// Whitespace-separated words of a file, read through a 1 MiB buffer (what `wc -w` does).
+fn count_words(path: &std::path::Path) -> anyhow::Result<u64> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path)?;
+    let mut buf = vec![0u8; 1 << 20];
+    let (mut words, mut in_word) = (0u64, false);
+    loop {
+        let n = f.read(&mut buf)?;
+        if n == 0 {
+            return Ok(words);
+        }
+        for &b in &buf[..n] {
+            let space = matches!(b, b' ' | b'\n' | b'\t' | b'\r' | 0x0b | 0x0c);
+            words += (!space && !in_word) as u64;
+            in_word = !space;
+        }
+    }
+}
+
+/// Runs the real `wc -w` on `path`: (seconds, words), or None where there is no `wc`.
+fn real_wc(path: &std::path::Path) -> Option<(f64, u64)> {
+    let t = Instant::now();
+    let out = std::process::Command::new("wc")
+        .arg("-w")
+        .arg(path)
+        .output()
+        .ok()?;
+    let s = t.elapsed().as_secs_f64();
+    let words = String::from_utf8_lossy(&out.stdout)
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    out.status.success().then_some((s, words))
+}
+
+fn available_cpus() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// CPU time of this process so far (all threads, user + system), from `/proc/self/stat`
+/// in clock ticks of 1/100 s; None where there is no such file.
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which is in parentheses and may hold spaces).
+    let rest = stat.get(stat.rfind(')')? + 2..)?;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?;
+    Some(ticks as f64 / 100.0)
+}
+
+/// Wall and CPU seconds of one run of `f`.
+fn timed(f: impl FnOnce() -> anyhow::Result<()>) -> anyhow::Result<(f64, Option<f64>)> {
+    let c0 = process_cpu_seconds();
+    let t = Instant::now();
+    f()?;
+    let wall = t.elapsed().as_secs_f64();
+    let cpu = process_cpu_seconds().zip(c0).map(|(b, a)| b - a);
+    Ok((wall, cpu))
+}
+
+/// The faster of `runs` runs of `f` (wall time), with its CPU time.
+fn best_of(
+    runs: usize,
+    mut f: impl FnMut() -> anyhow::Result<()>,
+) -> anyhow::Result<(f64, Option<f64>)> {
+    let mut best = (f64::INFINITY, None);
+    for _ in 0..runs.max(1) {
+        let r = timed(&mut f)?;
+        if r.0 < best.0 {
+            best = r;
+        }
+    }
+    Ok(best)
+}
+
+/// `bench --end-to-end`: the commands a user runs, timed in one process on the first mesh
+/// (default the bunny) with the first scheme (default G1), CPU backend:
+/// - `tessellate_memory`: f32 grid kernel → stitcher in f32 → a sink that keeps nothing
+///   (best of 2);
+/// - `tessellate_ply_file`: the same into a binary PLY file (atomic write, fsync), beside
+///   `plain_write` of the same byte count;
+/// - `load_obj`: `Mesh::load` of the mesh tessellated at `--stats-level` and written as
+///   OBJ (f32 values), beside `count_words` (a buffered `wc -w` in Rust) and the real
+///   `wc -w` where present (best of 2 each, the file in the page cache for all);
+/// - `stats`: adjacency, patch table and the continuity statistics of that mesh, after
+///   loading.
+///
+/// Each row also gives the CPU seconds of the process during the step, which tell a
+/// loaded machine's figures from an idle one's.
+pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
+    use crate::output::stats::continuity;
+    use crate::output::writers::{write_stitched, MeshFormat};
+    use crate::progress::NoProgress;
+    use crate::tess::stitch::{stitch_into, CountingSink, StitchPlan};
+
+    anyhow::ensure!(
+        a.tess_level >= 1 && a.stats_level >= 1,
+        "--tess-level and --stats-level must be at least 1"
+    );
+    let spec = a.meshes.first().map_or(DEFAULT_MESH, |m| m.as_str());
+    let scheme = a.schemes.first().copied().unwrap_or(Scheme::G1);
+    let dir = a.dir.clone().unwrap_or_else(std::env::temp_dir);
+    let stamp = format!("g1tess-bench-{}", std::process::id());
+    let say = |what: &str| {
+        if !a.quiet {
+            eprintln!("bench: {what}");
+        }
+    };
+    let cpu = CpuEvaluator::with_chunk_samples(a.cpu_chunk_samples.max(1));
+    let mut rows = Vec::new();
+    let mut row = |step: &str,
+                   what: String,
+                   (seconds, cpu_seconds): (f64, Option<f64>),
+                   samples: Option<u64>,
+                   bytes: Option<u64>,
+                   baseline: Option<f64>| {
+        rows.push(EndToEndRow {
+            step: step.into(),
+            what,
+            seconds,
+            cpu_seconds,
+            samples,
+            samples_per_s: samples.map(|n| n as f64 / seconds),
+            bytes,
+            mb_per_s: bytes.map(|b| b as f64 / seconds / 1e6),
+            ratio_to_baseline: baseline.map(|b| seconds / b),
+        });
+    };
+
+    let mesh = load_mesh(spec)?;
+    let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default())?;
+    let adjacency = mesh.adjacency();
+    let level = a.tess_level;
+    let plan = StitchPlan::new(&mesh, &adjacency, level)?;
+    let samples = (grid_len(level) * table.len()) as u64;
+
+    say(&format!(
+        "tessellate {} level {level} into memory",
+        mesh.name
+    ));
+    let memory = best_of(2, || {
+        let mut sink = CountingSink::default();
+        stitch_into::<[f32; 3]>(&plan, &table, &cpu, &mut sink, &NoProgress)?;
+        anyhow::ensure!(sink.records == plan.records, "stitching lost records");
+        Ok(())
+    })?;
+    row(
+        "tessellate_memory",
+        format!(
+            "f32 kernel -> stitcher (f32) -> sink keeping nothing; {} positions, {} records",
+            plan.positions, plan.records
+        ),
+        memory,
+        Some(samples),
+        None,
+        None,
+    );
+
+    say("tessellate into a binary PLY file");
+    let ply = TempFile(dir.join(format!("{stamp}.ply")));
+    let file = timed(|| {
+        write_stitched::<[f32; 3]>(
+            &ply.0,
+            MeshFormat::Ply,
+            &plan,
+            "bench",
+            &NoProgress,
+            &mut |sink| stitch_into(&plan, &table, &cpu, sink, &NoProgress).map(|_| ()),
+        )?;
+        Ok(())
+    })?;
+    let bytes = std::fs::metadata(&ply.0)?.len();
+    drop(ply);
+    say("plain sequential write of the same bytes");
+    let plain_file = TempFile(dir.join(format!("{stamp}.plain")));
+    let plain = timed(|| plain_write(&plain_file.0, bytes))?;
+    drop(plain_file);
+    row(
+        "tessellate_ply_file",
+        "tessellate into binary PLY on disk (atomic: temporary file, fsync, rename)".into(),
+        file,
+        Some(samples),
+        Some(bytes),
+        Some(plain.0),
+    );
+    row(
+        "plain_write",
+        "the same byte count in 1 MiB blocks, fsync".into(),
+        plain,
+        None,
+        Some(bytes),
+        None,
+    );
+
+    say(&format!("OBJ of {} at level {}", mesh.name, a.stats_level));
+    let obj = TempFile(dir.join(format!("{stamp}.obj")));
+    let obj_plan = StitchPlan::new(&mesh, &adjacency, a.stats_level)?;
+    write_stitched::<[f32; 3]>(
+        &obj.0,
+        MeshFormat::Obj,
+        &obj_plan,
+        "bench",
+        &NoProgress,
+        &mut |sink| stitch_into(&obj_plan, &table, &cpu, sink, &NoProgress).map(|_| ()),
+    )?;
+    let obj_bytes = std::fs::metadata(&obj.0)?.len();
+    let mut words = 0;
+    let count = best_of(2, || {
+        words = count_words(&obj.0)?;
+        Ok(())
+    })?;
+    // Best of 2, as the others.
+    let wc = match (real_wc(&obj.0), real_wc(&obj.0)) {
+        (Some(x), Some(y)) => Some((x.0.min(y.0), x.1)),
+        (x, _) => x,
+    };
+    say("load the OBJ");
+    let obj_spec = obj.0.display().to_string();
+    let mut loaded = None;
+    let load = best_of(2, || {
+        loaded = Some(Mesh::load(&obj_spec, &LoadOptions::default())?);
+        Ok(())
+    })?;
+    let big = loaded.expect("loaded at least once");
+    drop(obj);
+    row(
+        "load_obj",
+        format!("Mesh::load of the OBJ ({} triangles)", big.triangles.len()),
+        load,
+        None,
+        Some(obj_bytes),
+        Some(count.0),
+    );
+    row(
+        "count_words",
+        format!("whitespace-separated words, 1 MiB buffer ({words} words)"),
+        count,
+        None,
+        Some(obj_bytes),
+        None,
+    );
+    if let Some((s, w)) = wc {
+        row(
+            "wc_w",
+            format!("the system's wc -w ({w} words)"),
+            (s, None),
+            None,
+            Some(obj_bytes),
+            None,
+        );
+    }
+
+    say(&format!("stats on {} triangles", big.triangles.len()));
+    let mut pairs = 0;
+    let stats = timed(|| {
+        let big_adjacency = big.adjacency();
+        let big_table = PatchTable::build(&big, scheme, &SchemeOptions::default())?;
+        let c = continuity(&big, &big_adjacency, &big_table, &cpu)?;
+        pairs = (c.samples + c.crease_samples) as u64;
+        Ok(())
+    })?;
+    row(
+        "stats",
+        "adjacency, patch table and continuity (f64 CPU reference) after loading; samples are edge sample pairs".into(),
+        stats,
+        Some(pairs),
+        None,
+        None,
+    );
+
+    let report = EndToEndReport {
+        machine: EndToEndMachine {
+            cpu: cpu_model(),
+            cpus: available_cpus(),
+            threads: rayon::current_num_threads(),
+            os: format!("{} {}", std::env::consts::OS, std::env::consts::ARCH),
+            cpu_kernel: F32Kernel::Auto.name().to_string(),
+            dir: dir.display().to_string(),
+        },
+        mesh: mesh.name.clone(),
+        triangles: mesh.triangles.len(),
+        scheme: scheme.to_string(),
+        tess_level: level,
+        stats_level: a.stats_level,
+        stats_triangles: big.triangles.len(),
+        rows,
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!("{}", end_to_end_text(&report));
+    }
+    Ok(())
+}
+
+/// The end-to-end report as a Markdown table (what BENCHMARKS.md records).
+pub fn end_to_end_text(r: &EndToEndReport) -> String {
+    let m = &r.machine;
+    let mut s = format!(
+        "machine: {} · {} CPUs, {} threads · {} · CPU kernel {} · files in {}\n\
+         mesh: {} ({} triangles), scheme {}, tessellation level {}; stats and OBJ: level {} ({} triangles)\n\n\
+         | step | seconds | CPU s | M samples/s | MB/s | × baseline | what |\n|---|---|---|---|---|---|---|\n",
+        m.cpu,
+        m.cpus,
+        m.threads,
+        m.os,
+        m.cpu_kernel,
+        m.dir,
+        r.mesh,
+        r.triangles,
+        r.scheme,
+        r.tess_level,
+        r.stats_level,
+        r.stats_triangles
+    );
+    let opt = |x: Option<f64>, scale: f64, digits: usize| {
+        x.map_or("–".to_string(), |v| format!("{:.*}", digits, v / scale))
+    };
+    for row in &r.rows {
+        s += &format!(
+            "| {} | {:.3} | {} | {} | {} | {} | {} |\n",
+            row.step,
+            row.seconds,
+            opt(row.cpu_seconds, 1.0, 2),
+            opt(row.samples_per_s, 1e6, 1),
+            opt(row.mb_per_s, 1.0, 0),
+            opt(row.ratio_to_baseline, 1.0, 2),
+            row.what
         );
     }
     s

@@ -179,4 +179,13 @@ impl crate::eval::Evaluator for LazyGpu {
     ) -> crate::Result<()> {
         self.get()?.evaluate(table, pattern, sink)
     }
+
+    fn evaluate_f32(
+        &self,
+        table: &crate::patch::PatchTable,
+        pattern: &crate::eval::Pattern,
+        sink: &mut dyn FnMut(crate::eval::ChunkF32<'_>) -> crate::Result<()>,
+    ) -> crate::Result<()> {
+        self.get()?.evaluate_f32(table, pattern, sink)
+    }
 }

@@ -6,6 +6,7 @@ mod common;
 mod compare;
 mod export_net;
 pub mod paper;
+mod progress;
 mod render;
 mod stats;
 mod sweep;

@@ -9,9 +9,9 @@ use glam::DVec3;
 use super::InputArgs;
 use crate::eval::cpu::CpuEvaluator;
 use crate::mesh::Mesh;
-use crate::output::weld::weld;
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 use crate::render::{render_panels, write_png, RenderOptions, Row};
+use crate::tess::stitch::stitch;
 
 #[derive(Args, Clone, Debug)]
 pub struct RenderArgs {
@@ -76,7 +76,7 @@ pub fn render_schemes(
     let mut rows = Vec::new();
     for &scheme in schemes {
         let table = PatchTable::build(mesh, scheme, scheme_opts)?;
-        let (surface, _, _) = weld(mesh, &table, &CpuEvaluator::default(), level)?;
+        let (surface, _, _) = stitch(mesh, &table, &CpuEvaluator::default(), level)?;
         rows.push(Row {
             label: scheme.to_string(),
             panels: render_panels(&surface, opts)?,

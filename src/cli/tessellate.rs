@@ -1,13 +1,15 @@
-//! `g1tess tessellate`: evaluate every patch on a grid and write the welded surface.
+//! `g1tess tessellate`: evaluate every patch on a grid in f32 and write the stitched
+//! surface: the evaluator's f32 path (the CPU's SIMD kernel, the GPU's f32 shaders) feeds
+//! the stitcher and the writer in f32, with no f64 round trip.
 
 use std::path::PathBuf;
 
 use clap::Args;
 
+use super::progress;
 use super::{BackendArgs, InputArgs};
-use crate::output::progress;
-use crate::output::weld::{weld_into, WeldPlan};
-use crate::output::writers::{write_welded, MeshFormat};
+use crate::output::writers::{write_stitched, MeshFormat};
+use crate::tess::stitch::{stitch_into, StitchPlan};
 
 #[derive(Args, Clone, Debug)]
 pub struct TessellateArgs {
@@ -36,7 +38,7 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     let format = MeshFormat::from_path(&a.output)?;
     let (mesh, table) = a.input.load()?;
     let adjacency = mesh.adjacency();
-    let plan = WeldPlan::new(&mesh, &adjacency, a.level)?;
+    let plan = StitchPlan::new(&mesh, &adjacency, a.level)?;
     let backend = BackendArgs {
         quiet: a.quiet,
         ..a.backend.clone()
@@ -48,15 +50,11 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     );
     let bar = progress::bar(plan.patches() as u64, "evaluating", "patches", a.quiet);
     let mut snap = 0.0;
-    write_welded(&a.output, format, &plan, &title, &bar, &mut |sink| {
-        snap = weld_into(&plan, &table, evaluator.as_ref(), sink, &mut |k| {
-            bar.inc(k as u64)
-        })?;
-        bar.set_position(0);
-        bar.set_message("writing faces");
+    write_stitched::<[f32; 3]>(&a.output, format, &plan, &title, &bar, &mut |sink| {
+        snap = stitch_into(&plan, &table, evaluator.as_ref(), sink, &bar)?;
         Ok(())
     })?;
-    bar.finish_and_clear();
+    bar.finish();
     if a.json {
         let summary = serde_json::json!({
             "output": a.output.display().to_string(),
@@ -64,6 +62,7 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
             "scheme": table.scheme.to_string(),
             "level": a.level,
             "backend": evaluator.describe(),
+            "precision": "f32",
             "vertices": plan.positions,
             "triangles": plan.triangles,
             "format": format,
@@ -78,7 +77,7 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     } else if !a.quiet {
         eprintln!(
             "wrote {}: {} vertices ({} with split normals), {} triangles; \
-             {} boundary, {} non-manifold, {} crease edges; max weld snap {:.3e}",
+             {} boundary, {} non-manifold, {} crease edges; max stitch snap {:.3e}",
             a.output.display(),
             plan.positions,
             plan.records,

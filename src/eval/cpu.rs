@@ -1,10 +1,15 @@
-//! The CPU backend: f64 evaluation, parallel over patches with rayon. It is the reference
-//! every other backend is tested against.
+//! The CPU backend: the f64 reference (every other backend is tested against it) and, for
+//! grids in f32 ([`Evaluator::evaluate_f32`]), a SIMD kernel (f32 weights in blocks of 8
+//! samples, AVX2+FMA detected at run time or portable code). Both run in parallel over
+//! patches with rayon and stream bounded chunks.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{grid_barycentrics, grid_len, Chunk, Evaluator, Pattern};
+use super::{
+    evaluate_f32_via_f64, grid_barycentrics, grid_corners, grid_len, Chunk, ChunkF32, Evaluator,
+    Pattern,
+};
 use crate::patch::basis::Weights;
 use crate::patch::PatchTable;
 use crate::Result;
@@ -14,12 +19,25 @@ use crate::Result;
 pub struct CpuEvaluator {
     /// Samples per chunk handed to the sink (bounded memory for any mesh size).
     pub chunk_samples: usize,
+    /// Instruction set of the f32 grid kernel ([`Evaluator::evaluate_f32`]).
+    pub f32_kernel: F32Kernel,
 }
 
 impl Default for CpuEvaluator {
     fn default() -> Self {
         CpuEvaluator {
             chunk_samples: 1 << 20,
+            f32_kernel: F32Kernel::Auto,
+        }
+    }
+}
+
+impl CpuEvaluator {
+    /// The default evaluator with `chunk_samples` samples per chunk.
+    pub fn with_chunk_samples(chunk_samples: usize) -> CpuEvaluator {
+        CpuEvaluator {
+            chunk_samples,
+            ..Default::default()
         }
     }
 }
@@ -35,7 +53,11 @@ pub fn grid_weights(table: &PatchTable, level: u32) -> Vec<Weights> {
 
 impl Evaluator for CpuEvaluator {
     fn describe(&self) -> String {
-        format!("cpu (f64, {} threads)", rayon::current_num_threads())
+        format!(
+            "cpu (f64; f32 grids {}; {} threads)",
+            self.f32_kernel.name(),
+            rayon::current_num_threads()
+        )
     }
 
     fn evaluate(
@@ -48,6 +70,7 @@ impl Evaluator for CpuEvaluator {
             Pattern::Grid { level } => {
                 let weights = grid_weights(table, *level);
                 let per = grid_len(*level);
+                let corners = grid_corners(*level);
                 let patches_per_chunk = (self.chunk_samples / per).max(1);
                 let mut pos = Vec::new();
                 let mut nrm = Vec::new();
@@ -64,6 +87,10 @@ impl Evaluator for CpuEvaluator {
                                 let sp = table.eval_weights(first + k, w);
                                 p[s] = sp.p;
                                 n[s] = sp.n;
+                            }
+                            // The input vertices as they are, whatever the weights' rounding.
+                            for (c, &g) in corners.iter().enumerate() {
+                                p[g] = table.corner(first + k, c);
                             }
                         });
                     sink(Chunk {
@@ -130,20 +157,30 @@ impl Evaluator for CpuEvaluator {
             }
         }
     }
+
+    /// Grids run the f32 SIMD kernel (see [`GridWeightsF32`]): control points relative to
+    /// each patch's first point, f32 weights computed once per call, corners overwritten
+    /// with the input vertices rounded once. Point lists are evaluated in f64 and rounded.
+    fn evaluate_f32(
+        &self,
+        table: &PatchTable,
+        pattern: &Pattern,
+        sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
+    ) -> Result<()> {
+        match pattern {
+            Pattern::Grid { level } => {
+                let weights = GridWeightsF32::new(table.kind, *level);
+                self.grid_f32(table, &weights, sink)
+            }
+            Pattern::Points(_) => evaluate_f32_via_f64(self, table, pattern, sink),
+        }
+    }
 }
 
-// ---- f32-output fast path ----
+// ---- f32 grid kernel ----
 
 /// Samples per SIMD block of the fast path.
 const LANES: usize = 8;
-
-/// A run of samples of [`CpuEvaluator::grid_f32`]: `first` is the first patch, the samples
-/// are `grid_len(level)` per patch in grid order, positions and unit normals in f32.
-pub struct ChunkF32<'a> {
-    pub first: usize,
-    pub positions: &'a [[f32; 3]],
-    pub normals: &'a [[f32; 3]],
-}
 
 /// Basis values of a grid level in f32, laid out for the fast path: for each block of
 /// [`LANES`] samples and each control point, `LANES` values of w, ∂w/∂s, ∂w/∂t
@@ -439,6 +476,7 @@ fn run_patches_f32(
     nrm: &mut [[f32; 3]],
 ) {
     let avx2 = kernel == F32Kernel::Auto && has_avx2_fma();
+    let corners = grid_corners(g.level);
     pos.par_chunks_mut(g.per)
         .zip(nrm.par_chunks_mut(g.per))
         .enumerate()
@@ -459,65 +497,33 @@ fn run_patches_f32(
             if avx2 {
                 // SAFETY: the CPU has AVX2 and FMA (checked by has_avx2_fma).
                 unsafe { patch_f32_avx2(g, cp, origin, flat, p, n) };
-                return;
+            } else {
+                patch_f32::<Portable>(g, cp, origin, flat, p, n);
             }
-            let _ = avx2;
-            patch_f32::<Portable>(g, cp, origin, flat, p, n);
+            #[cfg(not(target_arch = "x86_64"))]
+            {
+                let _ = avx2;
+                patch_f32::<Portable>(g, cp, origin, flat, p, n);
+            }
+            // The input vertices rounded once (origin + relative offset may differ by an
+            // ulp).
+            for (k, &c) in corners.iter().enumerate() {
+                p[c] = super::to_f32(table.corner(i, k));
+            }
         });
 }
 
 impl CpuEvaluator {
-    /// The f32-output fast path: every patch on the grid of `level`, positions and unit
-    /// normals in f32 (control points relative to each patch's first point, f32 SIMD over
-    /// blocks of samples with precomputed weights, rayon over patches on the current
-    /// pool). Agrees with [`Evaluator::evaluate`] to f32 rounding.
+    /// The f32 kernel on the grid of `weights.level` with precomputed weights, streamed in
+    /// chunks (what [`Evaluator::evaluate_f32`] runs for a grid; callers that evaluate the
+    /// same level many times keep the weights).
     pub fn grid_f32(
         &self,
         table: &PatchTable,
         weights: &GridWeightsF32,
         sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
     ) -> Result<()> {
-        self.grid_f32_with(table, weights, F32Kernel::Auto, sink)
-    }
-
-    /// The fast path into caller-owned arrays of `grid_len(level) × table.len()` samples
-    /// (the whole output at once, no chunks).
-    pub fn grid_f32_into(
-        &self,
-        table: &PatchTable,
-        weights: &GridWeightsF32,
-        kernel: F32Kernel,
-        positions: &mut [[f32; 3]],
-        normals: &mut [[f32; 3]],
-    ) -> Result<()> {
-        let n = weights.per * table.len();
-        if weights.kind != table.kind || positions.len() != n || normals.len() != n {
-            return Err(crate::Error::Invalid(format!(
-                "grid_f32_into: {} / {} samples for {n} ({:?} weights, {:?} table)",
-                positions.len(),
-                normals.len(),
-                weights.kind,
-                table.kind
-            )));
-        }
-        run_patches_f32(table, weights, kernel, 0, positions, normals);
-        Ok(())
-    }
-
-    /// [`CpuEvaluator::grid_f32`] with a chosen kernel.
-    pub fn grid_f32_with(
-        &self,
-        table: &PatchTable,
-        weights: &GridWeightsF32,
-        kernel: F32Kernel,
-        sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
-    ) -> Result<()> {
-        if weights.kind != table.kind {
-            return Err(crate::Error::Invalid(format!(
-                "grid weights of {:?} used on a table of {:?}",
-                weights.kind, table.kind
-            )));
-        }
+        check_weights(table, weights)?;
         let per = weights.per;
         let patches_per_chunk = (self.chunk_samples / per).max(1).min(table.len().max(1));
         let mut pos = vec![[0f32; 3]; patches_per_chunk * per];
@@ -526,8 +532,8 @@ impl CpuEvaluator {
         while first < table.len() {
             let count = patches_per_chunk.min(table.len() - first);
             let (p, n) = (&mut pos[..count * per], &mut nrm[..count * per]);
-            run_patches_f32(table, weights, kernel, first, p, n);
-            sink(ChunkF32 {
+            run_patches_f32(table, weights, self.f32_kernel, first, p, n);
+            sink(Chunk {
                 first,
                 positions: p,
                 normals: n,
@@ -536,4 +542,37 @@ impl CpuEvaluator {
         }
         Ok(())
     }
+
+    /// The f32 kernel into caller-owned arrays of `grid_len(level) × table.len()` samples
+    /// (the whole output at once, no chunks: `bench`'s memory-bound figure).
+    pub fn grid_f32_into(
+        &self,
+        table: &PatchTable,
+        weights: &GridWeightsF32,
+        positions: &mut [[f32; 3]],
+        normals: &mut [[f32; 3]],
+    ) -> Result<()> {
+        check_weights(table, weights)?;
+        let n = weights.per * table.len();
+        if positions.len() != n || normals.len() != n {
+            return Err(crate::Error::Invalid(format!(
+                "f32 grid of level {}: {} positions and {} normals given for {n} samples",
+                weights.level,
+                positions.len(),
+                normals.len(),
+            )));
+        }
+        run_patches_f32(table, weights, self.f32_kernel, 0, positions, normals);
+        Ok(())
+    }
+}
+
+fn check_weights(table: &PatchTable, weights: &GridWeightsF32) -> Result<()> {
+    if weights.kind != table.kind {
+        return Err(crate::Error::Invalid(format!(
+            "grid weights of {:?} used on a table of {:?}",
+            weights.kind, table.kind
+        )));
+    }
+    Ok(())
 }

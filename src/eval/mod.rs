@@ -7,7 +7,7 @@ pub mod pattern;
 
 use glam::DVec3;
 
-pub use pattern::{grid_barycentrics, grid_len, grid_triangles, PatchPoint, Pattern};
+pub use pattern::{grid_barycentrics, grid_corners, grid_len, grid_triangles, PatchPoint, Pattern};
 
 use crate::patch::PatchTable;
 use crate::Result;
@@ -35,6 +35,115 @@ pub fn to_f32(v: DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
+/// The precision of evaluated samples: `DVec3` (the f64 reference) or `[f32; 3]` (writers,
+/// GPUs, the CPU's SIMD kernel). Consumers generic over it ([`crate::tess::stitch`], the
+/// writers) pick the precision; [`Vector::evaluate`] calls the matching
+/// [`Evaluator`] method, so the samples never make a round trip through the other one.
+pub trait Vector: Copy + Send + Sync + PartialEq + std::fmt::Debug + 'static {
+    /// A value no evaluation produces (unfilled slots).
+    const NAN: Self;
+    /// "f64" or "f32".
+    const NAME: &'static str;
+    /// The value in f64 (exact for both precisions).
+    fn to_dvec3(self) -> DVec3;
+    /// An f64 value in this precision (rounded once for f32).
+    fn from_dvec3(v: DVec3) -> Self;
+    /// The value in f32 (rounded once from f64; as it is for f32).
+    fn to_f32(self) -> [f32; 3];
+    /// Appends " x y z", each the shortest decimal that reads back to the same value in
+    /// this precision (text formats).
+    fn write_text(self, out: &mut String);
+    /// Evaluates `pattern` on `table` with `evaluator` in this precision.
+    fn evaluate(
+        evaluator: &dyn Evaluator,
+        table: &PatchTable,
+        pattern: &Pattern,
+        sink: &mut dyn FnMut(Chunk<'_, Self>) -> Result<()>,
+    ) -> Result<()>;
+}
+
+impl Vector for DVec3 {
+    const NAN: Self = DVec3::NAN;
+    const NAME: &'static str = "f64";
+    #[inline]
+    fn to_dvec3(self) -> DVec3 {
+        self
+    }
+    #[inline]
+    fn from_dvec3(v: DVec3) -> Self {
+        v
+    }
+    #[inline]
+    fn to_f32(self) -> [f32; 3] {
+        to_f32(self)
+    }
+    fn write_text(self, out: &mut String) {
+        use std::fmt::Write as _;
+        let _ = write!(out, " {:?} {:?} {:?}", self.x, self.y, self.z);
+    }
+    fn evaluate(
+        evaluator: &dyn Evaluator,
+        table: &PatchTable,
+        pattern: &Pattern,
+        sink: &mut dyn FnMut(Chunk<'_, Self>) -> Result<()>,
+    ) -> Result<()> {
+        evaluator.evaluate(table, pattern, sink)
+    }
+}
+
+impl Vector for [f32; 3] {
+    const NAN: Self = [f32::NAN; 3];
+    const NAME: &'static str = "f32";
+    #[inline]
+    fn to_dvec3(self) -> DVec3 {
+        DVec3::new(self[0] as f64, self[1] as f64, self[2] as f64)
+    }
+    #[inline]
+    fn from_dvec3(v: DVec3) -> Self {
+        to_f32(v)
+    }
+    #[inline]
+    fn to_f32(self) -> [f32; 3] {
+        self
+    }
+    fn write_text(self, out: &mut String) {
+        use std::fmt::Write as _;
+        let _ = write!(out, " {:?} {:?} {:?}", self[0], self[1], self[2]);
+    }
+    fn evaluate(
+        evaluator: &dyn Evaluator,
+        table: &PatchTable,
+        pattern: &Pattern,
+        sink: &mut dyn FnMut(Chunk<'_, Self>) -> Result<()>,
+    ) -> Result<()> {
+        evaluator.evaluate_f32(table, pattern, sink)
+    }
+}
+
+/// [`Evaluator::evaluate_f32`] through the f64 evaluation: each value rounded once (so
+/// corners are the input rounded to f32, bit for bit, where the f64 corners are exact).
+/// The default of `evaluate_f32`, and what a backend's own override falls back to for
+/// patterns its native kernel does not cover.
+pub fn evaluate_f32_via_f64(
+    evaluator: &(impl Evaluator + ?Sized),
+    table: &PatchTable,
+    pattern: &Pattern,
+    sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
+) -> Result<()> {
+    let (mut pos, mut nrm) = (Vec::new(), Vec::new());
+    evaluator.evaluate(table, pattern, &mut |c| {
+        pos.clear();
+        nrm.clear();
+        pos.extend(c.positions.iter().map(|&p| to_f32(p)));
+        nrm.extend(c.normals.iter().map(|&n| to_f32(n)));
+        sink(Chunk {
+            first: c.first,
+            positions: &pos,
+            normals: &nrm,
+        })
+    })
+}
+
 /// A backend that evaluates positions and unit normals of a patch table.
 pub trait Evaluator {
     /// Which backend and device, for reports ("cpu (2 threads)", the adapter's name, ...).
@@ -58,18 +167,7 @@ pub trait Evaluator {
         pattern: &Pattern,
         sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
     ) -> Result<()> {
-        let (mut pos, mut nrm) = (Vec::new(), Vec::new());
-        self.evaluate(table, pattern, &mut |c| {
-            pos.clear();
-            nrm.clear();
-            pos.extend(c.positions.iter().map(|&p| to_f32(p)));
-            nrm.extend(c.normals.iter().map(|&n| to_f32(n)));
-            sink(Chunk {
-                first: c.first,
-                positions: &pos,
-                normals: &nrm,
-            })
-        })
+        evaluate_f32_via_f64(self, table, pattern, sink)
     }
 
     /// Evaluates `pattern` into two whole arrays (convenience for small runs and tests).

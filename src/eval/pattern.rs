@@ -47,6 +47,17 @@ pub fn grid_index(level: u32, i: u32, j: u32) -> usize {
     j * (n + 1) - j * (j.saturating_sub(1)) / 2 + i as usize
 }
 
+/// Grid indices of the three corners of the grid of level n: corner k is the point with
+/// b_k = 1 (the patch's input vertex k).
+pub fn grid_corners(level: u32) -> [usize; 3] {
+    let n = level.max(1);
+    [
+        grid_index(n, 0, 0),
+        grid_index(n, n, 0),
+        grid_index(n, 0, n),
+    ]
+}
+
 /// Barycentric points of the grid of level n (n ≥ 1), rows of constant b2 = j/n with
 /// b1 = i/n increasing; b0 = (n − i − j)/n exactly.
 pub fn grid_barycentrics(level: u32) -> Vec<[f64; 3]> {
@@ -98,6 +109,11 @@ mod tests {
                 }
             }
             assert_eq!(grid_triangles(n).len(), (n * n) as usize);
+            let c = grid_corners(n);
+            assert_eq!(c, [0, n as usize, grid_len(n) - 1]);
+            for (k, &g) in c.iter().enumerate() {
+                assert_eq!(b[g][k], 1.0);
+            }
         }
     }
 }

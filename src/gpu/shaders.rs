@@ -9,7 +9,7 @@
 //! [`crate::eval::gpu::GpuEvaluator`], the same pipelines.
 
 use crate::patch::basis::MAX_POINTS;
-use crate::patch::{PatchKind, Scheme, MIN_NORMAL_LEN_F32, MIN_NORMAL_LEN_F64};
+use crate::patch::{PatchKind, MIN_NORMAL_LEN_F32, MIN_NORMAL_LEN_F64};
 use crate::{Error, Result};
 
 use super::Precision;
@@ -76,13 +76,6 @@ pub fn variants() -> Vec<(ShaderFile, PatchKind)> {
         .into_iter()
         .map(|k| (file_for(k), k))
         .collect()
-}
-
-/// The file of a table built by `scheme`: the file of its `kind` (the scheme plays no
-/// part; kept for callers that name both, prefer [`file_for`]).
-pub fn scheme_file(scheme: Scheme, kind: PatchKind) -> Result<ShaderFile> {
-    let _ = scheme;
-    Ok(file_for(kind))
 }
 
 /// A WGSL literal of `x` in `precision`, exactly (shortest round-trip decimal).

@@ -6,9 +6,6 @@ pub mod distance;
 pub mod nets;
 #[cfg(feature = "cli")]
 pub mod plot;
-#[cfg(feature = "cli")]
-pub mod progress;
 pub mod stats;
 pub mod table1;
-pub mod weld;
 pub mod writers;

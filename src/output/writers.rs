@@ -1,10 +1,13 @@
 //! Mesh writers. Every file is written atomically (see [`super::atomic`]).
 //!
-//! Welded output ([`super::weld`]) streams patch by patch into one of four formats, chosen
-//! by the file extension ([`MeshFormat`]):
-//! - `.obj`: `v` welded positions (17 significant digits, exact f64 round trip), `vn` one
-//!   per vertex record, `f p//r` triangles; lines interleaved as the patches arrive (every
-//!   face only refers to earlier lines).
+//! Stitched output ([`crate::tess::stitch`]) streams patch by patch into one of four
+//! formats, chosen by the file extension ([`MeshFormat`]), in the precision the samples
+//! come in (`[f32; 3]` from the f32 kernels, or `DVec3` rounded once to f32 for the binary
+//! formats):
+//! - `.obj`: `v` shared positions, `vn` one per vertex record, `f p//r` triangles; each
+//!   value in the shortest decimal that reads back to the same value in its precision
+//!   (f32 for f32 samples); lines interleaved as the patches arrive (every face only
+//!   refers to earlier lines).
 //! - `.ply`: binary little-endian, `float x y z nx ny nz` per vertex record, then
 //!   `list uchar int vertex_indices` per triangle; the counts come from the plan, so the
 //!   header is written first and nothing is held back.
@@ -16,50 +19,23 @@
 //!
 //! PLY and glTF list every vertex before any triangle: their triangles are regenerated
 //! from the plan (topology only) after the vertices are written.
+//!
+//! Files go to the temporary file through one 1 MiB buffer, written from the thread that
+//! produces the bytes (large sequential writes whose source is still in that core's cache;
+//! handing blocks to a writer thread measured slower); progress is reported through
+//! [`Progress`], never drawn here.
 
 use std::fs::File;
 use std::io::{self, BufWriter, Seek, SeekFrom, Write};
 use std::path::Path;
 
-use glam::DVec3;
-use indicatif::ProgressBar;
+use rayon::prelude::*;
 
-use super::atomic::{write_atomic, write_atomic_with};
-use super::weld::{PatchOut, WeldPlan, WeldSink};
-use crate::eval::grid_triangles;
+use super::atomic::write_atomic_with;
+use crate::eval::{grid_triangles, Vector};
+use crate::progress::Progress;
+use crate::tess::stitch::{Needs, PatchOut, StitchPlan, StitchSink};
 use crate::{Error, Result};
-
-/// An indexed triangle mesh with one normal per vertex, unwelded.
-#[derive(Clone, Debug, Default)]
-pub struct IndexedMesh {
-    pub positions: Vec<DVec3>,
-    pub normals: Vec<DVec3>,
-    pub triangles: Vec<[u32; 3]>,
-}
-
-/// Writes an OBJ file with `v`, `vn` and `f v//vn` lines (17 significant digits, so the
-/// values read back exactly).
-pub fn write_obj(path: &Path, mesh: &IndexedMesh) -> Result<()> {
-    write_atomic(path, |w| {
-        writeln!(
-            w,
-            "# g1tess output: {} vertices, {} triangles",
-            mesh.positions.len(),
-            mesh.triangles.len()
-        )?;
-        for p in &mesh.positions {
-            writeln!(w, "v {:?} {:?} {:?}", p.x, p.y, p.z)?;
-        }
-        for n in &mesh.normals {
-            writeln!(w, "vn {:?} {:?} {:?}", n.x, n.y, n.z)?;
-        }
-        for t in &mesh.triangles {
-            let [a, b, c] = t.map(|i| i + 1);
-            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
-        }
-        Ok(())
-    })
-}
 
 /// Output mesh formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -92,7 +68,7 @@ impl MeshFormat {
 
     /// Vertices as the file's reader counts them: OBJ and STL positions, PLY and glTF
     /// vertex records (positions repeated where normals are split).
-    pub fn file_vertices(self, plan: &WeldPlan) -> usize {
+    pub fn file_vertices(self, plan: &StitchPlan) -> usize {
         match self {
             MeshFormat::Obj | MeshFormat::Stl => plan.positions,
             MeshFormat::Ply | MeshFormat::Glb => plan.records,
@@ -100,7 +76,7 @@ impl MeshFormat {
     }
 
     /// Size of a binary file, where the format limits it.
-    fn check(self, plan: &WeldPlan, path: &Path, title: &str) -> Result<()> {
+    fn check(self, plan: &StitchPlan, path: &Path, title: &str) -> Result<()> {
         let too_big = |why: &str| {
             Err(Error::Invalid(format!(
                 "{}: {} vertices / {} triangles are too many for {why}",
@@ -123,27 +99,29 @@ impl MeshFormat {
 }
 
 /// One format's streaming writer.
-trait FormatWriter {
+trait FormatWriter<V> {
+    /// What the format reads of each patch.
+    fn needs(&self) -> Needs;
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()>;
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_>) -> io::Result<()>;
-    fn finish(&mut self, w: &mut BufWriter<File>, progress: &ProgressBar) -> io::Result<()>;
+    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()>;
+    fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()>;
 }
 
-/// Writes the welded output of `plan` to `path` in `format`, atomically. `produce` must
-/// run the evaluation and feed every patch, in order, to the sink it is given (see
-/// [`super::weld::weld_into`]). `title` goes into the file's comment/header. `progress`
-/// is advanced once per patch in the pass that writes triangles after the vertices
-/// (PLY, glTF); the caller advances it during evaluation.
-pub fn write_welded(
+/// Writes the stitched output of `plan` to `path` in `format`, atomically, from samples of
+/// precision `V`. `produce` must run the evaluation and feed every patch, in order, to the
+/// sink it is given (see [`crate::tess::stitch::stitch_into`], which also reports the
+/// evaluation to `progress`). `title` goes into the file's comment/header. PLY and glTF
+/// report a second phase, "writing faces", over the patches.
+pub fn write_stitched<V: Vector>(
     path: &Path,
     format: MeshFormat,
-    plan: &WeldPlan,
+    plan: &StitchPlan,
     title: &str,
-    progress: &ProgressBar,
-    produce: &mut dyn FnMut(&mut dyn WeldSink) -> Result<()>,
+    progress: &dyn Progress,
+    produce: &mut dyn FnMut(&mut dyn StitchSink<V>) -> Result<()>,
 ) -> Result<()> {
     format.check(plan, path, title)?;
-    let mut writer: Box<dyn FormatWriter + '_> = match format {
+    let mut writer: Box<dyn FormatWriter<V> + '_> = match format {
         MeshFormat::Obj => Box::new(ObjWriter {
             plan,
             title,
@@ -170,13 +148,16 @@ pub fn write_welded(
     write_atomic_with(path, |w| {
         let io = |e: io::Error| Error::io(path, e);
         writer.begin(w).map_err(io)?;
-        struct Adapter<'w, 'x> {
-            writer: &'x mut dyn FormatWriter,
+        struct Adapter<'w, 'x, V> {
+            writer: &'x mut dyn FormatWriter<V>,
             w: &'w mut BufWriter<File>,
             path: &'x Path,
         }
-        impl WeldSink for Adapter<'_, '_> {
-            fn patch(&mut self, out: &PatchOut<'_>) -> Result<()> {
+        impl<V> StitchSink<V> for Adapter<'_, '_, V> {
+            fn needs(&self) -> Needs {
+                self.writer.needs()
+            }
+            fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()> {
                 self.writer
                     .patch(self.w, out)
                     .map_err(|e| Error::io(self.path, e))
@@ -191,55 +172,115 @@ pub fn write_welded(
     })
 }
 
-/// Calls `f` with every patch's triangles (record ids), in order, advancing `progress`.
-fn for_each_patch_triangles(
-    plan: &WeldPlan,
-    progress: &ProgressBar,
-    f: &mut dyn FnMut(&[[u32; 3]]) -> io::Result<()>,
+/// Appends the bytes of one patch's triangles (record ids) to a buffer.
+type EncodeTriangles = dyn Fn(&[[u32; 3]], &mut Vec<u8>) + Sync;
+
+/// Writes every patch's triangles (record ids), in order, each patch encoded by `encode`;
+/// batches of patches are encoded in parallel (rayon), then written in order. Reports the
+/// phase "writing faces" to `progress`.
+fn write_triangles(
+    plan: &StitchPlan,
+    progress: &dyn Progress,
+    w: &mut BufWriter<File>,
+    encode: &EncodeTriangles,
 ) -> io::Result<()> {
+    /// Patches encoded per batch (bounds the buffers: a few MiB at level 32).
+    const BATCH: usize = 256;
+    struct Slot {
+        bytes: Vec<u8>,
+        scratch: (Vec<u32>, Vec<u32>),
+        tris: Vec<[u32; 3]>,
+    }
     let grid = grid_triangles(plan.level);
-    let mut scratch = (Vec::new(), Vec::new());
-    let mut tris = Vec::with_capacity(grid.len());
-    for p in 0..plan.patches() {
-        tris.clear();
-        plan.patch_triangles(p, &grid, &mut scratch, &mut tris);
-        f(&tris)?;
-        progress.inc(1);
+    let patches = plan.patches();
+    let mut slots: Vec<Slot> = (0..BATCH.min(patches))
+        .map(|_| Slot {
+            bytes: Vec::new(),
+            scratch: (Vec::new(), Vec::new()),
+            tris: Vec::with_capacity(grid.len()),
+        })
+        .collect();
+    progress.start("writing faces", patches as u64);
+    let mut start = 0;
+    while start < patches {
+        let len = BATCH.min(patches - start);
+        slots[..len]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(j, slot)| {
+                slot.tris.clear();
+                plan.patch_triangles(start + j, &grid, &mut slot.scratch, &mut slot.tris);
+                slot.bytes.clear();
+                encode(&slot.tris, &mut slot.bytes);
+            });
+        for slot in &slots[..len] {
+            w.write_all(&slot.bytes)?;
+        }
+        progress.inc(len as u64);
+        start += len;
     }
     Ok(())
 }
 
-fn push_f32s(buf: &mut Vec<u8>, v: DVec3) {
-    for x in [v.x as f32, v.y as f32, v.z as f32] {
+/// Appends a vertex record's position and normal as six f32, little-endian.
+#[inline]
+fn push_record<V: Vector>(buf: &mut Vec<u8>, position: V, normal: V) {
+    let mut b = [0u8; 24];
+    for (k, x) in position
+        .to_f32()
+        .into_iter()
+        .chain(normal.to_f32())
+        .enumerate()
+    {
+        b[4 * k..4 * k + 4].copy_from_slice(&x.to_le_bytes());
+    }
+    buf.extend_from_slice(&b);
+}
+
+/// Appends the f32 little-endian bytes of `v`.
+#[inline]
+fn push_f32s<V: Vector>(buf: &mut Vec<u8>, v: V) {
+    for x in v.to_f32() {
         buf.extend_from_slice(&x.to_le_bytes());
     }
 }
 
 struct ObjWriter<'a> {
-    plan: &'a WeldPlan,
+    plan: &'a StitchPlan,
     title: &'a str,
     text: String,
 }
 
-impl FormatWriter for ObjWriter<'_> {
+impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
+    fn needs(&self) -> Needs {
+        Needs {
+            positions: true,
+            triangles: true,
+            grid_positions: false,
+        }
+    }
+
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
         writeln!(
             w,
-            "# {}\n# welded: {} positions (v), {} vertex normals (vn), {} triangles",
+            "# {}\n# stitched: {} positions (v), {} vertex normals (vn), {} triangles",
             self.title, self.plan.positions, self.plan.records, self.plan.triangles
         )
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
         use std::fmt::Write as _;
         let t = &mut self.text;
         t.clear();
         for p in out.new_positions {
-            let _ = writeln!(t, "v {:?} {:?} {:?}", p.x, p.y, p.z);
+            t.push('v');
+            p.write_text(t);
+            t.push('\n');
         }
         for r in out.new_records {
-            let n = r.normal;
-            let _ = writeln!(t, "vn {:?} {:?} {:?}", n.x, n.y, n.z);
+            t.push_str("vn");
+            r.normal.write_text(t);
+            t.push('\n');
         }
         for (r, p) in out.triangles.iter().zip(out.position_triangles) {
             let _ = writeln!(
@@ -256,18 +297,22 @@ impl FormatWriter for ObjWriter<'_> {
         w.write_all(t.as_bytes())
     }
 
-    fn finish(&mut self, _: &mut BufWriter<File>, _: &ProgressBar) -> io::Result<()> {
+    fn finish(&mut self, _: &mut BufWriter<File>, _: &dyn Progress) -> io::Result<()> {
         Ok(())
     }
 }
 
 struct PlyWriter<'a> {
-    plan: &'a WeldPlan,
+    plan: &'a StitchPlan,
     title: &'a str,
     buf: Vec<u8>,
 }
 
-impl FormatWriter for PlyWriter<'_> {
+impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
+    fn needs(&self) -> Needs {
+        Needs::RECORDS
+    }
+
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
         // PLY headers are ASCII lines.
         let title: String = self
@@ -291,37 +336,42 @@ impl FormatWriter for PlyWriter<'_> {
         )
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
         for r in out.new_records {
-            push_f32s(&mut self.buf, r.position);
-            push_f32s(&mut self.buf, r.normal);
+            push_record(&mut self.buf, r.position, r.normal);
         }
         w.write_all(&self.buf)
     }
 
-    fn finish(&mut self, w: &mut BufWriter<File>, progress: &ProgressBar) -> io::Result<()> {
-        let buf = &mut self.buf;
-        for_each_patch_triangles(self.plan, progress, &mut |tris| {
-            buf.clear();
+    fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()> {
+        write_triangles(self.plan, progress, w, &|tris, buf| {
             for t in tris {
-                buf.push(3);
-                for i in t {
-                    buf.extend_from_slice(&(*i as i32).to_le_bytes());
+                let mut b = [3u8; 13];
+                for (k, &i) in t.iter().enumerate() {
+                    b[1 + 4 * k..5 + 4 * k].copy_from_slice(&(i as i32).to_le_bytes());
                 }
+                buf.extend_from_slice(&b);
             }
-            w.write_all(buf)
         })
     }
 }
 
 struct StlWriter<'a> {
-    plan: &'a WeldPlan,
+    plan: &'a StitchPlan,
     title: &'a str,
     buf: Vec<u8>,
 }
 
-impl FormatWriter for StlWriter<'_> {
+impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
+    fn needs(&self) -> Needs {
+        Needs {
+            positions: false,
+            triangles: false,
+            grid_positions: true,
+        }
+    }
+
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
         // The header must not start with "solid" (ASCII STL).
         let mut header = [b' '; 80];
@@ -332,11 +382,13 @@ impl FormatWriter for StlWriter<'_> {
         w.write_all(&(self.plan.triangles as u32).to_le_bytes())
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
         for t in out.grid_triangles {
             let p = t.map(|i| out.grid_positions[i as usize]);
-            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            // The flat normal from the written positions, computed in f64 and rounded once.
+            let d = p.map(Vector::to_dvec3);
+            let n = (d[1] - d[0]).cross(d[2] - d[0]).normalize_or_zero();
             push_f32s(&mut self.buf, n);
             for q in p {
                 push_f32s(&mut self.buf, q);
@@ -346,7 +398,7 @@ impl FormatWriter for StlWriter<'_> {
         w.write_all(&self.buf)
     }
 
-    fn finish(&mut self, _: &mut BufWriter<File>, _: &ProgressBar) -> io::Result<()> {
+    fn finish(&mut self, _: &mut BufWriter<File>, _: &dyn Progress) -> io::Result<()> {
         Ok(())
     }
 }
@@ -364,7 +416,7 @@ struct GlbLayout {
 /// numbers may print longer than the placeholders.
 const GLB_JSON_SLACK: usize = 256;
 
-fn glb_layout(plan: &WeldPlan, title: &str) -> GlbLayout {
+fn glb_layout(plan: &StitchPlan, title: &str) -> GlbLayout {
     let vertex_bytes = plan.records as u64 * 24;
     let index_bytes = plan.triangles as u64 * 12;
     let placeholder = glb_json(plan, title, [-f32::MAX; 3], [-f32::MAX; 3]).len();
@@ -377,7 +429,7 @@ fn glb_layout(plan: &WeldPlan, title: &str) -> GlbLayout {
     }
 }
 
-fn glb_json(plan: &WeldPlan, title: &str, min: [f32; 3], max: [f32; 3]) -> String {
+fn glb_json(plan: &StitchPlan, title: &str, min: [f32; 3], max: [f32; 3]) -> String {
     let r = plan.records as u64;
     let t = plan.triangles as u64;
     serde_json::json!({
@@ -411,14 +463,18 @@ fn glb_json(plan: &WeldPlan, title: &str, min: [f32; 3], max: [f32; 3]) -> Strin
 }
 
 struct GlbWriter<'a> {
-    plan: &'a WeldPlan,
+    plan: &'a StitchPlan,
     title: &'a str,
     buf: Vec<u8>,
     min: [f32; 3],
     max: [f32; 3],
 }
 
-impl FormatWriter for GlbWriter<'_> {
+impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
+    fn needs(&self) -> Needs {
+        Needs::RECORDS
+    }
+
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
         let layout = glb_layout(self.plan, self.title);
         if layout.total > u32::MAX as u64 {
@@ -435,34 +491,26 @@ impl FormatWriter for GlbWriter<'_> {
         w.write_all(b"BIN\0")
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
         for r in out.new_records {
-            let p = [
-                r.position.x as f32,
-                r.position.y as f32,
-                r.position.z as f32,
-            ];
+            let p = r.position.to_f32();
             for (k, x) in p.into_iter().enumerate() {
                 self.min[k] = self.min[k].min(x);
                 self.max[k] = self.max[k].max(x);
             }
-            push_f32s(&mut self.buf, r.position);
-            push_f32s(&mut self.buf, r.normal);
+            push_record(&mut self.buf, r.position, r.normal);
         }
         w.write_all(&self.buf)
     }
 
-    fn finish(&mut self, w: &mut BufWriter<File>, progress: &ProgressBar) -> io::Result<()> {
-        let buf = &mut self.buf;
-        for_each_patch_triangles(self.plan, progress, &mut |tris| {
-            buf.clear();
+    fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()> {
+        write_triangles(self.plan, progress, w, &|tris, buf| {
             for t in tris {
                 for i in t {
                     buf.extend_from_slice(&i.to_le_bytes());
                 }
             }
-            w.write_all(buf)
         })?;
         let json = glb_json(self.plan, self.title, self.min, self.max);
         if json.len() as u64 > glb_layout(self.plan, self.title).json_bytes {

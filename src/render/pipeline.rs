@@ -8,7 +8,7 @@ use wgpu::util::DeviceExt;
 use super::camera::Camera;
 use super::{device, Panels, RenderOptions, BACKGROUND, RAMP, RAMP_SEGMENTS};
 use crate::gpu::GpuContext;
-use crate::output::weld::WeldedMesh;
+use crate::tess::stitch::StitchedMesh;
 use crate::{Error, Result};
 
 /// The render shader's source file, without its generated header.
@@ -52,7 +52,7 @@ pub fn shader_source() -> String {
 
 /// Draws `mesh` (welded, with its record normals) in three panels coloured by n_x, n_y,
 /// n_z, on the process's shared GPU ([`device`]).
-pub fn render_panels(mesh: &WeldedMesh, opts: &RenderOptions) -> Result<Panels> {
+pub fn render_panels(mesh: &StitchedMesh, opts: &RenderOptions) -> Result<Panels> {
     if mesh.triangles.is_empty() {
         return Err(Error::Invalid("render: no triangles".into()));
     }
@@ -62,7 +62,7 @@ pub fn render_panels(mesh: &WeldedMesh, opts: &RenderOptions) -> Result<Panels> 
 /// [`render_panels`] on a given GPU context.
 pub fn render_panels_on(
     gpu: &GpuContext,
-    mesh: &WeldedMesh,
+    mesh: &StitchedMesh,
     opts: &RenderOptions,
 ) -> Result<Panels> {
     if mesh.triangles.is_empty() {

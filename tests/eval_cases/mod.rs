@@ -22,7 +22,7 @@ pub fn cases(mesh: &Mesh) -> Vec<(ShaderFile, PatchTable, String)> {
     for scheme in Scheme::all() {
         let table = PatchTable::build(mesh, scheme, &Default::default())
             .unwrap_or_else(|e| panic!("{}: {scheme}: {e}", mesh.name));
-        let file = shaders::scheme_file(scheme, table.kind).unwrap();
+        let file = shaders::file_for(table.kind);
         out.push((file, table, format!("scheme {scheme}")));
     }
     for (file, kind) in shaders::variants() {
@@ -81,4 +81,46 @@ pub const ROUNDING_FACTOR: f64 = 16.0;
 /// counted in the report.
 pub fn regular(predicted: f64, tn: f64) -> bool {
     ROUNDING_FACTOR * predicted <= (2.0 * tn).sqrt()
+}
+
+/// Whether the tests run under CI (`CI=true`), where a missing GPU adapter is a failure.
+pub fn ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
+}
+
+/// Every backend a comparison runs on: the CPU with each f32 kernel and, where a Vulkan
+/// adapter is present, the GPU in f32 and (with SHADER_F64) f64. With `CI=true` a missing
+/// adapter fails; otherwise the GPU entries are absent and a NOTE line says so.
+pub fn evaluators() -> Vec<(String, Box<dyn g1tess::eval::Evaluator>)> {
+    use g1tess::eval::cpu::{CpuEvaluator, F32Kernel};
+    use g1tess::eval::gpu::GpuEvaluator;
+    use g1tess::gpu::{GpuContext, Precision};
+    let mut out: Vec<(String, Box<dyn g1tess::eval::Evaluator>)> = Vec::new();
+    for kernel in [F32Kernel::Auto, F32Kernel::Portable] {
+        out.push((
+            format!("cpu ({})", kernel.name()),
+            Box::new(CpuEvaluator {
+                f32_kernel: kernel,
+                ..Default::default()
+            }),
+        ));
+    }
+    match GpuContext::shared() {
+        Ok(ctx) => {
+            for precision in [Precision::F32, Precision::F64] {
+                match GpuEvaluator::new(ctx.clone(), precision) {
+                    Ok(ev) => out.push((format!("gpu ({precision})"), Box::new(ev))),
+                    Err(e) if precision == Precision::F64 => {
+                        eprintln!("NOTE: no f64 GPU evaluator: {e}")
+                    }
+                    Err(e) => panic!("GPU adapter present but no f32 evaluator: {e}"),
+                }
+            }
+        }
+        Err(e) => {
+            assert!(!ci(), "CI=true and no GPU adapter: {e}");
+            eprintln!("NOTE: no GPU adapter ({e}): CPU backends only");
+        }
+    }
+    out
 }

@@ -1,16 +1,18 @@
-//! Welded output: counts from the topology, closed manifolds stay closed with the same Euler
-//! characteristic, orientation kept, shared edge samples bitwise identical, boundary and
-//! non-manifold edges kept, streaming independent of the chunk size.
+//! Stitched output: counts from the topology, closed manifolds stay closed with the same
+//! Euler characteristic, orientation kept, shared edge samples bitwise identical, boundary
+//! and non-manifold edges kept, streaming independent of the chunk size, and the f32 path
+//! (kernel → stitcher in f32) with the topology of the f64 one.
 
 mod common;
 
 use std::collections::HashMap;
 
 use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::grid_barycentrics;
+use g1tess::eval::{grid_barycentrics, grid_len, to_f32};
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::weld::{weld, WeldedMesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+use g1tess::progress::NoProgress;
+use g1tess::tess::stitch::{stitch, stitch_in, stitch_into, CountingSink, StitchedMesh};
 
 fn load(spec: &str) -> Mesh {
     Mesh::load(spec, &LoadOptions::default()).unwrap()
@@ -43,9 +45,9 @@ fn euler(vertices: usize, tris: &[[u32; 3]]) -> i64 {
     vertices as i64 - undirected(tris).len() as i64 + tris.len() as i64
 }
 
-fn weld_mesh(mesh: &Mesh, scheme: Scheme, level: u32) -> (WeldedMesh, PatchTable, f64) {
+fn stitch_mesh(mesh: &Mesh, scheme: Scheme, level: u32) -> (StitchedMesh, PatchTable, f64) {
     let table = PatchTable::build(mesh, scheme, &SchemeOptions::default()).unwrap();
-    let (w, plan, snap) = weld(mesh, &table, &CpuEvaluator::default(), level).unwrap();
+    let (w, plan, snap) = stitch(mesh, &table, &CpuEvaluator::default(), level).unwrap();
     assert_eq!(w.positions.len(), plan.positions);
     assert_eq!(w.normals.len(), plan.records);
     assert_eq!(w.triangles.len(), plan.triangles);
@@ -60,7 +62,7 @@ fn closed_manifolds_stay_closed() {
         assert_eq!(adj.boundary + adj.nonmanifold, 0, "{spec}");
         let chi_in = euler(mesh.positions.len(), &mesh.triangles);
         for level in [1u32, 2, 3, 5, 8] {
-            let (w, _, snap) = weld_mesh(&mesh, Scheme::G1, level);
+            let (w, _, snap) = stitch_mesh(&mesh, Scheme::G1, level);
             let n = level as usize;
             let (v, e, f) = (mesh.positions.len(), adj.edges.len(), mesh.triangles.len());
             // Independent count: vertices, edge interiors, patch interiors.
@@ -92,7 +94,10 @@ fn closed_manifolds_stay_closed() {
             let mut used = vec![false; w.positions.len()];
             tris.iter().flatten().for_each(|&i| used[i as usize] = true);
             assert!(used.iter().all(|&u| u));
-            // The patches meet: each patch's own edge samples lie on the welded ones.
+            // The patches meet: each patch's own edge samples lie on the shared ones. G1
+            // builds each boundary curve once per edge, but the two patches weigh it
+            // with their own (rational) blends, so a few f64 ulps of these unit-size
+            // meshes remain.
             assert!(snap < 1e-14, "{spec} level {level}: snap {snap}");
             // Orientation kept: the flat normal of each output triangle agrees with the
             // evaluated normals at its corners.
@@ -119,7 +124,7 @@ fn closed_manifolds_stay_closed() {
 fn shared_edge_samples_are_the_owners_evaluation() {
     let mesh = load("torus200");
     let level = 6;
-    let (w, table, _) = weld_mesh(&mesh, Scheme::G1, level);
+    let (w, table, _) = stitch_mesh(&mesh, Scheme::G1, level);
     let per = g1tess::eval::grid_len(level);
     let bary = grid_barycentrics(level);
     // Key each position by (input triangle, grid point): collect the position id that
@@ -136,10 +141,10 @@ fn shared_edge_samples_are_the_owners_evaluation() {
         let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
         assert!(
             by_point.insert(key, pid as u32).is_none(),
-            "position {pid} duplicated: welding missed a shared sample"
+            "position {pid} duplicated: stitching missed a shared sample"
         );
     }
-    // The owner's evaluation reproduces the welded positions bitwise.
+    // The owner's evaluation reproduces the shared positions bitwise.
     let mut exact = 0;
     for (&pid, &patch) in &first_patch_of {
         let p = w.positions[pid as usize];
@@ -159,9 +164,15 @@ fn shared_edge_samples_are_the_owners_evaluation() {
 fn chunking_does_not_change_the_output() {
     let mesh = load("sphere320");
     let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
-    let (a, _, _) = weld(&mesh, &table, &CpuEvaluator::default(), 5).unwrap();
+    let (a, _, _) = stitch(&mesh, &table, &CpuEvaluator::default(), 5).unwrap();
     for chunk_samples in [1, 21, 100, 1000] {
-        let (b, _, _) = weld(&mesh, &table, &CpuEvaluator { chunk_samples }, 5).unwrap();
+        let (b, _, _) = stitch(
+            &mesh,
+            &table,
+            &CpuEvaluator::with_chunk_samples(chunk_samples),
+            5,
+        )
+        .unwrap();
         assert_eq!(a.triangles, b.triangles);
         assert_eq!(a.record_position, b.record_position);
         let bits = |v: &[glam::DVec3]| -> Vec<[u64; 3]> {
@@ -181,7 +192,7 @@ fn boundary_and_nonmanifold_edges_are_kept() {
     assert_eq!(adj.nonmanifold, 1);
     let level = 4u32;
     let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
-    let (w, plan, snap) = weld(&mesh, &table, &CpuEvaluator::default(), level).unwrap();
+    let (w, plan, snap) = stitch(&mesh, &table, &CpuEvaluator::default(), level).unwrap();
     assert_eq!(plan.report.boundary_edges, 42);
     assert_eq!(plan.report.nonmanifold_edges, 1);
     let uses = undirected(&w.position_triangles());
@@ -203,14 +214,17 @@ fn boundary_and_nonmanifold_edges_are_kept() {
     );
     assert!(snap.is_finite());
     assert!(w.positions.iter().all(|p| p.is_finite()));
+    // Unit normals normalised in f64: a few ulps.
     assert!(w.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-12));
 }
 
-/// Every scheme welds (the flat scheme exactly reproduces the subdivided input).
+/// Every scheme stitches (the flat scheme exactly reproduces the subdivided input).
 #[test]
-fn flat_scheme_welds_onto_the_input_triangles() {
+fn flat_scheme_stitches_onto_the_input_triangles() {
     let mesh = load("icosphere:1");
-    let (w, _, snap) = weld_mesh(&mesh, Scheme::Flat, 4);
+    let (w, _, snap) = stitch_mesh(&mesh, Scheme::Flat, 4);
+    // Linear interpolation of the same two end points from both sides: an ulp or so of
+    // the unit sphere's coordinates.
     assert!(snap < 1e-15);
     // Every output position lies in the plane of its input triangle.
     let tris = w.position_triangles();
@@ -218,7 +232,98 @@ fn flat_scheme_welds_onto_the_input_triangles() {
         let input = mesh.triangles[i / 16].map(|v| mesh.positions[v as usize]);
         let n = (input[1] - input[0]).cross(input[2] - input[0]).normalize();
         for &p in t {
+            // In the plane to rounding of unit-size coordinates.
             assert!((w.positions[p as usize] - input[0]).dot(n).abs() < 1e-15);
         }
     }
+}
+
+/// The f32 path (the CPU's f32 kernel into the stitcher in f32) has the f64 path's
+/// topology exactly, its counts V + E(n − 1) + F(n − 1)(n − 2)/2, the input vertices
+/// rounded once at the corners, every shared position once, positions within an f32
+/// rounding bound of the f64 ones, and does not depend on the chunk size.
+#[test]
+fn f32_stitching_matches_the_f64_topology() {
+    for spec in ["torus200", "spot.obj"] {
+        let mesh = if spec.ends_with(".obj") {
+            load(&common::shared_spec(spec))
+        } else {
+            load(spec)
+        };
+        let adj = mesh.adjacency();
+        let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+        let level = 7u32;
+        let n = level as usize;
+        let ev = CpuEvaluator::default();
+        let (a, plan, _) = stitch(&mesh, &table, &ev, level).unwrap();
+        let (b, _, snap) = stitch_in::<[f32; 3]>(&mesh, &table, &ev, level).unwrap();
+        let (v, e, f) = (mesh.positions.len(), adj.edges.len(), mesh.triangles.len());
+        assert_eq!(
+            b.positions.len(),
+            v + e * (n - 1) + f * (n - 1) * (n - 2) / 2
+        );
+        assert_eq!(b.positions.len(), plan.positions);
+        assert_eq!(b.normals.len(), plan.records);
+        assert_eq!(b.triangles.len(), f * n * n);
+        assert_eq!(a.triangles, b.triangles, "{spec}");
+        assert_eq!(a.record_position, b.record_position, "{spec}");
+        // Corners: the position the plan gives each patch's corner grid points is the
+        // input vertex rounded once, bit for bit.
+        let (mut rec, mut pos) = (Vec::new(), Vec::new());
+        let corners = g1tess::eval::grid_corners(level);
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            plan.local_ids(t, &mut rec, &mut pos);
+            for (k, &vk) in tri.iter().enumerate() {
+                let got = b.positions[pos[corners[k]] as usize];
+                let want = to_f32(mesh.positions[vk as usize]);
+                assert_eq!(
+                    got.map(f32::to_bits),
+                    want.map(f32::to_bits),
+                    "{spec} patch {t} corner {k}"
+                );
+            }
+        }
+        let mut seen = HashMap::new();
+        for (pid, p) in b.positions.iter().enumerate() {
+            assert!(
+                seen.insert(p.map(f32::to_bits), pid).is_none(),
+                "{spec}: position {pid} duplicated"
+            );
+        }
+        // f32 control points relative to each patch origin, a short weighted sum in f32:
+        // within 1e-5 of the diagonal (as in tests/cpu_fast.rs); the snap is the f32
+        // evaluations of two patches at one edge point, the same order of magnitude.
+        let diag = mesh.diagonal();
+        for (p, q) in a.positions.iter().zip(&b.positions) {
+            let q = glam::DVec3::from(q.map(f64::from));
+            assert!(p.distance(q) <= 1e-5 * diag, "{spec}: {p} vs {q}");
+        }
+        assert!(snap <= 1e-5 * diag, "{spec}: snap {snap}");
+        let (c, _, _) =
+            stitch_in::<[f32; 3]>(&mesh, &table, &CpuEvaluator::with_chunk_samples(37), level)
+                .unwrap();
+        assert_eq!(b.positions, c.positions);
+        assert_eq!(b.normals, c.normals);
+        assert_eq!(b.triangles, c.triangles);
+    }
+}
+
+/// A sink that keeps nothing sees every patch, position and record exactly once.
+#[test]
+fn counting_sink_sees_the_planned_counts() {
+    let mesh = load(&common::shared_spec("suzanne.obj"));
+    let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let plan = g1tess::tess::stitch::StitchPlan::new(&mesh, &mesh.adjacency(), 6).unwrap();
+    let mut sink = CountingSink::default();
+    stitch_into::<[f32; 3]>(
+        &plan,
+        &table,
+        &CpuEvaluator::with_chunk_samples(grid_len(6) * 10),
+        &mut sink,
+        &NoProgress,
+    )
+    .unwrap();
+    assert_eq!(sink.patches, mesh.triangles.len());
+    assert_eq!(sink.positions, plan.positions);
+    assert_eq!(sink.records, plan.records);
 }

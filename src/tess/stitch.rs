@@ -1,0 +1,761 @@
+//! Stitching: the indexed output surface of a grid evaluation, built while the samples
+//! stream in (output side; input welding of coincident file vertices is
+//! [`crate::mesh`]'s).
+//!
+//! Every patch is evaluated on the grid of level n ([`Pattern::Grid`]); the stitched mesh
+//! keeps
+//! - one position per input vertex, taken from the first triangle that uses the vertex;
+//! - n − 1 positions per edge, taken from the first triangle that uses the edge (its
+//!   *owner*); every other triangle of the edge maps its own edge samples onto these, so
+//!   positions on shared edges are bitwise identical whatever the backend;
+//! - the (n − 1)(n − 2)/2 interior points of each patch.
+//!
+//! Triangles keep the input's orientation (the grid triangles of a patch are oriented
+//! like the patch). A closed manifold input gives a closed manifold output with the same
+//! Euler characteristic. Boundary and non-manifold edges are kept as they are: each use of
+//! a non-manifold edge maps onto the owner's samples.
+//!
+//! **Precision.** The stitcher is generic over the sample precision ([`Vector`]): `DVec3`
+//! for the f64 reference, `[f32; 3]` for files, which then go kernel → stitcher → writer in
+//! f32 with no f64 round trip.
+//!
+//! **Split normals.** Positions are always shared. Normals are carried by *vertex records*
+//! (a position id and a normal): a position has one record, except where the input splits
+//! normals: an input vertex has one record per distinct corner normal around it (bitwise,
+//! see [`crate::mesh::creases`]), and each sample inside an edge whose triangles disagree
+//! on an end normal (a crease) has one record per triangle of the edge, each with the
+//! normal its own patch evaluates there. OBJ files keep both (`v` = positions, `vn` =
+//! records, `f p//r`); formats with one attribute set per vertex (PLY, glTF) write the
+//! records, so their meshes are cut along creases, as split normals require there.
+//!
+//! Memory: the plan is O(triangles); while streaming, the stitcher keeps the positions of
+//! the input vertices and edge samples (V + E(n − 1) points) and the output of one batch
+//! of patches, so big outputs never need the whole sample array.
+//!
+//! Order: positions and records are numbered in the order they first appear when the
+//! patches are visited in order, and within a patch: corners 0, 1, 2, edges 0, 1, 2 (each
+//! from its lower-numbered vertex to the other), then the interior in grid order. A writer
+//! can therefore emit each patch's new positions and records as soon as it arrives.
+
+use std::collections::HashMap;
+use std::ops::Range;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::eval::pattern::grid_index;
+use crate::eval::{grid_len, grid_triangles, Chunk, Evaluator, Pattern, Vector};
+use crate::mesh::creases::{normal_key, split_ends};
+use crate::mesh::{Adjacency, Mesh};
+use crate::patch::PatchTable;
+use crate::progress::{NoProgress, Progress};
+use crate::{Error, Result};
+
+const NONE: u32 = u32::MAX;
+
+/// One vertex record of the stitched mesh: a shared position with the normal of one side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VertexRecord<V = DVec3> {
+    pub position: V,
+    pub normal: V,
+    pub position_id: u32,
+}
+
+/// What stitching found in the input topology.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct StitchReport {
+    pub boundary_edges: usize,
+    pub nonmanifold_edges: usize,
+    /// Edges whose triangles disagree on an end normal: their samples get one record per
+    /// triangle.
+    pub split_edges: usize,
+    /// Records beyond one per position (split normals).
+    pub extra_records: usize,
+}
+
+/// The numbering of a stitched grid output, from the topology alone.
+#[derive(Clone, Debug)]
+pub struct StitchPlan {
+    pub level: u32,
+    /// Shared positions.
+    pub positions: usize,
+    /// Vertex records (≥ positions; more where normals are split).
+    pub records: usize,
+    /// Output triangles: level² per patch.
+    pub triangles: usize,
+    pub report: StitchReport,
+    tris: Vec<[u32; 3]>,
+    vertices: usize,
+    /// Per edge use 3t + k: the edge (index in the adjacency).
+    use_edge: Vec<u32>,
+    /// Per edge use: its local direction (corner k → k + 1) runs from the higher to the
+    /// lower vertex id, against the canonical sample order.
+    use_rev: Vec<bool>,
+    vertex_owner: Vec<u32>,
+    vertex_pos: Vec<u32>,
+    edge_owner: Vec<u32>,
+    edge_pos: Vec<u32>,
+    corner_rec: Vec<u32>,
+    corner_new_rec: Vec<bool>,
+    use_rec: Vec<u32>,
+    use_new_rec: Vec<bool>,
+    interior_pos: Vec<u32>,
+    interior_rec: Vec<u32>,
+}
+
+/// Grid index of corner k of the grid of level n.
+fn corner_grid(n: u32, k: usize) -> usize {
+    match k {
+        0 => grid_index(n, 0, 0),
+        1 => grid_index(n, n, 0),
+        _ => grid_index(n, 0, n),
+    }
+}
+
+/// Grid index of the sample at step i (1..n) from corner k along local edge k.
+fn edge_grid(n: u32, k: usize, i: u32) -> usize {
+    match k {
+        0 => grid_index(n, i, 0),
+        1 => grid_index(n, n - i, i),
+        _ => grid_index(n, 0, n - i),
+    }
+}
+
+/// Interior grid points as runs of consecutive grid indices (one per grid row j ≥ 1:
+/// i = 1..n − j − 1), in grid order.
+fn interior_rows(n: u32) -> Vec<Range<usize>> {
+    (1..n.saturating_sub(1))
+        .map(|j| grid_index(n, 1, j)..grid_index(n, n - j, j))
+        .collect()
+}
+
+/// Interior grid points (i, j ≥ 1, i + j ≤ n − 1) in grid order.
+fn interior_grid(n: u32) -> impl Iterator<Item = usize> {
+    (1..n.saturating_sub(1)).flat_map(move |j| (1..n - j).map(move |i| grid_index(n, i, j)))
+}
+
+impl StitchPlan {
+    /// Plans the stitched output of `mesh` on the grid of level `level` (≥ 1).
+    pub fn new(mesh: &Mesh, adjacency: &Adjacency, level: u32) -> Result<StitchPlan> {
+        if level == 0 {
+            return Err(Error::Invalid("level must be at least 1".into()));
+        }
+        let n = level;
+        let nf = mesh.triangles.len();
+        let nv = mesh.positions.len();
+        let ne = adjacency.edges.len();
+        let per_edge = (n - 1) as u64;
+        let per_interior = ((n as u64).saturating_sub(1) * (n as u64).saturating_sub(2)) / 2;
+        // Upper bound on records: every corner, edge use and interior point its own.
+        let bound = nv as u64 + 3 * nf as u64 * (1 + per_edge) + nf as u64 * per_interior;
+        if bound >= NONE as u64 {
+            return Err(Error::Invalid(format!(
+                "{}: level {level} gives too many vertices for 32-bit indices",
+                mesh.name
+            )));
+        }
+        let mut plan = StitchPlan {
+            level,
+            positions: 0,
+            records: 0,
+            triangles: nf * (n as usize) * (n as usize),
+            report: StitchReport {
+                boundary_edges: adjacency.boundary,
+                nonmanifold_edges: adjacency.nonmanifold,
+                ..Default::default()
+            },
+            tris: mesh.triangles.clone(),
+            vertices: nv,
+            use_edge: vec![NONE; 3 * nf],
+            use_rev: vec![false; 3 * nf],
+            vertex_owner: vec![NONE; nv],
+            vertex_pos: vec![NONE; nv],
+            edge_owner: vec![NONE; ne],
+            edge_pos: vec![NONE; ne],
+            corner_rec: vec![NONE; 3 * nf],
+            corner_new_rec: vec![false; 3 * nf],
+            use_rec: vec![NONE; 3 * nf],
+            use_new_rec: vec![false; 3 * nf],
+            interior_pos: vec![NONE; nf],
+            interior_rec: vec![NONE; nf],
+        };
+        let split: Vec<bool> = split_ends(mesh, adjacency)
+            .iter()
+            .map(|s| s[0] || s[1])
+            .collect();
+        plan.report.split_edges = split.iter().filter(|&&s| s).count();
+        for (e, edge) in adjacency.edges.iter().enumerate() {
+            for u in &edge.uses {
+                let i = 3 * u.triangle as usize + u.local as usize;
+                plan.use_edge[i] = e as u32;
+                plan.use_rev[i] =
+                    mesh.triangles[u.triangle as usize][u.local as usize] != edge.v[0];
+            }
+        }
+        let mut groups: HashMap<(u32, [u64; 3]), u32> = HashMap::new();
+        let (mut pos, mut rec) = (0u32, 0u32);
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for (k, &vk) in tri.iter().enumerate() {
+                let v = vk as usize;
+                if plan.vertex_pos[v] == NONE {
+                    plan.vertex_pos[v] = pos;
+                    plan.vertex_owner[v] = t as u32;
+                    pos += 1;
+                }
+                let key = (vk, normal_key(mesh.corner_normals[t][k]));
+                let c = 3 * t + k;
+                match groups.get(&key) {
+                    Some(&r) => plan.corner_rec[c] = r,
+                    None => {
+                        groups.insert(key, rec);
+                        plan.corner_rec[c] = rec;
+                        plan.corner_new_rec[c] = true;
+                        rec += 1;
+                    }
+                }
+            }
+            for k in 0..3 {
+                let u = 3 * t + k;
+                let e = plan.use_edge[u] as usize;
+                if plan.edge_pos[e] == NONE {
+                    plan.edge_pos[e] = pos;
+                    plan.edge_owner[e] = u as u32;
+                    pos += n - 1;
+                    plan.use_rec[u] = rec;
+                    plan.use_new_rec[u] = true;
+                    rec += n - 1;
+                } else if split[e] {
+                    plan.use_rec[u] = rec;
+                    plan.use_new_rec[u] = true;
+                    rec += n - 1;
+                } else {
+                    plan.use_rec[u] = plan.use_rec[plan.edge_owner[e] as usize];
+                }
+            }
+            plan.interior_pos[t] = pos;
+            plan.interior_rec[t] = rec;
+            pos += per_interior as u32;
+            rec += per_interior as u32;
+        }
+        plan.positions = pos as usize;
+        plan.records = rec as usize;
+        plan.report.extra_records = plan.records - plan.positions;
+        Ok(plan)
+    }
+
+    /// Number of patches.
+    pub fn patches(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// Input vertices, input edges (for the boundary store).
+    fn store_len(&self) -> usize {
+        self.vertices + self.edge_pos.len() * (self.level as usize - 1)
+    }
+
+    /// Store slot of edge `e`'s canonical sample m (1..n).
+    fn edge_slot(&self, e: u32, m: u32) -> usize {
+        self.vertices + e as usize * (self.level as usize - 1) + (m as usize - 1)
+    }
+
+    /// Record id and position id of every grid point of patch `p`, in grid order.
+    pub fn local_ids(&self, p: usize, rec: &mut Vec<u32>, pos: &mut Vec<u32>) {
+        let n = self.level;
+        let len = grid_len(n);
+        rec.clear();
+        rec.resize(len, NONE);
+        pos.clear();
+        pos.resize(len, NONE);
+        let tri = self.tris[p];
+        for (k, &v) in tri.iter().enumerate() {
+            let g = corner_grid(n, k);
+            rec[g] = self.corner_rec[3 * p + k];
+            pos[g] = self.vertex_pos[v as usize];
+        }
+        for k in 0..3 {
+            let u = 3 * p + k;
+            let e = self.use_edge[u] as usize;
+            for m in 1..n {
+                let i = if self.use_rev[u] { n - m } else { m };
+                let g = edge_grid(n, k, i);
+                rec[g] = self.use_rec[u] + m - 1;
+                pos[g] = self.edge_pos[e] + m - 1;
+            }
+        }
+        for (idx, g) in interior_grid(n).enumerate() {
+            rec[g] = self.interior_rec[p] + idx as u32;
+            pos[g] = self.interior_pos[p] + idx as u32;
+        }
+    }
+
+    /// Output triangles (record ids) of patch `p`, appended to `out`; `scratch` and
+    /// `grid` (= `grid_triangles(level)`) are reused between calls.
+    pub fn patch_triangles(
+        &self,
+        p: usize,
+        grid: &[[u32; 3]],
+        scratch: &mut (Vec<u32>, Vec<u32>),
+        out: &mut Vec<[u32; 3]>,
+    ) {
+        self.local_ids(p, &mut scratch.0, &mut scratch.1);
+        let rec = &scratch.0;
+        out.extend(grid.iter().map(|t| t.map(|i| rec[i as usize])));
+    }
+}
+
+/// What the stitcher hands to a [`StitchSink`] for one patch. The fields a sink does not
+/// ask for in [`StitchSink::needs`] are empty.
+pub struct PatchOut<'a, V = DVec3> {
+    pub patch: usize,
+    /// Positions first appearing in this patch, in id order ([`Needs::positions`]).
+    pub new_positions: &'a [V],
+    /// Records first appearing in this patch, in id order.
+    pub new_records: &'a [VertexRecord<V>],
+    /// This patch's triangles as record ids ([`Needs::triangles`]).
+    pub triangles: &'a [[u32; 3]],
+    /// The same triangles as position ids ([`Needs::triangles`]).
+    pub position_triangles: &'a [[u32; 3]],
+    /// Shared position of every grid point of the patch, grid order
+    /// ([`Needs::grid_positions`]).
+    pub grid_positions: &'a [V],
+    /// The patch's triangles as grid indices (the same for every patch).
+    pub grid_triangles: &'a [[u32; 3]],
+}
+
+/// Which parts of [`PatchOut`] a sink reads (the stitcher skips building the others).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Needs {
+    /// `new_positions`.
+    pub positions: bool,
+    /// `triangles` and `position_triangles`.
+    pub triangles: bool,
+    /// `grid_positions`.
+    pub grid_positions: bool,
+}
+
+impl Needs {
+    pub const ALL: Needs = Needs {
+        positions: true,
+        triangles: true,
+        grid_positions: true,
+    };
+    /// The new vertex records alone (each carries its position).
+    pub const RECORDS: Needs = Needs {
+        positions: false,
+        triangles: false,
+        grid_positions: false,
+    };
+}
+
+/// A consumer of stitched output, patch after patch.
+pub trait StitchSink<V = DVec3> {
+    /// What the sink reads of each [`PatchOut`] (default: everything).
+    fn needs(&self) -> Needs {
+        Needs::ALL
+    }
+    fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()>;
+}
+
+/// A sink that keeps nothing: counts what it was handed (throughput measurements). It
+/// asks for the records alone.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CountingSink {
+    pub patches: usize,
+    /// One more than the largest position id seen (the positions, once every patch is in).
+    pub positions: usize,
+    pub records: usize,
+}
+
+impl<V> StitchSink<V> for CountingSink {
+    fn needs(&self) -> Needs {
+        Needs::RECORDS
+    }
+    fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()> {
+        self.patches += 1;
+        let top = out.new_records.iter().map(|r| r.position_id).max();
+        self.positions = self.positions.max(top.map_or(0, |t| t as usize + 1));
+        self.records += out.new_records.len();
+        Ok(())
+    }
+}
+
+/// Patches whose output is built in parallel before the sink sees them in order (bounds
+/// the stitcher's buffers).
+const BATCH: usize = 32;
+
+/// One patch's output, built in parallel, handed to the sink in order.
+struct PatchBuf<V> {
+    new_positions: Vec<V>,
+    new_records: Vec<VertexRecord<V>>,
+    triangles: Vec<[u32; 3]>,
+    position_triangles: Vec<[u32; 3]>,
+    grid_positions: Vec<V>,
+    local_rec: Vec<u32>,
+    local_pos: Vec<u32>,
+    snap: f64,
+}
+
+impl<V> Default for PatchBuf<V> {
+    fn default() -> Self {
+        PatchBuf {
+            new_positions: Vec::new(),
+            new_records: Vec::new(),
+            triangles: Vec::new(),
+            position_triangles: Vec::new(),
+            grid_positions: Vec::new(),
+            local_rec: Vec::new(),
+            local_pos: Vec::new(),
+            snap: 0.0,
+        }
+    }
+}
+
+/// Turns the chunks of a grid evaluation into stitched output, patch by patch.
+///
+/// Each chunk is stitched in three passes: the owners of vertices and edges in the chunk
+/// store their samples (in patch order, a few per patch); every patch's output is then
+/// built in parallel (rayon), reading shared samples from the store; the sink receives the
+/// patches in order.
+pub struct Stitcher<'a, V = DVec3> {
+    plan: &'a StitchPlan,
+    store: Vec<V>,
+    next_patch: usize,
+    /// Largest distance between a patch's own evaluation of a shared point and the shared
+    /// position it was mapped onto (0 for the owner; rounding for a surface whose patches
+    /// meet; the size of the crack otherwise).
+    pub max_snap: f64,
+    grid: Vec<[u32; 3]>,
+    interior: Vec<Range<usize>>,
+    bufs: Vec<PatchBuf<V>>,
+}
+
+impl<'a, V: Vector> Stitcher<'a, V> {
+    pub fn new(plan: &'a StitchPlan) -> Stitcher<'a, V> {
+        Stitcher {
+            plan,
+            store: vec![V::NAN; plan.store_len()],
+            next_patch: 0,
+            max_snap: 0.0,
+            grid: grid_triangles(plan.level),
+            interior: interior_rows(plan.level),
+            bufs: Vec::new(),
+        }
+    }
+
+    /// All patches seen.
+    pub fn is_complete(&self) -> bool {
+        self.next_patch == self.plan.patches()
+    }
+
+    /// Consumes one chunk of a [`Pattern::Grid`] evaluation at the plan's level (chunks
+    /// must arrive in patch order).
+    pub fn push_chunk(&mut self, chunk: &Chunk<'_, V>, sink: &mut dyn StitchSink<V>) -> Result<()> {
+        let plan = self.plan;
+        let per = grid_len(plan.level);
+        if chunk.first != self.next_patch
+            || chunk.positions.len() % per != 0
+            || chunk.normals.len() != chunk.positions.len()
+            || chunk.first + chunk.positions.len() / per > plan.patches()
+        {
+            return Err(Error::Invalid(format!(
+                "stitching: chunk at patch {} with {} samples does not continue patch {} of {} (grid of {per})",
+                chunk.first,
+                chunk.positions.len(),
+                self.next_patch,
+                plan.patches()
+            )));
+        }
+        let count = chunk.positions.len() / per;
+        // Owners store their shared samples, in patch order.
+        for j in 0..count {
+            self.store_owned(chunk.first + j, &chunk.positions[j * per..(j + 1) * per]);
+        }
+        let needs = sink.needs();
+        if self.bufs.len() < BATCH.min(count) {
+            self.bufs.resize_with(BATCH.min(count), PatchBuf::default);
+        }
+        let mut start = 0;
+        while start < count {
+            let len = BATCH.min(count - start);
+            let (store, grid, interior) = (&self.store, &self.grid, &self.interior);
+            let build = |(j, buf): (usize, &mut PatchBuf<V>)| {
+                let k = start + j;
+                build_patch(
+                    plan,
+                    store,
+                    grid,
+                    interior,
+                    chunk.first + k,
+                    &chunk.positions[k * per..(k + 1) * per],
+                    &chunk.normals[k * per..(k + 1) * per],
+                    needs,
+                    buf,
+                )
+            };
+            let bufs = &mut self.bufs[..len];
+            if len > 1 {
+                bufs.par_iter_mut().enumerate().for_each(build);
+            } else {
+                bufs.iter_mut().enumerate().for_each(build);
+            }
+            for (j, buf) in bufs.iter().enumerate() {
+                self.max_snap = self.max_snap.max(buf.snap);
+                sink.patch(&PatchOut {
+                    patch: chunk.first + start + j,
+                    new_positions: &buf.new_positions,
+                    new_records: &buf.new_records,
+                    triangles: &buf.triangles,
+                    position_triangles: &buf.position_triangles,
+                    grid_positions: &buf.grid_positions,
+                    grid_triangles: &self.grid,
+                })?;
+            }
+            start += len;
+        }
+        self.next_patch = chunk.first + count;
+        Ok(())
+    }
+
+    /// Stores the samples patch `p` owns (its first uses of vertices and edges).
+    fn store_owned(&mut self, p: usize, pos: &[V]) {
+        let plan = self.plan;
+        let n = plan.level;
+        for (k, &vk) in plan.tris[p].iter().enumerate() {
+            if plan.vertex_owner[vk as usize] == p as u32 {
+                self.store[vk as usize] = pos[corner_grid(n, k)];
+            }
+        }
+        for k in 0..3 {
+            let u = 3 * p + k;
+            let e = plan.use_edge[u];
+            if plan.edge_owner[e as usize] == u as u32 {
+                for m in 1..n {
+                    let i = if plan.use_rev[u] { n - m } else { m };
+                    self.store[plan.edge_slot(e, m)] = pos[edge_grid(n, k, i)];
+                }
+            }
+        }
+    }
+}
+
+/// Builds patch `p`'s output into `buf` (its shared samples already in `store`).
+#[allow(clippy::too_many_arguments)]
+fn build_patch<V: Vector>(
+    plan: &StitchPlan,
+    store: &[V],
+    grid: &[[u32; 3]],
+    interior: &[Range<usize>],
+    p: usize,
+    pos: &[V],
+    nrm: &[V],
+    needs: Needs,
+    buf: &mut PatchBuf<V>,
+) {
+    let n = plan.level;
+    buf.new_positions.clear();
+    buf.new_records.clear();
+    buf.grid_positions.clear();
+    if needs.grid_positions {
+        buf.grid_positions.extend_from_slice(pos);
+    }
+    // Largest squared snap distance.
+    let mut snap2 = 0f64;
+    // Grid point g (position id `pid`) maps onto store slot `slot`.
+    let mut visit =
+        |buf: &mut PatchBuf<V>, g: usize, slot: usize, pid: u32, owner: bool, new_rec: bool| {
+            let q = store[slot];
+            if owner {
+                buf.new_positions.push(q);
+            } else {
+                snap2 = snap2.max(pos[g].to_dvec3().distance_squared(q.to_dvec3()));
+            }
+            if needs.grid_positions {
+                buf.grid_positions[g] = q;
+            }
+            if new_rec {
+                buf.new_records.push(VertexRecord {
+                    position: q,
+                    normal: nrm[g],
+                    position_id: pid,
+                });
+            }
+        };
+    for (k, &vk) in plan.tris[p].iter().enumerate() {
+        let v = vk as usize;
+        visit(
+            buf,
+            corner_grid(n, k),
+            v,
+            plan.vertex_pos[v],
+            plan.vertex_owner[v] == p as u32,
+            plan.corner_new_rec[3 * p + k],
+        );
+    }
+    for k in 0..3 {
+        let u = 3 * p + k;
+        let e = plan.use_edge[u];
+        let owner = plan.edge_owner[e as usize] == u as u32;
+        let new_rec = plan.use_new_rec[u];
+        for m in 1..n {
+            let i = if plan.use_rev[u] { n - m } else { m };
+            let slot = plan.edge_slot(e, m);
+            let pid = plan.edge_pos[e as usize] + m - 1;
+            visit(buf, edge_grid(n, k, i), slot, pid, owner, new_rec);
+        }
+    }
+    buf.snap = snap2.sqrt();
+    let mut id = plan.interior_pos[p];
+    for row in interior {
+        if needs.positions {
+            buf.new_positions.extend_from_slice(&pos[row.clone()]);
+        }
+        buf.new_records
+            .extend(
+                pos[row.clone()]
+                    .iter()
+                    .zip(&nrm[row.clone()])
+                    .map(|(&position, &normal)| {
+                        id += 1;
+                        VertexRecord {
+                            position,
+                            normal,
+                            position_id: id - 1,
+                        }
+                    }),
+            );
+    }
+    buf.triangles.clear();
+    buf.position_triangles.clear();
+    if needs.triangles {
+        plan.local_ids(p, &mut buf.local_rec, &mut buf.local_pos);
+        let (rec, pid) = (&buf.local_rec, &buf.local_pos);
+        buf.triangles
+            .extend(grid.iter().map(|t| t.map(|i| rec[i as usize])));
+        buf.position_triangles
+            .extend(grid.iter().map(|t| t.map(|i| pid[i as usize])));
+    }
+}
+
+/// A stitched mesh held in memory (small runs, tests, pictures).
+#[derive(Clone, Debug)]
+pub struct StitchedMesh<V = DVec3> {
+    /// Shared positions.
+    pub positions: Vec<V>,
+    /// Normal of each vertex record.
+    pub normals: Vec<V>,
+    /// Position id of each vertex record.
+    pub record_position: Vec<u32>,
+    /// Triangles as record ids.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl<V> Default for StitchedMesh<V> {
+    fn default() -> Self {
+        StitchedMesh {
+            positions: Vec::new(),
+            normals: Vec::new(),
+            record_position: Vec::new(),
+            triangles: Vec::new(),
+        }
+    }
+}
+
+impl<V: Vector> StitchSink<V> for StitchedMesh<V> {
+    fn needs(&self) -> Needs {
+        Needs {
+            positions: true,
+            triangles: true,
+            grid_positions: false,
+        }
+    }
+
+    fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()> {
+        self.positions.extend_from_slice(out.new_positions);
+        for r in out.new_records {
+            self.normals.push(r.normal);
+            self.record_position.push(r.position_id);
+        }
+        self.triangles.extend_from_slice(out.triangles);
+        Ok(())
+    }
+}
+
+impl<V: Vector> StitchedMesh<V> {
+    /// Triangles as position ids (the stitched topology).
+    pub fn position_triangles(&self) -> Vec<[u32; 3]> {
+        self.triangles
+            .iter()
+            .map(|t| t.map(|r| self.record_position[r as usize]))
+            .collect()
+    }
+
+    /// Position of every vertex record.
+    pub fn record_positions(&self) -> Vec<V> {
+        self.record_position
+            .iter()
+            .map(|&p| self.positions[p as usize])
+            .collect()
+    }
+}
+
+/// Evaluates `table` on the grid of `plan.level` with `evaluator` in the precision `V`
+/// ([`Vector::evaluate`]: f32 runs the evaluator's native f32 path) and stitches the result
+/// into `sink`; returns the largest snap distance ([`Stitcher::max_snap`]). `progress`
+/// gets the phase "evaluating" over the patches, advanced chunk by chunk.
+pub fn stitch_into<V: Vector>(
+    plan: &StitchPlan,
+    table: &PatchTable,
+    evaluator: &dyn Evaluator,
+    sink: &mut dyn StitchSink<V>,
+    progress: &dyn Progress,
+) -> Result<f64> {
+    if table.len() != plan.patches() {
+        return Err(Error::Invalid(format!(
+            "stitching: a table of {} patches for a plan of {}",
+            table.len(),
+            plan.patches()
+        )));
+    }
+    let mut stitcher = Stitcher::<V>::new(plan);
+    let per = grid_len(plan.level);
+    progress.start("evaluating", plan.patches() as u64);
+    V::evaluate(
+        evaluator,
+        table,
+        &Pattern::Grid { level: plan.level },
+        &mut |chunk| {
+            stitcher.push_chunk(&chunk, sink)?;
+            progress.inc((chunk.positions.len() / per) as u64);
+            Ok(())
+        },
+    )?;
+    if !stitcher.is_complete() {
+        return Err(Error::Invalid(
+            "stitching: the evaluator did not deliver every patch".into(),
+        ));
+    }
+    Ok(stitcher.max_snap)
+}
+
+/// Stitches the whole grid evaluation of `level` in memory, in precision `V`.
+pub fn stitch_in<V: Vector>(
+    mesh: &Mesh,
+    table: &PatchTable,
+    evaluator: &dyn Evaluator,
+    level: u32,
+) -> Result<(StitchedMesh<V>, StitchPlan, f64)> {
+    let plan = StitchPlan::new(mesh, &mesh.adjacency(), level)?;
+    let mut out = StitchedMesh::default();
+    let snap = stitch_into(&plan, table, evaluator, &mut out, &NoProgress)?;
+    Ok((out, plan, snap))
+}
+
+/// [`stitch_in`] in f64 (the reference: pictures, tests).
+pub fn stitch(
+    mesh: &Mesh,
+    table: &PatchTable,
+    evaluator: &dyn Evaluator,
+    level: u32,
+) -> Result<(StitchedMesh, StitchPlan, f64)> {
+    stitch_in::<DVec3>(mesh, table, evaluator, level)
+}
