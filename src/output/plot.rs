@@ -219,18 +219,27 @@ pub fn write_figure(stem: &Path, fig: &Figure) -> Result<[PathBuf; 2]> {
     Ok([png, svg])
 }
 
+/// Line colours in registry order ([`crate::patch::SCHEMES`]): g1, phong, nagata,
+/// nagata-guarded, nlsa, pn, pn-normals, flat, then spares, so a new scheme needs no edit
+/// here (past the spares the palette repeats).
+const PALETTE: [RGBColor; 12] = [
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(31, 119, 180),
+    RGBColor(23, 190, 207),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(188, 189, 34),
+    RGBColor(110, 110, 110),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(0, 0, 0),
+    RGBColor(0, 90, 50),
+];
+
 /// Colour of a scheme, the same in every plot.
 pub fn scheme_color(s: Scheme) -> RGBColor {
-    match s {
-        Scheme::G1 => RGBColor(214, 39, 40),
-        Scheme::Nagata => RGBColor(31, 119, 180),
-        Scheme::NagataGuarded => RGBColor(23, 190, 207),
-        Scheme::Nlsa => RGBColor(44, 160, 44),
-        Scheme::Pn => RGBColor(255, 127, 14),
-        Scheme::PnNormals => RGBColor(188, 189, 34),
-        Scheme::Phong => RGBColor(148, 103, 189),
-        Scheme::Flat => RGBColor(110, 110, 110),
-    }
+    PALETTE[s as usize % PALETTE.len()]
 }
 
 /// The lines of one series of the distance study: mean distance against triangles, one
