@@ -65,6 +65,8 @@ pub struct BenchArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub memory: super::common::MemoryArgs,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -173,6 +175,17 @@ fn fill_bandwidth(buf: &mut [f32], pool: &rayon::ThreadPool) -> f64 {
 }
 
 /// Write bandwidth in GB/s with all threads and with one, on a buffer of `mib` MiB.
+/// Refuses a bandwidth buffer over the memory budget, before it is allocated.
+fn check_bandwidth_buffer(a: &BenchArgs, budget: &super::common::Budget) -> anyhow::Result<()> {
+    let bytes = (a.bandwidth_mib.max(1) as u64).saturating_mul(1 << 20);
+    budget.check(
+        "bench",
+        &format!("--bandwidth-mib {}", a.bandwidth_mib),
+        bytes,
+        "the buffer the write bandwidth is measured on",
+    )
+}
+
 pub fn write_bandwidth(mib: usize) -> anyhow::Result<(f64, f64)> {
     let mut buf = vec![0f32; (mib.max(1) << 20) / 4];
     // Fault every page in before timing.
@@ -245,6 +258,8 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
 
+    let budget = a.memory.budget();
+    check_bandwidth_buffer(a, &budget)?;
     bar.set_message("memory write bandwidth");
     let (bw, bw1) = write_bandwidth(a.bandwidth_mib)?;
     let roofline = bw * 1e9 / SAMPLE_BYTES;
@@ -282,6 +297,31 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     for spec in &meshes {
         let mesh = load_mesh(spec)?;
+        // The largest level's whole output (f32 positions and normals, one array each),
+        // beside the basis weights (stride × 3 f32 per grid point, the largest stride) and a
+        // CPU chunk in f64 (the reference).
+        let stride = schemes
+            .iter()
+            .map(|s| s.kind().layout().stride)
+            .max()
+            .unwrap_or(1) as u64;
+        for &level in &a.levels {
+            let per = grid_len(level) as u64;
+            let samples = per.saturating_mul(mesh.triangles.len() as u64);
+            let need = samples
+                .saturating_mul(SAMPLE_BYTES as u64)
+                .saturating_add(per.saturating_mul(stride * 12))
+                .saturating_add((a.cpu_chunk_samples.max(1) as u64).saturating_mul(48));
+            budget.check(
+                "bench",
+                &format!("{} at level {level}", mesh.name),
+                need,
+                &format!(
+                    "the whole output of {} samples in one array",
+                    super::common::human_count(samples)
+                ),
+            )?;
+        }
         for &scheme in &schemes {
             let opts = SchemeOptions::default();
             let mut table = None;
@@ -638,10 +678,20 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
         });
     };
 
+    let budget = a.memory.budget();
     let mesh = load_mesh(spec)?;
     let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default())?;
     let adjacency = mesh.adjacency();
     let level = a.tess_level;
+    let (need, _, _) = super::common::tessellation_need(
+        &mesh,
+        adjacency.edges.len(),
+        table.stride,
+        level,
+        MeshFormat::Ply.needs(),
+        MeshFormat::Ply.buffer_bytes(level, mesh.triangles.len()),
+    );
+    budget.check("bench", &format!("--tess-level {level}"), need, "")?;
     let plan = StitchPlan::new(&mesh, &adjacency, level)?;
     let samples = (grid_len(level) * table.len()) as u64;
 

@@ -189,3 +189,163 @@ impl crate::eval::Evaluator for LazyGpu {
         self.get()?.evaluate_f32(table, pattern, sink)
     }
 }
+
+/// The memory budget, shared by every command that allocates in proportion to its input or
+/// options (flatten it into the command's arguments).
+#[derive(Args, Clone, Debug, Default)]
+pub struct MemoryArgs {
+    /// Memory budget: a run that would hold more is refused before it allocates. SIZE in
+    /// bytes, or with a suffix K, M, G or T (powers of 1024; "KiB", "GB"… are read the same
+    /// way). Default: half the machine's memory.
+    #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+    pub max_memory: Option<u64>,
+}
+
+impl MemoryArgs {
+    /// The budget asked for, or half the machine's memory.
+    pub fn budget(&self) -> Budget {
+        Budget {
+            bytes: self.max_memory.unwrap_or_else(default_budget),
+        }
+    }
+}
+
+/// Half of MemTotal in /proc/meminfo; 4 GiB where that cannot be read.
+pub fn default_budget() -> u64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            let line = s.lines().find(|l| l.starts_with("MemTotal:"))?;
+            let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+            Some(kib.saturating_mul(1024) / 2)
+        })
+        .filter(|&b| b > 0)
+        .unwrap_or(4 << 30)
+}
+
+/// Parses a size: a whole or decimal number of bytes with an optional suffix K, M, G, T
+/// (powers of 1024; an "i", a "B", and spaces are accepted: "8G", "512 MiB", "1.5GB").
+pub fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let bad = || {
+        format!(
+            "'{}' is not a size (bytes, or a number with K, M, G or T: \"8G\", \"512M\")",
+            s.escape_default()
+        )
+    };
+    let x: f64 = num.parse().map_err(|_| bad())?;
+    let unit = unit.trim().to_ascii_uppercase();
+    let unit = unit.trim_end_matches('B').trim_end_matches('I');
+    let scale = match unit {
+        "" => 1u64,
+        "K" => 1 << 10,
+        "M" => 1 << 20,
+        "G" => 1 << 30,
+        "T" => 1 << 40,
+        _ => return Err(bad()),
+    };
+    let bytes = x * scale as f64;
+    if !bytes.is_finite() || bytes < 1.0 || bytes >= u64::MAX as f64 {
+        return Err(format!(
+            "'{}' is out of range (1 byte to 16 EiB)",
+            s.escape_default()
+        ));
+    }
+    Ok(bytes as u64)
+}
+
+/// A size in bytes for people: "512 B", "3.2 MiB", "7.7 GiB".
+pub fn human_bytes(b: u64) -> String {
+    const UNITS: [&str; 6] = ["KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
+    if b < 1024 {
+        return format!("{b} B");
+    }
+    let mut x = b as f64 / 1024.0;
+    let mut u = 0;
+    while x >= 1024.0 && u + 1 < UNITS.len() {
+        x /= 1024.0;
+        u += 1;
+    }
+    format!("{x:.1} {}", UNITS[u])
+}
+
+/// A count for people: "950", "15.0 k", "5.1 G".
+pub fn human_count(n: u64) -> String {
+    let x = n as f64;
+    match n {
+        0..1_000 => format!("{n}"),
+        1_000..1_000_000 => format!("{:.1} k", x / 1e3),
+        1_000_000..1_000_000_000 => format!("{:.1} M", x / 1e6),
+        _ => format!("{:.1} G", x / 1e9),
+    }
+}
+
+/// A memory budget in bytes ([`MemoryArgs`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Budget {
+    pub bytes: u64,
+}
+
+impl Budget {
+    /// Fails with one line when `need` bytes exceed the budget: "COMMAND: WHAT needs about
+    /// N (DETAIL), over the memory budget of B (--max-memory)".
+    pub fn check(&self, command: &str, what: &str, need: u64, detail: &str) -> anyhow::Result<()> {
+        if need > self.bytes {
+            let detail = if detail.is_empty() {
+                String::new()
+            } else {
+                format!(" ({detail})")
+            };
+            anyhow::bail!(
+                "{command}: {what} needs about {}{detail}, over the memory budget of {} \
+                 (--max-memory)",
+                human_bytes(need),
+                human_bytes(self.bytes)
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Samples per chunk assumed for memory estimates: the larger of the CPU's (2^20) and the
+/// GPU's (2^22) defaults.
+pub const CHUNK_SAMPLES: usize = 1 << 22;
+
+/// What a stitched f32 tessellation of `mesh` (with `edges` edges, patches of `stride`
+/// control points) at `level` holds, for a sink reading `needs` whose writer holds
+/// `writer` = (while streaming, afterwards) bytes ([`crate::output::writers::MeshFormat::buffer_bytes`]):
+/// (total bytes, the stitcher's estimate, the evaluator's basis weights in bytes).
+pub fn tessellation_need(
+    mesh: &Mesh,
+    edges: usize,
+    stride: usize,
+    level: u32,
+    needs: crate::tess::stitch::Needs,
+    writer: (u64, u64),
+) -> (u64, crate::tess::stitch::StitchMemory, u64) {
+    let estimate = crate::tess::stitch::memory_estimate(
+        mesh.positions.len(),
+        edges,
+        mesh.triangles.len(),
+        level,
+        12,
+        CHUNK_SAMPLES,
+        needs,
+    );
+    let per_patch = (level as u64 + 1) * (level as u64 + 2) / 2;
+    // The evaluator's basis weights at every grid point: stride × 3 f32 (the CPU's f32
+    // kernel; the GPU uploads the same table).
+    let weights = per_patch.saturating_mul(stride as u64 * 12);
+    // PLY and glTF write their faces after the evaluation, whose buffers are gone by then.
+    let evaluation = weights
+        .saturating_add(estimate.chunk_bytes)
+        .saturating_add(estimate.batch_bytes)
+        .saturating_add(writer.0);
+    let need =
+        (estimate.plan_bytes + estimate.store_bytes).saturating_add(evaluation.max(writer.1));
+    (need, estimate, weights)
+}

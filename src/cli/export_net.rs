@@ -4,23 +4,44 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use super::common::MemoryArgs;
 use super::InputArgs;
+use crate::output::atomic;
 use crate::output::nets::write_nets;
 
 #[derive(Args, Clone, Debug)]
 pub struct ExportNetArgs {
     #[command(flatten)]
     pub input: InputArgs,
-    /// Output JSON file (format in the README, "Control nets").
+    /// Output JSON file (format in the README, "Control nets"); `-` writes to standard
+    /// output. A symbolic link is written through to its target; a directory, device or
+    /// FIFO is refused, and so is the input mesh itself.
     #[arg(short, long)]
     pub output: PathBuf,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
     /// No summary line on stderr.
     #[arg(long, short)]
     pub quiet: bool,
 }
 
 pub fn run(a: &ExportNetArgs) -> anyhow::Result<()> {
-    let (mesh, table) = a.input.load()?;
+    if !atomic::is_stdout(&a.output) {
+        atomic::resolve_output(&a.output)?;
+        atomic::refuse_same_file(&a.output, std::path::Path::new(&a.input.mesh))?;
+    }
+    let mesh = crate::mesh::Mesh::load(&a.input.mesh, &a.input.load_options())?;
+    // The patch table (stride × 3 f64 per patch) is what grows with the input; writing
+    // streams one patch at a time through a 1 MiB buffer.
+    let stride = a.input.scheme.kind().layout().stride as u64;
+    let patches = mesh.triangles.len() as u64;
+    a.memory.budget().check(
+        "export-net",
+        &format!("{patches} patches"),
+        patches.saturating_mul(stride * 24) + (1 << 20),
+        &format!("{stride} control points each"),
+    )?;
+    let table = crate::patch::PatchTable::build(&mesh, a.input.scheme, &a.input.scheme_options())?;
     write_nets(&a.output, &mesh, &table)?;
     if !a.quiet {
         eprintln!(

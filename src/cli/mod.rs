@@ -16,7 +16,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-pub use common::{Backend, BackendArgs, InputArgs};
+pub use common::{Backend, BackendArgs, Budget, InputArgs, MemoryArgs};
 
 #[derive(Parser)]
 #[command(
@@ -74,8 +74,77 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
+/// On SIGINT or SIGTERM: remove the temporary files being written
+/// ([`crate::output::atomic::remove_live_temp_files`]) and exit with 128 + the signal's
+/// number (130, 143), as a shell reports a process the signal ended. The signal is
+/// received on a thread of its own (signal-hook), where removing files is safe.
+fn install_signal_handler() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) else {
+        return;
+    };
+    // A thread that cannot start leaves nothing to clean up with; the run goes on.
+    let _ = std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || {
+            if let Some(sig) = signals.forever().next() {
+                crate::output::atomic::remove_live_temp_files();
+                std::process::exit(128 + sig);
+            }
+        });
+}
+
+/// The arguments with `--schemes` lists made whole: "g1, pn" (quoted) loses its spaces,
+/// and `--schemes g1, pn` (unquoted, split by the shell after the comma) is joined into
+/// "g1,pn", so every command reads the list the same way.
+pub fn normalize_args(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let mut out: Vec<std::ffi::OsString> = Vec::with_capacity(args.len());
+    let mut in_list = false;
+    for arg in args {
+        let Some(s) = arg.to_str().map(str::to_string) else {
+            in_list = false;
+            out.push(arg);
+            continue;
+        };
+        if in_list {
+            let last = out.last_mut().expect("a value precedes");
+            let mut joined = last.to_string_lossy().into_owned();
+            joined.push_str(&s);
+            let squeezed: String = joined
+                .split(',')
+                .map(str::trim)
+                .collect::<Vec<_>>()
+                .join(",");
+            in_list = squeezed.ends_with(',');
+            *last = squeezed.into();
+            continue;
+        }
+        if s == "--schemes" {
+            out.push(arg);
+            in_list = true;
+            // The value follows; the first one always joins.
+            out.push(std::ffi::OsString::new());
+            continue;
+        }
+        if let Some(v) = s.strip_prefix("--schemes=") {
+            let squeezed: String = v.split(',').map(str::trim).collect::<Vec<_>>().join(",");
+            in_list = squeezed.ends_with(',');
+            out.push(format!("--schemes={squeezed}").into());
+            continue;
+        }
+        out.push(arg);
+    }
+    if in_list && out.last().is_some_and(|l| l.is_empty()) {
+        // `--schemes` last, with no value: let clap say so.
+        out.pop();
+    }
+    out
+}
+
 pub fn main() -> ExitCode {
-    match run(Cli::parse()) {
+    install_signal_handler();
+    let cli = Cli::parse_from(normalize_args(std::env::args_os().collect()));
+    match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             let chain: Vec<String> = e.chain().map(|c| c.to_string()).collect();

@@ -6,10 +6,32 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use super::common::{human_bytes, human_count, tessellation_need, MemoryArgs};
 use super::progress;
 use super::{BackendArgs, InputArgs};
+use crate::output::atomic;
 use crate::output::writers::{write_stitched, MeshFormat};
 use crate::tess::stitch::{stitch_into, StitchPlan};
+
+/// Output formats by name (`--format`, needed with `-o -`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FormatArg {
+    Obj,
+    Ply,
+    Stl,
+    Glb,
+}
+
+impl From<FormatArg> for MeshFormat {
+    fn from(f: FormatArg) -> MeshFormat {
+        match f {
+            FormatArg::Obj => MeshFormat::Obj,
+            FormatArg::Ply => MeshFormat::Ply,
+            FormatArg::Stl => MeshFormat::Stl,
+            FormatArg::Glb => MeshFormat::Glb,
+        }
+    }
+}
 
 #[derive(Args, Clone, Debug)]
 pub struct TessellateArgs {
@@ -21,9 +43,16 @@ pub struct TessellateArgs {
     #[arg(long, default_value_t = 8)]
     pub level: u32,
     /// Output file; the format follows the extension: .obj, .ply (binary), .stl (binary),
-    /// .glb (glTF 2.0 binary).
+    /// .glb (glTF 2.0 binary). `-` writes to standard output (OBJ, PLY, STL; needs
+    /// --format). A symbolic link is written through to its target; a directory, device or
+    /// FIFO is refused, and so is the input mesh itself.
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Output format, instead of the extension's (needed with `-o -`).
+    #[arg(long, value_enum)]
+    pub format: Option<FormatArg>,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
     /// Print a JSON summary on stdout: {"output", "mesh", "scheme", "level", "backend",
     /// "vertices", "triangles", ...} (see the README).
     #[arg(long)]
@@ -35,9 +64,51 @@ pub struct TessellateArgs {
 
 pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     anyhow::ensure!(a.level >= 1, "--level must be at least 1");
-    let format = MeshFormat::from_path(&a.output)?;
+    let stdout = atomic::is_stdout(&a.output);
+    let format = match (a.format, stdout) {
+        (Some(f), _) => MeshFormat::from(f),
+        (None, true) => anyhow::bail!("-o - (standard output) needs --format obj|ply|stl"),
+        (None, false) => MeshFormat::from_path(&a.output)?,
+    };
+    if stdout {
+        anyhow::ensure!(
+            format.streams(),
+            "--format glb cannot go to standard output (its header holds the bounds, known \
+             only at the end); write it to a file"
+        );
+        anyhow::ensure!(
+            !a.json,
+            "--json prints on standard output, which -o - already writes the mesh to"
+        );
+    } else {
+        // Refuse a directory, device or FIFO, and the input itself, before any work.
+        atomic::resolve_output(&a.output)?;
+        atomic::refuse_same_file(&a.output, std::path::Path::new(&a.input.mesh))?;
+    }
     let (mesh, table) = a.input.load()?;
     let adjacency = mesh.adjacency();
+    let (need, estimate, weights) = tessellation_need(
+        &mesh,
+        adjacency.edges.len(),
+        table.stride,
+        a.level,
+        format.needs(),
+        format.buffer_bytes(a.level, mesh.triangles.len()),
+    );
+    let per_patch = (a.level as u64 + 1) * (a.level as u64 + 2) / 2;
+    a.memory.budget().check(
+        "tessellate",
+        &format!("level {}", a.level),
+        need,
+        &format!(
+            "{} samples per patch, {} of basis weights, stitch store of {} points, {} per \
+             batch of patch output",
+            human_count(per_patch),
+            human_bytes(weights),
+            human_count(estimate.store_points),
+            human_bytes(estimate.batch_bytes)
+        ),
+    )?;
     let plan = StitchPlan::new(&mesh, &adjacency, a.level)?;
     let backend = BackendArgs {
         quiet: a.quiet,

@@ -32,7 +32,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::atomic::write_atomic_with;
-use crate::eval::{grid_triangles, Vector};
+use crate::eval::{grid_len, grid_triangles, Vector};
 use crate::progress::Progress;
 use crate::tess::stitch::{Needs, PatchOut, StitchPlan, StitchSink};
 use crate::{Error, Result};
@@ -72,6 +72,49 @@ impl MeshFormat {
         match self {
             MeshFormat::Obj | MeshFormat::Stl => plan.positions,
             MeshFormat::Ply | MeshFormat::Glb => plan.records,
+        }
+    }
+
+    /// Whether the format can be written to standard output (`-o -`): OBJ, PLY and STL
+    /// stream front to back (their counts come from the plan); glTF's JSON chunk holds the
+    /// bounds, known only at the end, so it needs a file it can seek in.
+    pub fn streams(self) -> bool {
+        self != MeshFormat::Glb
+    }
+
+    /// What the format's writer reads of each patch.
+    pub fn needs(self) -> Needs {
+        match self {
+            MeshFormat::Obj => Needs {
+                positions: true,
+                triangles: true,
+                grid_positions: false,
+            },
+            MeshFormat::Ply | MeshFormat::Glb => Needs::RECORDS,
+            MeshFormat::Stl => Needs {
+                positions: false,
+                triangles: false,
+                grid_positions: true,
+            },
+        }
+    }
+
+    /// Bytes the writer holds at `level` besides the stitcher's output, as (while the
+    /// patches stream in, afterwards): the file buffer, OBJ's text (flushed every
+    /// [`TEXT_FLUSH`] bytes), STL's facets of one patch; then the faces PLY and glTF encode
+    /// per batch ([`face_batch`]) once every vertex is written.
+    pub fn buffer_bytes(self, level: u32, patches: usize) -> (u64, u64) {
+        let n2 = level as u64 * level as u64;
+        let file_buffer = 1u64 << 20;
+        match self {
+            MeshFormat::Obj => (file_buffer + 2 * TEXT_FLUSH as u64, 0),
+            MeshFormat::Stl => (file_buffer + n2 * 50, 0),
+            MeshFormat::Ply | MeshFormat::Glb => {
+                let batch = face_batch(level).min(patches.max(1)) as u64;
+                // Grid triangles, then per slot: triangles, encoded bytes, local ids.
+                let faces = n2 * 12 + batch * (n2 * (12 + 13) + grid_len(level) as u64 * 8);
+                (file_buffer, file_buffer + faces)
+            }
         }
     }
 
@@ -121,6 +164,13 @@ pub fn write_stitched<V: Vector>(
     produce: &mut dyn FnMut(&mut dyn StitchSink<V>) -> Result<()>,
 ) -> Result<()> {
     format.check(plan, path, title)?;
+    if super::atomic::is_stdout(path) && !format.streams() {
+        return Err(Error::Invalid(format!(
+            "{}: {format:?} cannot be streamed to standard output (its header holds the \
+             bounds, known only at the end); write it to a file",
+            path.display()
+        )));
+    }
     let mut writer: Box<dyn FormatWriter<V> + '_> = match format {
         MeshFormat::Obj => Box::new(ObjWriter {
             plan,
@@ -152,12 +202,14 @@ pub fn write_stitched<V: Vector>(
             writer: &'x mut dyn FormatWriter<V>,
             w: &'w mut BufWriter<File>,
             path: &'x Path,
+            format: MeshFormat,
         }
-        impl<V> StitchSink<V> for Adapter<'_, '_, V> {
+        impl<V: Vector> StitchSink<V> for Adapter<'_, '_, V> {
             fn needs(&self) -> Needs {
                 self.writer.needs()
             }
             fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()> {
+                check_finite(self.format, self.path, out)?;
                 self.writer
                     .patch(self.w, out)
                     .map_err(|e| Error::io(self.path, e))
@@ -167,9 +219,62 @@ pub fn write_stitched<V: Vector>(
             writer: writer.as_mut(),
             w,
             path,
+            format,
         })?;
         writer.finish(w, progress).map_err(io)
     })
+}
+
+/// Bytes of OBJ text held before they go to the file.
+pub const TEXT_FLUSH: usize = 1 << 20;
+
+/// Patches whose faces PLY and glTF encode per parallel batch: 256, fewer at high levels
+/// so that a batch holds about 2^20 triangles (a few MiB at level 32, bounded at any level).
+pub fn face_batch(level: u32) -> usize {
+    let per = (level as usize).saturating_mul(level as usize).max(1);
+    ((1usize << 20) / per).clamp(1, 256)
+}
+
+/// Fails when a value of `out` that `format` writes is not finite in the precision it is
+/// written in (f32 for the binary formats; the samples' own for OBJ), naming the patch.
+fn check_finite<V: Vector>(format: MeshFormat, path: &Path, out: &PatchOut<'_, V>) -> Result<()> {
+    let written = |v: V| -> bool {
+        match format {
+            MeshFormat::Obj => v.to_dvec3().is_finite(),
+            _ => v.to_f32().iter().all(|x| x.is_finite()),
+        }
+    };
+    let fail = |what: &str, v: V| {
+        let why = if V::NAME == "f32" || v.to_dvec3().is_finite() {
+            "coordinates too large for f32"
+        } else {
+            "the evaluation overflowed"
+        };
+        Err(Error::Invalid(format!(
+            "{}: patch {} (input triangle {}) has a non-finite {what} ({why})",
+            path.display(),
+            out.patch,
+            out.patch + 1
+        )))
+    };
+    let positions = out
+        .new_positions
+        .iter()
+        .chain(out.grid_positions)
+        .chain(out.new_records.iter().map(|r| &r.position));
+    for &p in positions {
+        if !written(p) {
+            return fail("position", p);
+        }
+    }
+    if format != MeshFormat::Stl {
+        for r in out.new_records {
+            if !written(r.normal) {
+                return fail("normal", r.normal);
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Appends the bytes of one patch's triangles (record ids) to a buffer.
@@ -184,8 +289,7 @@ fn write_triangles(
     w: &mut BufWriter<File>,
     encode: &EncodeTriangles,
 ) -> io::Result<()> {
-    /// Patches encoded per batch (bounds the buffers: a few MiB at level 32).
-    const BATCH: usize = 256;
+    let batch = face_batch(plan.level);
     struct Slot {
         bytes: Vec<u8>,
         scratch: (Vec<u32>, Vec<u32>),
@@ -193,7 +297,7 @@ fn write_triangles(
     }
     let grid = grid_triangles(plan.level);
     let patches = plan.patches();
-    let mut slots: Vec<Slot> = (0..BATCH.min(patches))
+    let mut slots: Vec<Slot> = (0..batch.min(patches))
         .map(|_| Slot {
             bytes: Vec::new(),
             scratch: (Vec::new(), Vec::new()),
@@ -203,7 +307,7 @@ fn write_triangles(
     progress.start("writing faces", patches as u64);
     let mut start = 0;
     while start < patches {
-        let len = BATCH.min(patches - start);
+        let len = batch.min(patches - start);
         slots[..len]
             .par_iter_mut()
             .enumerate()
@@ -253,11 +357,7 @@ struct ObjWriter<'a> {
 
 impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
     fn needs(&self) -> Needs {
-        Needs {
-            positions: true,
-            triangles: true,
-            grid_positions: false,
-        }
+        MeshFormat::Obj.needs()
     }
 
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
@@ -272,17 +372,28 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         use std::fmt::Write as _;
         let t = &mut self.text;
         t.clear();
+        // The text goes out every TEXT_FLUSH bytes: a patch at a high level holds no more.
+        let flush = |t: &mut String, w: &mut BufWriter<File>| -> io::Result<()> {
+            if t.len() >= TEXT_FLUSH {
+                w.write_all(t.as_bytes())?;
+                t.clear();
+            }
+            Ok(())
+        };
         for p in out.new_positions {
             t.push('v');
             p.write_text(t);
             t.push('\n');
+            flush(t, w)?;
         }
         for r in out.new_records {
             t.push_str("vn");
             r.normal.write_text(t);
             t.push('\n');
+            flush(t, w)?;
         }
         for (r, p) in out.triangles.iter().zip(out.position_triangles) {
+            flush(t, w)?;
             let _ = writeln!(
                 t,
                 "f {}//{} {}//{} {}//{}",
@@ -310,7 +421,7 @@ struct PlyWriter<'a> {
 
 impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
     fn needs(&self) -> Needs {
-        Needs::RECORDS
+        MeshFormat::Ply.needs()
     }
 
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
@@ -365,11 +476,7 @@ struct StlWriter<'a> {
 
 impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
     fn needs(&self) -> Needs {
-        Needs {
-            positions: false,
-            triangles: false,
-            grid_positions: true,
-        }
+        MeshFormat::Stl.needs()
     }
 
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
@@ -472,7 +579,7 @@ struct GlbWriter<'a> {
 
 impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
     fn needs(&self) -> Needs {
-        Needs::RECORDS
+        MeshFormat::Glb.needs()
     }
 
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {

@@ -30,7 +30,8 @@
 //!
 //! Memory: the plan is O(triangles); while streaming, the stitcher keeps the positions of
 //! the input vertices and edge samples (V + E(n − 1) points) and the output of one batch
-//! of patches, so big outputs never need the whole sample array.
+//! of patches (fewer patches per batch at high levels), so big outputs never need the
+//! whole sample array. [`memory_estimate`] gives the figure before anything is allocated.
 //!
 //! Order: positions and records are numbered in the order they first appear when the
 //! patches are visited in order, and within a patch: corners 0, 1, 2, edges 0, 1, 2 (each
@@ -380,8 +381,91 @@ impl<V> StitchSink<V> for CountingSink {
 }
 
 /// Patches whose output is built in parallel before the sink sees them in order (bounds
-/// the stitcher's buffers).
-const BATCH: usize = 32;
+/// the stitcher's buffers): 32, fewer at high levels, so that a batch holds about 2^18
+/// grid points (one patch at least).
+pub fn batch_patches(level: u32) -> usize {
+    (BATCH_POINTS / grid_len(level).max(1)).clamp(1, 32)
+}
+
+/// Grid points a batch of patches aims at ([`batch_patches`]).
+const BATCH_POINTS: usize = 1 << 18;
+
+/// What a stitched evaluation holds while it streams ([`memory_estimate`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StitchMemory {
+    /// Points in the stitcher's store of shared samples: V + E(n − 1).
+    pub store_points: u64,
+    /// The plan (O(triangles)), bytes.
+    pub plan_bytes: u64,
+    /// The store, bytes.
+    pub store_bytes: u64,
+    /// One chunk of samples from the evaluator (positions and normals, twice: the
+    /// evaluator's buffer and what it hands over), bytes.
+    pub chunk_bytes: u64,
+    /// One batch of patch outputs ([`batch_patches`]), bytes.
+    pub batch_bytes: u64,
+}
+
+impl StitchMemory {
+    /// Everything together, bytes.
+    pub fn total(&self) -> u64 {
+        self.plan_bytes
+            .saturating_add(self.store_bytes)
+            .saturating_add(self.chunk_bytes)
+            .saturating_add(self.batch_bytes)
+    }
+}
+
+/// Estimates, before anything is built, what stitching `triangles` triangles over
+/// `vertices` vertices and `edges` edges at `level` holds, with samples of `sample_bytes`
+/// bytes per point (12 for f32, 24 for f64), an evaluator handing over chunks of
+/// `chunk_samples` samples (whole patches, one at least) and a sink that reads `needs`.
+/// Every product saturates, so absurd levels give absurd (not wrapped) figures. Upper
+/// bounds for a manifold mesh, within a few percent of what is allocated.
+pub fn memory_estimate(
+    vertices: usize,
+    edges: usize,
+    triangles: usize,
+    level: u32,
+    sample_bytes: u64,
+    chunk_samples: usize,
+    needs: Needs,
+) -> StitchMemory {
+    let n = level.max(1) as u64;
+    let (v, e, t) = (vertices as u64, edges as u64, triangles as u64);
+    let per = (n + 1).saturating_mul(n + 2) / 2;
+    let n2 = n.saturating_mul(n);
+    let store_points = v.saturating_add(e.saturating_mul(n - 1));
+    // Per triangle: its vertex ids (12), per corner and edge use: edge, direction, corner
+    // record, flag, use record, flag (15 × 3), interior ids (8); per vertex and edge two
+    // ids; the corner-normal groups (a hash entry of ~48 bytes per corner at most).
+    let plan_bytes = t * (12 + 45 + 8) + (v + e) * 8 + 3 * t * 48;
+    let chunk_points = per
+        .max((chunk_samples as u64).min(per.saturating_mul(t)))
+        .max(1);
+    let chunk_bytes = chunk_points.saturating_mul(2 * 2 * sample_bytes);
+    // A patch's output: records (position, normal, id), local ids, and what the sink asks
+    // for: new positions, grid positions, triangles by record and by position id.
+    let mut patch = per.saturating_mul(2 * sample_bytes + 4 + 8);
+    if needs.positions {
+        patch = patch.saturating_add(per.saturating_mul(sample_bytes));
+    }
+    if needs.grid_positions {
+        patch = patch.saturating_add(per.saturating_mul(sample_bytes));
+    }
+    if needs.triangles {
+        patch = patch.saturating_add(n2.saturating_mul(24));
+    }
+    let batch = (batch_patches(level.max(1)) as u64).min(t.max(1));
+    let batch_bytes = patch.saturating_mul(batch).saturating_add(n2 * 12);
+    StitchMemory {
+        store_points,
+        plan_bytes,
+        store_bytes: store_points.saturating_mul(sample_bytes),
+        chunk_bytes,
+        batch_bytes,
+    }
+}
 
 /// One patch's output, built in parallel, handed to the sink in order.
 struct PatchBuf<V> {
@@ -471,12 +555,13 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             self.store_owned(chunk.first + j, &chunk.positions[j * per..(j + 1) * per]);
         }
         let needs = sink.needs();
-        if self.bufs.len() < BATCH.min(count) {
-            self.bufs.resize_with(BATCH.min(count), PatchBuf::default);
+        let batch = batch_patches(plan.level);
+        if self.bufs.len() < batch.min(count) {
+            self.bufs.resize_with(batch.min(count), PatchBuf::default);
         }
         let mut start = 0;
         while start < count {
-            let len = BATCH.min(count - start);
+            let len = batch.min(count - start);
             let (store, grid, interior) = (&self.store, &self.grid, &self.interior);
             let build = |(j, buf): (usize, &mut PatchBuf<V>)| {
                 let k = start + j;
