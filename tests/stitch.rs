@@ -327,3 +327,25 @@ fn counting_sink_sees_the_planned_counts() {
     assert_eq!(sink.positions, plan.positions);
     assert_eq!(sink.records, plan.records);
 }
+
+#[test]
+fn memory_estimate_counts_the_store_and_bounds_batches() {
+    use g1tess::tess::stitch::{batch_patches, memory_estimate, Needs};
+    let mesh = common::load("sphere320");
+    let adjacency = mesh.adjacency();
+    // The icosphere of 320 triangles: 162 vertices, 480 edges.
+    assert_eq!((mesh.positions.len(), adjacency.edges.len()), (162, 480));
+    let m = memory_estimate(162, 480, 320, 8, 12, 1 << 20, Needs::RECORDS);
+    // V + E(n − 1) points of 12 bytes.
+    assert_eq!(m.store_points, 162 + 480 * 7);
+    assert_eq!(m.store_bytes, (162 + 480 * 7) * 12);
+    // Level 8: 45 points per patch, all 320 patches in one chunk of 14400 samples,
+    // positions and normals, twice.
+    assert_eq!(m.chunk_bytes, 14400 * 2 * 2 * 12);
+    // Batches: 32 patches at ordinary levels, one at level 5000 (12.5 M points).
+    assert_eq!(batch_patches(32), 32);
+    assert_eq!(batch_patches(5000), 1);
+    // Absurd levels saturate instead of wrapping.
+    let huge = memory_estimate(3, 3, 1, u32::MAX, 24, 1 << 22, Needs::ALL);
+    assert!(huge.total() >= u64::MAX / 2);
+}
