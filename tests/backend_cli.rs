@@ -55,7 +55,9 @@ fn gpu_backend_names_its_adapter_or_says_there_is_none() {
         Ok(_) => &["f32", "f64"],
         Err(e) => {
             assert!(!ci, "CI=true and no GPU adapter: {e}");
-            eprintln!("NOTE: no GPU adapter ({e}): checking the one-line failure instead");
+            eprintln!(
+                "expected error: no GPU adapter ({e}): checking the one-line failure instead"
+            );
             let (ok, out, err) = g1tess(&["stats", "torus200", "--backend", "gpu"], false);
             assert!(!ok && out.is_empty(), "{out}");
             assert_eq!(err.trim().lines().count(), 1, "{err}");
@@ -77,12 +79,12 @@ fn gpu_backend_names_its_adapter_or_says_there_is_none() {
             false,
         );
         if !ok && precision == "f64" && err.contains("SHADER_F64") {
-            eprintln!("NOTE: adapter without SHADER_F64: {err}");
+            eprintln!("expected error: adapter without SHADER_F64: {}", err.trim());
             assert_eq!(err.trim().lines().count(), 1, "{err}");
             continue;
         }
         assert!(ok, "{err}");
-        eprintln!("{}", err.trim());
+        eprintln!("stderr of a passing run: {}", err.trim());
         let v = json(&out);
         let backend = v["backend"].as_str().unwrap();
         assert!(
