@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::eval::cpu::CpuEvaluator;
+use super::BackendArgs;
 use crate::eval::Evaluator;
 use crate::output::atomic::{ensure_dir, write_atomic};
 use crate::output::distance::{self, Series, SweepPlan, SweepRow};
@@ -16,16 +16,24 @@ use crate::output::plot;
 use crate::patch::SchemeOptions;
 
 #[derive(Args, Clone, Debug)]
+#[command(mut_arg("backend", |a| a
+    .default_value("cpu")
+    .help("Evaluation backend (default cpu: the study's meshes are small, and the f64 \
+           CPU reference is faster on them than a GPU in f64)")))]
 pub struct SweepArgs {
     /// Output folder for distance.csv, distance.json and the plots.
-    #[arg(long, default_value = "out/sweep")]
-    pub out: PathBuf,
+    #[arg(short, long, alias = "out", default_value = "out/sweep")]
+    pub output: PathBuf,
     /// Print the JSON document on stdout instead of the text summary.
     #[arg(long)]
     pub json: bool,
-    /// No progress bar.
-    #[arg(long)]
+    /// No progress bar and no "wrote" lines on stderr.
+    #[arg(short, long)]
     pub quiet: bool,
+    /// Where the patches are evaluated (the study reads f64: the GPU runs in f64 unless
+    /// told otherwise).
+    #[command(flatten)]
+    pub backend: BackendArgs,
     /// Segments per patch edge of the sampling grid.
     #[arg(long, default_value_t = distance::STUDY_LEVEL)]
     pub level: u32,
@@ -142,14 +150,19 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         },
         ..SweepPlan::default()
     };
-    let out = sweep_into(&a.out, &plan, &CpuEvaluator::default(), a.quiet)?;
+    let mut backend = a.backend.clone();
+    backend.quiet |= a.quiet;
+    let evaluator = backend.evaluator(crate::gpu::Precision::F64)?;
+    let out = sweep_into(&a.output, &plan, evaluator.as_ref(), a.quiet)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out.json)?);
     } else {
         print!("{}", summary(&out.rows));
     }
-    for f in &out.files {
-        eprintln!("wrote {}", f.display());
+    if !a.quiet {
+        for f in &out.files {
+            eprintln!("wrote {}", f.display());
+        }
     }
     Ok(())
 }
