@@ -105,8 +105,17 @@ pub fn sweep_into(
     Ok(SweepOutput { rows, json, files })
 }
 
-/// Text summary: per series and scheme, the mean distance on the smallest and largest mesh
-/// and the observed order over the last refinement and over the whole series.
+/// Text summary: per series and scheme, the mean distance to the analytic surface on the
+/// coarsest and the finest mesh of the series, and the observed order of convergence of
+/// the mean over the last refinement and over the whole series. Each series' header names
+/// its columns:
+///
+/// ```text
+/// icosphere: mean distance to the analytic surface, coarsest and finest mesh
+///                   ----- coarsest mesh ------ ------ finest mesh ------- - order of mean --
+///   scheme           triangles   mean distance  triangles   mean distance    last    overall
+///   g1                      20       4.9950e-3       5120       7.8388e-8    4.00       3.99
+/// ```
 pub fn summary(rows: &[SweepRow]) -> String {
     let mut s = String::new();
     for series in Series::all() {
@@ -115,8 +124,20 @@ pub fn summary(rows: &[SweepRow]) -> String {
             continue;
         }
         s += &format!(
-            "{series}\n  {:<15} {:>10} {:>12} {:>10} {:>12} {:>11} {:>13}\n",
-            "scheme", "triangles", "mean", "triangles", "mean", "last order", "overall order"
+            "{series}: mean distance to the analytic surface, coarsest and finest mesh\n\
+             \x20 {:<15} {:-^26} {:-^26} {:-^18}\n\
+             \x20 {:<15} {:>10} {:>15} {:>10} {:>15} {:>7} {:>10}\n",
+            "",
+            " coarsest mesh ",
+            " finest mesh ",
+            " order of mean ",
+            "scheme",
+            "triangles",
+            "mean distance",
+            "triangles",
+            "mean distance",
+            "last",
+            "overall"
         );
         let mut schemes: Vec<_> = of.iter().map(|r| r.scheme).collect();
         schemes.dedup();
@@ -128,7 +149,7 @@ pub fn summary(rows: &[SweepRow]) -> String {
             let overall = distance::observed_order(a.h, a.mean, b.h, b.mean);
             let f = |o: Option<f64>| o.map(|x| format!("{x:.2}")).unwrap_or("-".into());
             s += &format!(
-                "  {:<15} {:>10} {:>12.4e} {:>10} {:>12.4e} {:>11} {:>13}\n",
+                "  {:<15} {:>10} {:>15.4e} {:>10} {:>15.4e} {:>7} {:>10}\n",
                 sc.name(),
                 a.triangles,
                 a.mean,
