@@ -11,6 +11,36 @@ use crate::output::distance::SweepPlan;
 use crate::output::table1;
 
 use super::compare::CompareArgs;
+use super::BackendArgs;
+
+/// Options of the default run (`g1tess` with no command).
+#[derive(clap::Args, Clone, Debug, Default)]
+#[command(mut_arg("backend", |a| a.help(
+    "Where the patches are evaluated (Table 1, the distance study, the pictures' \
+     surfaces). The pictures are drawn by a render pass on a Vulkan device whatever the \
+     backend; without one they are skipped")))]
+pub struct PaperArgs {
+    /// Evaluation backend and precision (help text set on the struct).
+    #[command(flatten)]
+    pub backend: BackendArgs,
+    /// No progress bars and no per-step lines on stderr (the table and the distance
+    /// summary are still printed on stdout).
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// The default run with its options: statistics in f64 on the GPU unless `--precision`
+/// says otherwise.
+pub fn run_args(a: &PaperArgs) -> anyhow::Result<()> {
+    let mut backend = a.backend.clone();
+    backend.quiet |= a.quiet;
+    let evaluator = backend.evaluator(crate::gpu::Precision::F64)?;
+    run(&PaperRun {
+        evaluator,
+        quiet: a.quiet,
+        ..Default::default()
+    })
+}
 
 /// Shared state of the default run's steps.
 pub struct PaperRun {
@@ -62,7 +92,9 @@ pub fn run(ctx: &PaperRun) -> anyhow::Result<()> {
     for step in steps() {
         let t = std::time::Instant::now();
         (step.run)(ctx).map_err(|e| e.context(step.name))?;
-        eprintln!("{}: {:.1} s", step.name, t.elapsed().as_secs_f64());
+        if !ctx.quiet {
+            eprintln!("{}: {:.1} s", step.name, t.elapsed().as_secs_f64());
+        }
     }
     Ok(())
 }
@@ -86,7 +118,9 @@ fn table(ctx: &PaperRun) -> anyhow::Result<()> {
     write_atomic(&json_path, |w| {
         std::io::Write::write_all(w, json.as_bytes())
     })?;
-    eprintln!("wrote {} and {}", md_path.display(), json_path.display());
+    if !ctx.quiet {
+        eprintln!("wrote {} and {}", md_path.display(), json_path.display());
+    }
     Ok(())
 }
 
@@ -99,8 +133,10 @@ fn sweep(ctx: &PaperRun) -> anyhow::Result<()> {
         ctx.quiet,
     )?;
     print!("{}", super::sweep::summary(&out.rows));
-    for f in &out.files {
-        eprintln!("wrote {}", f.display());
+    if !ctx.quiet {
+        for f in &out.files {
+            eprintln!("wrote {}", f.display());
+        }
     }
     Ok(())
 }
@@ -111,7 +147,9 @@ fn normal_pictures(ctx: &PaperRun) -> anyhow::Result<()> {
     use crate::patch::Scheme;
     use crate::render::{device, RenderOptions};
     if let Err(e) = device() {
-        eprintln!("skipped the normal-field pictures: {e}");
+        if !ctx.quiet {
+            eprintln!("skipped the normal-field pictures: {e}");
+        }
         return Ok(());
     }
     for (mesh, view) in [
@@ -130,9 +168,12 @@ fn normal_pictures(ctx: &PaperRun) -> anyhow::Result<()> {
                 view,
                 up: glam::DVec3::Z,
             },
+            ctx.evaluator.as_ref(),
             &path,
         )?;
-        eprintln!("wrote {}", path.display());
+        if !ctx.quiet {
+            eprintln!("wrote {}", path.display());
+        }
     }
     Ok(())
 }

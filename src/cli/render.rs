@@ -1,19 +1,26 @@
 //! `g1tess render`: pictures of the normal field (figures 13–16), headless on a Vulkan
-//! device.
+//! device. The render pass always needs that device; `--backend` chooses where the
+//! surface is evaluated. The device is opened first and the surface's size checked against
+//! its limits and the host memory before anything is evaluated.
 
 use std::path::PathBuf;
 
 use clap::Args;
 use glam::DVec3;
 
-use super::InputArgs;
-use crate::eval::cpu::CpuEvaluator;
+use super::{BackendArgs, InputArgs};
+use crate::eval::Evaluator;
 use crate::mesh::Mesh;
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
-use crate::render::{render_panels, write_png, RenderOptions, Row};
+use crate::render::{
+    device, max_panel, render_panels, write_png, RenderOptions, Row, SurfaceSize, MIN_PANEL,
+};
 use crate::tess::stitch::stitch;
 
 #[derive(Args, Clone, Debug)]
+#[command(mut_arg("backend", |a| a.help(
+    "Where the surface is evaluated. The picture itself is always drawn by a render pass \
+     on the Vulkan device, so render needs one whatever the backend")))]
 pub struct RenderArgs {
     #[command(flatten)]
     pub input: InputArgs,
@@ -27,7 +34,8 @@ pub struct RenderArgs {
     /// most about two million triangles).
     #[arg(long)]
     pub level: Option<u32>,
-    /// Side of one panel in pixels.
+    /// Side of one panel in pixels (at least 16; at most 4096 and the device's texture
+    /// limit / 3).
     #[arg(long, default_value_t = 512)]
     pub size: u32,
     /// Direction from the surface towards the camera, "x,y,z".
@@ -36,9 +44,94 @@ pub struct RenderArgs {
     /// Direction that points up in the picture, "x,y,z".
     #[arg(long, default_value = "0,1,0", value_parser = parse_vec)]
     pub up: DVec3,
+    /// Evaluation backend and precision (help text set on the struct).
+    #[command(flatten)]
+    pub backend: BackendArgs,
     /// No summary line on stderr.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// Refuses a view direction parallel to the up direction (the picture's orientation would
+/// be arbitrary).
+pub fn check_view_up(view: DVec3, up: DVec3) -> anyhow::Result<()> {
+    // Both are finite and nonzero (parse_vec); the sine of the angle between them below
+    // 1e-6 (0.2 arc seconds) leaves no usable up direction after projection.
+    let sine = view.normalize().cross(up.normalize()).length();
+    anyhow::ensure!(
+        sine >= 1e-6,
+        "--view {},{},{} is parallel to --up {},{},{}: give an up direction across the view",
+        view.x,
+        view.y,
+        view.z,
+        up.x,
+        up.y,
+        up.z
+    );
+    Ok(())
+}
+
+/// Half the machine's memory (from /proc/meminfo), or None where it cannot be read.
+fn memory_budget() -> Option<u128> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u128 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024 / 2)
+}
+
+/// The largest level ≤ `level` whose surface passes `fits`, if any.
+fn largest_fitting(triangles: usize, level: u32, fits: impl Fn(&SurfaceSize) -> bool) -> u32 {
+    let (mut lo, mut hi) = (0u32, level);
+    while lo < hi {
+        let mid = lo + (hi - lo).div_ceil(2);
+        if fits(&SurfaceSize::new(triangles, mid)) {
+            lo = mid;
+        } else {
+            hi = mid - 1;
+        }
+    }
+    lo
+}
+
+/// Refuses a level whose surface the device cannot draw or whose picture needs more than
+/// half the machine's memory, naming the largest level that fits.
+fn check_level(
+    gpu: &crate::gpu::GpuContext,
+    mesh: &Mesh,
+    level: u32,
+    explicit: bool,
+) -> anyhow::Result<()> {
+    let t = mesh.triangles.len();
+    let budget = memory_budget();
+    let fits =
+        |s: &SurfaceSize| s.check_device(gpu).is_ok() && budget.is_none_or(|b| s.host_bytes() <= b);
+    let size = SurfaceSize::new(t, level);
+    if fits(&size) {
+        return Ok(());
+    }
+    let why = match size.check_device(gpu) {
+        Err(e) => e.to_string(),
+        Ok(()) => format!(
+            "the picture needs about {} MB, more than half of this machine's memory ({} MB)",
+            size.host_bytes() / 1_000_000,
+            budget.unwrap_or(0) / 1_000_000
+        ),
+    };
+    let best = largest_fitting(t, level, fits);
+    let flag = if explicit {
+        "--level"
+    } else {
+        "the default level"
+    };
+    anyhow::bail!(
+        "{}: {flag} {level} on {t} triangles is too large ({why}); {}",
+        mesh.name,
+        if best >= 1 {
+            format!("use --level {best} or less")
+        } else {
+            "the mesh is too large to draw".into()
+        }
+    )
 }
 
 fn parse_vec(s: &str) -> Result<DVec3, String> {
@@ -64,19 +157,20 @@ pub fn auto_level(triangles: usize) -> u32 {
     fit.clamp(1, 16)
 }
 
-/// Renders `schemes` of `mesh` (one row each) into `output`.
+/// Renders `schemes` of `mesh` (one row each), evaluated by `evaluator`, into `output`.
 pub fn render_schemes(
     mesh: &Mesh,
     schemes: &[Scheme],
     scheme_opts: &SchemeOptions,
     level: u32,
     opts: &RenderOptions,
+    evaluator: &dyn Evaluator,
     output: &std::path::Path,
 ) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     for &scheme in schemes {
         let table = PatchTable::build(mesh, scheme, scheme_opts)?;
-        let (surface, _, _) = stitch(mesh, &table, &CpuEvaluator::default(), level)?;
+        let (surface, _, _) = stitch(mesh, &table, evaluator, level)?;
         rows.push(Row {
             label: scheme.to_string(),
             panels: render_panels(&surface, opts)?,
@@ -98,9 +192,30 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         "{}: render writes PNG pictures (.png)",
         a.output.display()
     );
+    check_view_up(a.view, a.up)?;
+    anyhow::ensure!(
+        a.size >= MIN_PANEL,
+        "--size {}: a panel is at least {MIN_PANEL} pixels",
+        a.size
+    );
+    anyhow::ensure!(a.level != Some(0), "--level must be at least 1");
+    // The render pass needs the device whatever the backend: open it before any work.
+    let gpu = device().map_err(|e| {
+        anyhow::anyhow!("render draws on a Vulkan device and none could be opened ({e})")
+    })?;
+    let max = max_panel(&gpu);
+    anyhow::ensure!(
+        a.size <= max,
+        "--size {} is larger than the {max} pixels this device can draw per panel",
+        a.size
+    );
     let mesh = Mesh::load(&a.input.mesh, &a.input.load_options())?;
     let level = a.level.unwrap_or_else(|| auto_level(mesh.triangles.len()));
-    anyhow::ensure!(level >= 1, "--level must be at least 1");
+    check_level(&gpu, &mesh, level, a.level.is_some())?;
+    let mut backend = a.backend.clone();
+    backend.quiet |= a.quiet;
+    // Pictures are drawn in f32: the GPU evaluates in f32 unless told otherwise.
+    let evaluator = backend.evaluator(crate::gpu::Precision::F32)?;
     let mut schemes = vec![a.input.scheme];
     schemes.extend(a.also.iter().copied().filter(|s| *s != a.input.scheme));
     let opts = RenderOptions {
@@ -114,6 +229,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         &a.input.scheme_options(),
         level,
         &opts,
+        evaluator.as_ref(),
         &a.output,
     )?;
     if !a.quiet {

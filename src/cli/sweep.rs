@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::eval::cpu::CpuEvaluator;
+use super::BackendArgs;
 use crate::eval::Evaluator;
 use crate::output::atomic::{ensure_dir, write_atomic};
 use crate::output::distance::{self, Series, SweepPlan, SweepRow};
@@ -16,16 +16,24 @@ use crate::output::plot;
 use crate::patch::SchemeOptions;
 
 #[derive(Args, Clone, Debug)]
+#[command(mut_arg("backend", |a| a
+    .default_value("cpu")
+    .help("Evaluation backend (default cpu: the study's meshes are small, and the f64 \
+           CPU reference is faster on them than a GPU in f64)")))]
 pub struct SweepArgs {
     /// Output folder for distance.csv, distance.json and the plots.
-    #[arg(long, default_value = "out/sweep")]
-    pub out: PathBuf,
+    #[arg(short, long, alias = "out", default_value = "out/sweep")]
+    pub output: PathBuf,
     /// Print the JSON document on stdout instead of the text summary.
     #[arg(long)]
     pub json: bool,
-    /// No progress bar.
-    #[arg(long)]
+    /// No progress bar and no "wrote" lines on stderr.
+    #[arg(short, long)]
     pub quiet: bool,
+    /// Where the patches are evaluated (the study reads f64: the GPU runs in f64 unless
+    /// told otherwise).
+    #[command(flatten)]
+    pub backend: BackendArgs,
     /// Segments per patch edge of the sampling grid.
     #[arg(long, default_value_t = distance::STUDY_LEVEL)]
     pub level: u32,
@@ -97,8 +105,17 @@ pub fn sweep_into(
     Ok(SweepOutput { rows, json, files })
 }
 
-/// Text summary: per series and scheme, the mean distance on the smallest and largest mesh
-/// and the observed order over the last refinement and over the whole series.
+/// Text summary: per series and scheme, the mean distance to the analytic surface on the
+/// coarsest and the finest mesh of the series, and the observed order of convergence of
+/// the mean over the last refinement and over the whole series. Each series' header names
+/// its columns:
+///
+/// ```text
+/// icosphere: mean distance to the analytic surface, coarsest and finest mesh
+///                   ----- coarsest mesh ------ ------ finest mesh ------- - order of mean --
+///   scheme           triangles   mean distance  triangles   mean distance    last    overall
+///   g1                      20       4.9950e-3       5120       7.8388e-8    4.00       3.99
+/// ```
 pub fn summary(rows: &[SweepRow]) -> String {
     let mut s = String::new();
     for series in Series::all() {
@@ -107,8 +124,20 @@ pub fn summary(rows: &[SweepRow]) -> String {
             continue;
         }
         s += &format!(
-            "{series}\n  {:<15} {:>10} {:>12} {:>10} {:>12} {:>11} {:>13}\n",
-            "scheme", "triangles", "mean", "triangles", "mean", "last order", "overall order"
+            "{series}: mean distance to the analytic surface, coarsest and finest mesh\n\
+             \x20 {:<15} {:-^26} {:-^26} {:-^18}\n\
+             \x20 {:<15} {:>10} {:>15} {:>10} {:>15} {:>7} {:>10}\n",
+            "",
+            " coarsest mesh ",
+            " finest mesh ",
+            " order of mean ",
+            "scheme",
+            "triangles",
+            "mean distance",
+            "triangles",
+            "mean distance",
+            "last",
+            "overall"
         );
         let mut schemes: Vec<_> = of.iter().map(|r| r.scheme).collect();
         schemes.dedup();
@@ -120,7 +149,7 @@ pub fn summary(rows: &[SweepRow]) -> String {
             let overall = distance::observed_order(a.h, a.mean, b.h, b.mean);
             let f = |o: Option<f64>| o.map(|x| format!("{x:.2}")).unwrap_or("-".into());
             s += &format!(
-                "  {:<15} {:>10} {:>12.4e} {:>10} {:>12.4e} {:>11} {:>13}\n",
+                "  {:<15} {:>10} {:>15.4e} {:>10} {:>15.4e} {:>7} {:>10}\n",
                 sc.name(),
                 a.triangles,
                 a.mean,
@@ -142,14 +171,19 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         },
         ..SweepPlan::default()
     };
-    let out = sweep_into(&a.out, &plan, &CpuEvaluator::default(), a.quiet)?;
+    let mut backend = a.backend.clone();
+    backend.quiet |= a.quiet;
+    let evaluator = backend.evaluator(crate::gpu::Precision::F64)?;
+    let out = sweep_into(&a.output, &plan, evaluator.as_ref(), a.quiet)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out.json)?);
     } else {
         print!("{}", summary(&out.rows));
     }
-    for f in &out.files {
-        eprintln!("wrote {}", f.display());
+    if !a.quiet {
+        for f in &out.files {
+            eprintln!("wrote {}", f.display());
+        }
     }
     Ok(())
 }

@@ -99,15 +99,48 @@ fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo / 1.6, hi * 1.6)
 }
 
-/// Label of a log-axis key point: only 1, 2 and 5 × 10^k are written (plotters offers every
-/// integer mantissa, which overlap).
-fn round_label(v: &f64) -> String {
-    let e = v.log10().floor();
-    let m = v / 10f64.powf(e);
-    if [1.0, 2.0, 5.0].iter().any(|k| (m - k).abs() < 1e-6) {
+/// Grid of a log axis over `lo..hi` (0 < lo < hi): labelled points (bold grid lines) and
+/// minor grid lines. Labels go at 1, 2 and 5 × 10^k when the range spans at most four
+/// decades, at 10^k beyond; where that leaves fewer than four labels (a range of about a
+/// decade), every integer mantissa is labelled. Minor lines go at the other integer
+/// mantissas, only when the range spans at most eight decades (beyond, they would crowd).
+pub fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return (Vec::new(), Vec::new());
+    }
+    let decades = (hi / lo).log10();
+    let points = |mantissas: &[u32]| -> Vec<f64> {
+        let (k0, k1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+        (k0..=k1)
+            .flat_map(|k| mantissas.iter().map(move |&m| m as f64 * 10f64.powi(k)))
+            // Rounded to 12 significant digits: 10^k in floating point is not exact.
+            .map(|v| format!("{v:.11e}").parse::<f64>().unwrap_or(v))
+            .filter(|v| *v >= lo && *v <= hi)
+            .collect()
+    };
+    let all: Vec<u32> = (1..=9).collect();
+    let mut bold = points(if decades <= 4.0 { &[1, 2, 5] } else { &[1] });
+    if bold.len() < 4 {
+        bold = points(&all);
+    }
+    let light = if decades <= 8.0 {
+        points(&all)
+            .into_iter()
+            .filter(|v| !bold.contains(v))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    (bold, light)
+}
+
+/// Label of a log-axis key point: the number as written (no exponent) from 1 to 10^6,
+/// "2e-3" style otherwise.
+fn tick_label(v: &f64) -> String {
+    if (1.0..1e6).contains(v) {
         format!("{v:.0}")
     } else {
-        String::new()
+        format!("{v:.0e}")
     }
 }
 
@@ -136,12 +169,21 @@ where
                 .iter()
                 .flat_map(|l| l.points.iter().map(|q| q.0)),
         );
+        // Grid lines and labels chosen here (plotters' own log key points label too few
+        // points on short ranges and crowd minor lines on some).
+        let axis = |(lo, hi): (f64, f64)| {
+            let (bold, light) = log_ticks(lo, hi);
+            (lo..hi)
+                .log_scale()
+                .with_key_points(bold)
+                .with_light_points(light)
+        };
         let mut chart = ChartBuilder::on(area)
             .caption(&panel.title, ("sans-serif", 20))
             .margin(12)
             .x_label_area_size(48)
             .y_label_area_size(78)
-            .build_cartesian_2d((xs.0..xs.1).log_scale(), (ys.0..ys.1).log_scale())
+            .build_cartesian_2d(axis(xs), axis(ys))
             .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()
@@ -149,7 +191,7 @@ where
             .y_desc(&panel.y_label)
             .axis_desc_style(("sans-serif", 17))
             .label_style(("sans-serif", 14))
-            .x_label_formatter(&round_label)
+            .x_label_formatter(&tick_label)
             .y_label_formatter(&|v| format!("{v:.0e}"))
             .light_line_style(RGBColor(235, 235, 235))
             .bold_line_style(RGBColor(200, 200, 200))
@@ -312,5 +354,40 @@ pub fn torus_figure(rows: &[SweepRow]) -> Figure {
             panel(Series::TorusAveraged, "averaged normals"),
         ],
         panel_size: (820, 680),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::log_ticks;
+
+    /// The sphere's x range (20 to 5120 triangles with the 1.6 margin): 1, 2, 5 × 10^k,
+    /// eight labels; minor lines at the other mantissas, never on a label.
+    #[test]
+    fn log_ticks_label_key_points() {
+        let (bold, light) = log_ticks(20.0 / 1.6, 5120.0 * 1.6);
+        assert_eq!(
+            bold,
+            [20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2000.0, 5000.0]
+        );
+        // 20..90, 100..900, 1000..8000 (25 mantissa points), less the 8 labels.
+        assert_eq!(light.len(), 8 + 9 + 8 - 8, "{light:?}");
+        assert!(light.iter().all(|v| !bold.contains(v)));
+        assert!(light.contains(&30.0) && light.contains(&8000.0) && !light.contains(&10.0));
+        // The y range of the study (1e-8..0.2, seven decades): decades only, minor lines.
+        let (bold, light) = log_ticks(5e-9, 0.2);
+        assert_eq!(bold, [1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1]);
+        // 5e-9..9e-9, seven full decades 1e-8..9e-2, 1e-1 and 2e-1, less the 8 labels.
+        assert_eq!(light.len(), 5 + 7 * 9 + 2 - 8, "{light:?}");
+        // Under a decade: every integer mantissa labelled, at least four labels.
+        let (bold, light) = log_ticks(3.5, 9.5);
+        assert_eq!(bold, [4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);
+        assert!(light.is_empty());
+        // Twelve decades: decades only, no minor lines.
+        let (bold, light) = log_ticks(1e-12, 1.0);
+        assert_eq!(bold.len(), 13);
+        assert!(light.is_empty());
+        // Not a log range: nothing.
+        assert_eq!(log_ticks(0.0, 1.0), (vec![], vec![]));
     }
 }

@@ -15,7 +15,7 @@ use std::sync::Arc;
 use glam::DVec3;
 
 use crate::gpu::GpuContext;
-use crate::Result;
+use crate::{Error, Result};
 
 pub mod camera;
 #[cfg(feature = "cli")]
@@ -103,4 +103,75 @@ impl Panels {
 /// error such as no Vulkan driver is remembered and returned every time.
 pub fn device() -> Result<Arc<GpuContext>> {
     GpuContext::shared()
+}
+
+/// Smallest panel side drawn (smaller requests are drawn at this size).
+pub const MIN_PANEL: u32 = 16;
+
+/// Largest panel side drawn: the multisampled colour and depth targets of three 4096-pixel
+/// panels take 1.6 GB of device memory.
+pub const MAX_PANEL: u32 = 4096;
+
+/// Largest panel side `gpu` can draw: three panels side by side must fit in one texture
+/// row, and [`MAX_PANEL`].
+pub fn max_panel(gpu: &GpuContext) -> u32 {
+    (gpu.device.limits().max_texture_dimension_2d / 3).min(MAX_PANEL)
+}
+
+/// Size of the surface drawn for a mesh of `triangles` at grid level `level`, counted
+/// before anything is evaluated (the u64 arithmetic cannot overflow for any `usize`
+/// triangle count and `u32` level).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SurfaceSize {
+    /// Output triangles: level² per input triangle.
+    pub triangles: u128,
+    /// Vertex records, an upper bound: every grid point of every patch its own.
+    pub records: u128,
+}
+
+impl SurfaceSize {
+    pub fn new(triangles: usize, level: u32) -> SurfaceSize {
+        let (t, n) = (triangles as u128, level as u128);
+        SurfaceSize {
+            triangles: t * n * n,
+            records: t * (n + 1) * (n + 2) / 2,
+        }
+    }
+
+    /// Bytes of host memory the picture of one surface takes at its peak: the stitching
+    /// plan (8 bytes per record), the welded f64 surface (position, normal, position id:
+    /// 52 bytes per record; 12 bytes per triangle) and the f32 vertex and index arrays
+    /// handed to the device (24 bytes per record, 12 per triangle).
+    pub fn host_bytes(&self) -> u128 {
+        84 * self.records + 24 * self.triangles
+    }
+
+    /// Largest device buffer the render pass creates (vertices or indices), in bytes.
+    pub fn buffer_bytes(&self) -> u128 {
+        (24 * self.records).max(12 * self.triangles)
+    }
+
+    /// Whether `gpu` can draw it: each buffer within the device's buffer size, and the
+    /// 32-bit indices and index count in range. The error names the adapter and the limit.
+    pub fn check_device(&self, gpu: &GpuContext) -> Result<()> {
+        let max = gpu.device.limits().max_buffer_size as u128;
+        if self.buffer_bytes() > max {
+            return Err(Error::Gpu(format!(
+                "{}: a surface of {} triangles needs a {} MB buffer, more than the device's \
+                 {} MB",
+                gpu.describe(),
+                self.triangles,
+                self.buffer_bytes() / 1_000_000,
+                max / 1_000_000
+            )));
+        }
+        if 3 * self.triangles > u32::MAX as u128 || self.records > u32::MAX as u128 {
+            return Err(Error::Gpu(format!(
+                "{}: a surface of {} triangles exceeds 32-bit vertex indices",
+                gpu.describe(),
+                self.triangles
+            )));
+        }
+        Ok(())
+    }
 }

@@ -69,10 +69,7 @@ pub fn render_panels_on(
         return Err(Error::Invalid("render: no triangles".into()));
     }
     let limits = gpu.device.limits();
-    let size = opts
-        .panel
-        .clamp(16, 4096)
-        .min(limits.max_texture_dimension_2d / 3);
+    let size = opts.panel.max(super::MIN_PANEL).min(super::max_panel(gpu));
     let camera = Camera::fit(&mesh.positions, opts.view, opts.up)?;
     let bytes = (VERTEX_BYTES * mesh.normals.len() as u64).max(12 * mesh.triangles.len() as u64);
     if bytes > limits.max_buffer_size {
