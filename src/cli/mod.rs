@@ -24,11 +24,15 @@ pub use common::{Backend, BackendArgs, Budget, InputArgs, MemoryArgs};
     version,
     about = "Smooth G1 curved surfaces from triangle meshes with vertex normals",
     long_about = "Smooth G1 curved surfaces from triangle meshes with vertex normals.\n\n\
-                  With no command, runs the default job (see the README)."
+                  With no command, runs the default job (see the README).",
+    args_conflicts_with_subcommands = true
 )]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,
+    /// Options of the default job (no command).
+    #[command(flatten)]
+    pub paper: paper::PaperArgs,
 }
 
 #[derive(Subcommand)]
@@ -50,17 +54,6 @@ pub enum Command {
     Bench(bench::BenchArgs),
 }
 
-/// The default job: `cargo run --release` with no arguments reproduces the paper into
-/// `out/paper/` (steps in `paper.rs`).
-fn default_run() -> anyhow::Result<()> {
-    // `--backend auto` in f64: the GPU where it has f64, else the CPU (saying so).
-    let evaluator = BackendArgs::default().evaluator(crate::gpu::Precision::F64)?;
-    paper::run(&paper::PaperRun {
-        evaluator,
-        ..Default::default()
-    })
-}
-
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Some(Command::Stats(a)) => stats::run(&a),
@@ -70,7 +63,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Compare(a)) => compare::run(&a),
         Some(Command::Sweep(a)) => sweep::run(&a),
         Some(Command::Bench(a)) => bench::run(&a),
-        None => default_run(),
+        None => paper::run_args(&cli.paper),
     }
 }
 
