@@ -77,11 +77,22 @@ struct Edge {
 }
 
 impl Edge {
-    fn new(mesh: &Mesh, v: [u32; 2], uses: [EdgeUse; 2]) -> Edge {
-        let crease = v.iter().any(|&x| {
+    /// The edge, its crease flag not yet computed ([`Edge::with_crease`]).
+    fn new(v: [u32; 2], uses: [EdgeUse; 2]) -> Edge {
+        Edge {
+            v,
+            uses,
+            crease: false,
+        }
+    }
+
+    /// Sets the crease flag (done for a chunk of edges in parallel: the corner normals are
+    /// scattered reads).
+    fn with_crease(&mut self, mesh: &Mesh) {
+        let (v, uses) = (self.v, self.uses);
+        self.crease = v.iter().any(|&x| {
             normal_key(use_normal(mesh, uses[0], x)) != normal_key(use_normal(mesh, uses[1], x))
         });
-        Edge { v, uses, crease }
     }
 
     /// Its two uses as edge sides: the barycentric slots of e.v[0] (t = 0) and e.v[1]
@@ -106,22 +117,19 @@ impl Edge {
     }
 }
 
-/// The interior edges of an adjacency.
-fn adjacency_edges<'a>(
-    mesh: &'a Mesh,
-    adjacency: &'a Adjacency,
-) -> impl Iterator<Item = Edge> + 'a {
+/// The interior edges of an adjacency (crease flags not set).
+fn adjacency_edges(adjacency: &Adjacency) -> impl Iterator<Item = Edge> + '_ {
     adjacency
         .interior_edges()
-        .map(move |e| Edge::new(mesh, e.v, [e.uses[0], e.uses[1]]))
+        .map(move |e| Edge::new(e.v, [e.uses[0], e.uses[1]]))
 }
 
-/// The interior edges of an edge index.
-fn index_edges<'a>(mesh: &'a Mesh, index: &'a EdgeIndex<'a>) -> impl Iterator<Item = Edge> + 'a {
+/// The interior edges of an edge index (crease flags not set).
+fn index_edges<'a>(index: &'a EdgeIndex<'a>) -> impl Iterator<Item = Edge> + 'a {
     index
         .edges()
         .filter(|e| e.is_interior())
-        .map(move |e| Edge::new(mesh, e.v, [e.use_at(0), e.use_at(1)]))
+        .map(move |e| Edge::new(e.v, [e.use_at(0), e.use_at(1)]))
 }
 
 /// The evaluation points of every interior edge: for each edge and each t, the point on the
@@ -136,7 +144,7 @@ pub fn edge_points(mesh: &Mesh, adjacency: &Adjacency) -> Vec<PatchPoint> {
 pub fn edge_pairs(mesh: &Mesh, adjacency: &Adjacency) -> EdgePairs {
     EdgePairs {
         samples: SAMPLES_PER_EDGE,
-        pairs: adjacency_edges(mesh, adjacency)
+        pairs: adjacency_edges(adjacency)
             .map(|e| e.sides(&mesh.triangles, e.uses.map(|u| u.triangle)))
             .collect(),
     }
@@ -415,6 +423,10 @@ fn run(
         if batch.is_empty() {
             break;
         }
+        batch
+            .par_iter_mut()
+            .with_min_len(1024)
+            .for_each(|e| e.with_crease(mesh));
         crease_edges += batch.iter().filter(|e| e.crease).count();
         let table = match patches {
             Patches::Table(t) => t,
@@ -521,7 +533,7 @@ pub fn continuity(
             ),
         ));
     }
-    let mut edges = adjacency_edges(mesh, adjacency);
+    let mut edges = adjacency_edges(adjacency);
     Ok(run(
         mesh,
         &mut edges,
@@ -567,7 +579,7 @@ impl<'m> EdgeStats<'m> {
                 "statistics: the patch builder belongs to another mesh".into(),
             ));
         }
-        let mut edges = index_edges(self.mesh, &self.index);
+        let mut edges = index_edges(&self.index);
         run(
             self.mesh,
             &mut edges,
