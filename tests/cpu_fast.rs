@@ -2,7 +2,9 @@
 //! f64 reference, for every patch kind, on the test meshes at levels 1, 8 and 32, with both
 //! CPU kernels (AVX2+FMA where the CPU has it, and the portable one); chunked runs
 //! identical to whole ones; corner samples equal to the input vertices bit for bit on every
-//! backend (the harness's `evaluators`) in both precisions.
+//! backend (the harness's `evaluators`) in both precisions. The edge pattern of the
+//! statistics (`EdgePairs`, `Evaluator::evaluate_edges`): bitwise its explicit point list
+//! on the CPU, within f32 rounding of the f64 reference on every backend.
 
 mod common;
 mod eval_cases;
@@ -14,7 +16,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use g1tess::eval::cpu::{grid_weights, CpuEvaluator, F32Kernel, GridWeightsF32};
-use g1tess::eval::{grid_corners, grid_len, to_f32, Evaluator, Pattern};
+use g1tess::eval::{
+    grid_corners, grid_len, to_f32, Chunk, EdgePairs, EdgeSide, Evaluator, PatchPoint, Pattern,
+};
+use g1tess::output::stats::{edge_pairs, SAMPLES_PER_EDGE};
 use g1tess::patch::PatchTable;
 
 /// Normals are held to 1 − dot ≤ this (an angle of 4.5e-3 rad) where they are defined to
@@ -239,6 +244,231 @@ fn f32_grids_agree_with_the_f64_reference_on_every_backend() {
             .unwrap();
             assert_eq!(samples, per * table.len(), "{what} {backend}");
             eprintln!("spot {what} {backend}: max |dp|/diag {dp:.2e}, max 1-dot {dn:.2e}");
+            assert!(dp <= 1e-5 && dn <= TN, "{what} {backend}: {dp:e} {dn:e}");
+        }
+    }
+}
+
+/// Every result of `evaluate_edges`, checking that chunks arrive in order and counting
+/// them.
+fn run_edges(
+    ev: &dyn Evaluator,
+    table: &PatchTable,
+    edges: &EdgePairs,
+) -> (Vec<DVec3>, Vec<DVec3>, usize) {
+    let (mut pos, mut nrm, mut chunks) = (Vec::new(), Vec::new(), 0);
+    ev.evaluate_edges(table, edges, &mut |c| {
+        assert_eq!(c.first, pos.len(), "chunks arrive in order");
+        assert_eq!(c.positions.len(), c.normals.len());
+        pos.extend_from_slice(c.positions);
+        nrm.extend_from_slice(c.normals);
+        chunks += 1;
+        Ok(())
+    })
+    .unwrap();
+    (pos, nrm, chunks)
+}
+
+/// An evaluator with only `evaluate`: `evaluate_edges` is the trait's default (the points
+/// expanded a bounded run at a time), what the GPU backend runs.
+struct ViaPoints(CpuEvaluator);
+
+impl Evaluator for ViaPoints {
+    fn describe(&self) -> String {
+        "cpu through points".into()
+    }
+    fn evaluate(
+        &self,
+        table: &PatchTable,
+        pattern: &Pattern,
+        sink: &mut dyn FnMut(Chunk<'_>) -> g1tess::Result<()>,
+    ) -> g1tess::Result<()> {
+        self.0.evaluate(table, pattern, sink)
+    }
+}
+
+/// Each of the six ordered slot pairs on each of the first `patches` patches, paired with
+/// the reverse order on the next patch.
+fn all_orders(patches: usize, samples: u32) -> EdgePairs {
+    let mut pairs = Vec::new();
+    for i in 0..patches as u32 {
+        for (from, to) in [(0, 1), (1, 0), (1, 2), (2, 1), (2, 0), (0, 2)] {
+            pairs.push([
+                EdgeSide { patch: i, from, to },
+                EdgeSide {
+                    patch: (i + 1) % patches as u32,
+                    from: to,
+                    to: from,
+                },
+            ]);
+        }
+    }
+    EdgePairs { samples, pairs }
+}
+
+/// On the CPU the edge pattern is bitwise `Pattern::Points` of its point list and
+/// `PatchTable::eval` at each point, for every scheme, in any chunking and through the
+/// trait's default; its ends are the input vertices bit for bit; exact sample counts
+/// (2 × 21 per interior edge).
+#[test]
+fn edge_pairs_are_bitwise_the_point_list_on_the_cpu() {
+    let bits = |v: &[DVec3]| -> Vec<[u64; 3]> {
+        v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
+    };
+    for name in ["fandisk.obj", "spot.obj"] {
+        let mesh = load(name);
+        let adj = mesh.adjacency();
+        let stats = edge_pairs(&mesh, &adj);
+        assert_eq!(stats.samples, SAMPLES_PER_EDGE);
+        assert_eq!(stats.pairs.len(), adj.interior);
+        assert_eq!(stats.len(), 2 * 21 * adj.interior);
+        for (_, table, what) in cases(&mesh) {
+            let patterns = [
+                stats.clone(),
+                all_orders(40, 1),
+                all_orders(40, 2),
+                all_orders(40, 5),
+            ];
+            for edges in &patterns {
+                let points = edges.points();
+                assert_eq!(points.len(), edges.len());
+                let (pos, nrm, _) = run_edges(&CpuEvaluator::default(), &table, edges);
+                assert_eq!(pos.len(), edges.len(), "{name} {what}");
+                let (rp, rn) = CpuEvaluator::default()
+                    .evaluate_all(&table, &Pattern::Points(points.clone()))
+                    .unwrap();
+                let what = format!("{name} {what} {} samples", edges.samples);
+                assert!(bits(&pos) == bits(&rp) && bits(&nrm) == bits(&rn), "{what}");
+                for (k, pp) in points.iter().enumerate().step_by(7) {
+                    let r = table.eval(pp.patch as usize, pp.b);
+                    assert!(
+                        bits(&[pos[k], nrm[k]]) == bits(&[r.p, r.n]),
+                        "{what} {pp:?}"
+                    );
+                }
+                // Ends: slot `from` at sample 0, slot `to` at the last sample.
+                let per = edges.samples as usize;
+                for (q, pair) in edges.pairs.iter().enumerate() {
+                    for (side, e) in pair.iter().enumerate() {
+                        let tri = mesh.triangles[e.patch as usize];
+                        let at = |i: usize| pos[2 * (per * q + i) + side];
+                        assert_eq!(at(0), mesh.positions[tri[e.from as usize] as usize]);
+                        if per > 1 {
+                            assert_eq!(at(per - 1), mesh.positions[tri[e.to as usize] as usize]);
+                        }
+                    }
+                }
+                let (tp, tn, chunks) =
+                    run_edges(&CpuEvaluator::with_chunk_samples(7), &table, edges);
+                // Chunks hold whole pairs: one pair each when a pair has more than 7 points.
+                assert_eq!(chunks, edges.pairs.len().div_ceil((7 / (2 * per)).max(1)));
+                assert!(
+                    bits(&tp) == bits(&pos) && bits(&tn) == bits(&nrm),
+                    "{what}: chunked"
+                );
+                let (vp, vn, _) = run_edges(
+                    &ViaPoints(CpuEvaluator::with_chunk_samples(5)),
+                    &table,
+                    edges,
+                );
+                assert!(
+                    bits(&vp) == bits(&pos) && bits(&vn) == bits(&nrm),
+                    "{what}: default"
+                );
+            }
+        }
+    }
+}
+
+/// A patch with a control point that is not finite is evaluated point by point, as the
+/// point list is (the lane kernel would add 0 × ∞ where a sample's weight vanishes); bad
+/// patch numbers and slots are errors.
+#[test]
+fn edge_pairs_on_a_non_finite_patch_and_bad_input() {
+    let mesh = load("spot.obj");
+    let mut table =
+        PatchTable::build(&mesh, g1tess::patch::Scheme::G1, &Default::default()).unwrap();
+    // An interior (Gregory) point of patch 0.
+    table.points[15] = DVec3::new(f64::INFINITY, 0.0, 1.0);
+    let edges = all_orders(3, 21);
+    let (pos, nrm, _) = run_edges(&CpuEvaluator::default(), &table, &edges);
+    let (rp, rn) = CpuEvaluator::default()
+        .evaluate_all(&table, &Pattern::Points(edges.points()))
+        .unwrap();
+    let bits = |v: &[DVec3]| -> Vec<[u64; 3]> {
+        v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
+    };
+    assert!(bits(&pos) == bits(&rp) && bits(&nrm) == bits(&rn));
+    let side = |patch, from, to| EdgeSide { patch, from, to };
+    for (pair, want) in [
+        ([side(0, 0, 1), side(table.len() as u32, 1, 0)], "patch"),
+        ([side(0, 1, 1), side(1, 1, 0)], "slots"),
+        ([side(0, 0, 3), side(1, 1, 0)], "slots"),
+    ] {
+        let bad = EdgePairs {
+            samples: 21,
+            pairs: vec![pair],
+        };
+        for ev in [
+            &CpuEvaluator::default() as &dyn Evaluator,
+            &ViaPoints(CpuEvaluator::default()),
+        ] {
+            let e = ev
+                .evaluate_edges(&table, &bad, &mut |_| Ok(()))
+                .unwrap_err();
+            assert!(e.to_string().contains(want), "{e}");
+        }
+    }
+    let start = PatchPoint {
+        patch: 0,
+        b: [1.0, 0.0, 0.0],
+    };
+    assert_eq!(EdgePairs::default().points(), Vec::<PatchPoint>::new());
+    assert_eq!(edges.point(0), start);
+}
+
+/// The edge pattern on every backend (the harness's `evaluators`; the GPU through the
+/// trait's default) against `PatchTable::eval`: positions within 1e-5 of the diagonal and
+/// regular normals to 1 − dot ≤ TN (the f32 bounds of the grid comparison above, which an
+/// f32 GPU's samples widened to f64 meet), ends the input vertices bit for bit, exact
+/// counts.
+#[test]
+fn edge_pairs_agree_with_the_f64_reference_on_every_backend() {
+    let mesh = load("spot.obj");
+    let diag = mesh.diagonal();
+    let adj = mesh.adjacency();
+    let edges = edge_pairs(&mesh, &adj);
+    let points = edges.points();
+    let per = edges.samples as usize;
+    for (_, table, what) in cases(&mesh) {
+        let weights: Vec<_> = points.iter().map(|p| table.kind.weights(p.b)).collect();
+        for (backend, ev) in evaluators() {
+            let (pos, nrm, _) = run_edges(ev.as_ref(), &table, &edges);
+            assert_eq!(pos.len(), 2 * 21 * adj.interior, "{what} {backend}");
+            let (mut dp, mut dn) = (0f64, 0f64);
+            for (k, (pp, w)) in points.iter().zip(&weights).enumerate() {
+                let i = pp.patch as usize;
+                let sp = table.eval_weights(i, w);
+                dp = dp.max(pos[k].distance(sp.p) / diag);
+                if regular(normal_error(&table, i, w, EPS32), TN) {
+                    dn = dn.max(1.0 - nrm[k].dot(sp.n));
+                }
+                let q = k / 2;
+                let e = edges.pairs[q / per][k % 2];
+                let tri = mesh.triangles[e.patch as usize];
+                if q % per == 0 {
+                    assert_eq!(
+                        pos[k], mesh.positions[tri[e.from as usize] as usize],
+                        "{backend}"
+                    );
+                } else if q % per == per - 1 {
+                    assert_eq!(
+                        pos[k], mesh.positions[tri[e.to as usize] as usize],
+                        "{backend}"
+                    );
+                }
+            }
+            eprintln!("spot edges {what} {backend}: max |dp|/diag {dp:.2e}, max 1-dot {dn:.2e}");
             assert!(dp <= 1e-5 && dn <= TN, "{what} {backend}: {dp:e} {dn:e}");
         }
     }

@@ -400,7 +400,8 @@ fn tables_of_subsets_are_slices_of_the_whole() {
 
 /// Streamed statistics do not depend on how the edges are chunked nor on how the evaluator
 /// chunks its output: chunks of 1, 7 and many edges, evaluator chunks of 1, 7 and many
-/// points, and the whole table at once all give bitwise the same numbers (the samples are
+/// points, the whole table at once, and the edge points evaluated as an explicit point
+/// list all give bitwise the same numbers (the samples are
 /// folded in blocks numbered over the whole run). The mesh has crease edges (fandisk at
 /// 30°), so both kinds of edge are folded.
 #[test]
@@ -441,6 +442,30 @@ fn streamed_stats_do_not_depend_on_chunking() {
             );
             assert_eq!(fallbacks, whole.fallbacks, "{scheme}");
         }
+        // Through `Evaluator::evaluate_edges`'s default (the edge points expanded and
+        // evaluated as a point list, what the GPU backend runs): bitwise the same too.
+        stats.chunk_edges = CHUNK_EDGES;
+        let (c, _) = stats
+            .continuity(&builder, &ViaPoints(CpuEvaluator::with_chunk_samples(7)))
+            .unwrap();
+        assert_eq!(c, reference, "{scheme}: through the point list");
+    }
+}
+
+/// An evaluator with only `evaluate` (`evaluate_edges` is the trait's default).
+struct ViaPoints(CpuEvaluator);
+
+impl Evaluator for ViaPoints {
+    fn describe(&self) -> String {
+        "cpu through points".into()
+    }
+    fn evaluate(
+        &self,
+        table: &PatchTable,
+        pattern: &Pattern,
+        sink: &mut dyn FnMut(g1tess::eval::Chunk<'_>) -> g1tess::Result<()>,
+    ) -> g1tess::Result<()> {
+        self.0.evaluate(table, pattern, sink)
     }
 }
 

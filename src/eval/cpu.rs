@@ -7,10 +7,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{
-    evaluate_f32_via_f64, grid_barycentrics, grid_corners, grid_len, Chunk, ChunkF32, Evaluator,
-    Pattern,
+    evaluate_f32_via_f64, grid_barycentrics, grid_corners, grid_len, Chunk, ChunkF32, EdgePairs,
+    Evaluator, Pattern,
 };
-use crate::patch::basis::Weights;
+use crate::patch::basis::{SparseWeights, Weights};
 use crate::patch::PatchTable;
 use crate::Result;
 
@@ -110,18 +110,8 @@ impl Evaluator for CpuEvaluator {
                         table.len()
                     )));
                 }
-                // Result buffers kept per calling thread between calls: a streaming caller
-                // (statistics) evaluates chunk after chunk without fresh pages each time.
-                // Taken out for the call, so a nested call just gets new ones.
-                thread_local! {
-                    static BUFFERS: std::cell::Cell<(Vec<DVec3>, Vec<DVec3>)> =
-                        const { std::cell::Cell::new((Vec::new(), Vec::new())) };
-                }
                 let step = self.chunk_samples.max(1);
-                let (mut pos, mut nrm) = BUFFERS.take();
-                if pos.capacity() > 2 * step.min(points.len()) {
-                    (pos, nrm) = (Vec::new(), Vec::new());
-                }
+                let (mut pos, mut nrm) = take_buffers(step.min(points.len()));
                 let mut result = Ok(());
                 for (c, chunk) in points.chunks(step).enumerate() {
                     pos.resize(chunk.len(), DVec3::ZERO);
@@ -158,6 +148,46 @@ impl Evaluator for CpuEvaluator {
         }
     }
 
+    /// The basis at every (from, to, sample) computed once per call (sparse, as
+    /// [`PatchTable::eval_sparse`] takes it), then rayon over the pairs: bitwise the
+    /// values of [`Pattern::Points`] of [`EdgePairs::points`], with no per-point lookup.
+    /// Chunks hold whole pairs, about `chunk_samples` points.
+    fn evaluate_edges(
+        &self,
+        table: &PatchTable,
+        edges: &EdgePairs,
+        sink: &mut dyn FnMut(Chunk<'_>) -> Result<()>,
+    ) -> Result<()> {
+        edges.check(table.len())?;
+        if edges.is_empty() {
+            return Ok(());
+        }
+        let per = edges.samples as usize;
+        let weights = EdgeWeights::new(table, edges);
+        let pairs_per_chunk = (self.chunk_samples / (2 * per)).max(1);
+        let (mut pos, mut nrm) = take_buffers(2 * per * pairs_per_chunk.min(edges.pairs.len()));
+        let mut result = Ok(());
+        for (c, chunk) in edges.pairs.chunks(pairs_per_chunk).enumerate() {
+            pos.resize(chunk.len() * 2 * per, DVec3::ZERO);
+            nrm.resize(chunk.len() * 2 * per, DVec3::ZERO);
+            pos.par_chunks_mut(2 * per)
+                .zip(nrm.par_chunks_mut(2 * per))
+                .zip(chunk.par_iter())
+                .with_min_len(64)
+                .for_each(|((p, n), pair)| weights.pair(table, pair, p, n));
+            result = sink(Chunk {
+                first: c * pairs_per_chunk * 2 * per,
+                positions: &pos,
+                normals: &nrm,
+            });
+            if result.is_err() {
+                break;
+            }
+        }
+        BUFFERS.set((pos, nrm));
+        result
+    }
+
     /// Grids run the f32 SIMD kernel (see [`GridWeightsF32`]): control points relative to
     /// each patch's first point, f32 weights computed once per call, corners overwritten
     /// with the input vertices rounded once. Point lists are evaluated in f64 and rounded.
@@ -173,6 +203,233 @@ impl Evaluator for CpuEvaluator {
                 self.grid_f32(table, &weights, sink)
             }
             Pattern::Points(_) => evaluate_f32_via_f64(self, table, pattern, sink),
+        }
+    }
+}
+
+thread_local! {
+    /// Result buffers kept per calling thread between calls: a streaming caller
+    /// (statistics) evaluates chunk after chunk without fresh pages each time. Taken out
+    /// for the call, so a nested call just gets new ones.
+    static BUFFERS: std::cell::Cell<(Vec<DVec3>, Vec<DVec3>)> =
+        const { std::cell::Cell::new((Vec::new(), Vec::new())) };
+}
+
+/// This thread's result buffers, dropped where much larger than `need` samples.
+fn take_buffers(need: usize) -> (Vec<DVec3>, Vec<DVec3>) {
+    let (pos, nrm) = BUFFERS.take();
+    if pos.capacity() > 2 * need {
+        return (Vec::new(), Vec::new());
+    }
+    (pos, nrm)
+}
+
+/// Basis weights of an edge pattern, computed once per call: for each ordered slot pair
+/// (from, to) and each sample, the weights at b[from] = 1 − t, b[to] = t, both sparse (as
+/// [`PatchTable::eval_sparse`] takes them) and, for the AVX kernel, dense over the points
+/// any sample of that pair weighs, in blocks of [`EDGE_LANES`] samples.
+struct EdgeWeights {
+    per: usize,
+    /// Pair (from, to) at `(3 · from + to) · per`.
+    w: Vec<SparseWeights>,
+    /// Pair (from, to) at `3 · from + to`.
+    dense: Vec<DenseEdgeWeights>,
+    /// The AVX kernel runs (the CPU has AVX).
+    avx: bool,
+}
+
+/// Samples per block of the edge kernel (f64 lanes of an AVX register).
+const EDGE_LANES: usize = 4;
+
+/// The weights of one (from, to) pair for the AVX edge kernel.
+#[derive(Default)]
+struct DenseEdgeWeights {
+    /// Geometry control points with a nonzero weight at some sample, increasing.
+    idx: Vec<u8>,
+    /// For each block of [`EDGE_LANES`] samples and each point of `idx`: `EDGE_LANES`
+    /// values of w, ∂w/∂s, ∂w/∂t (padding samples 0).
+    data: Vec<f64>,
+}
+
+impl EdgeWeights {
+    fn new(table: &PatchTable, edges: &EdgePairs) -> EdgeWeights {
+        let per = edges.samples as usize;
+        let geometry = table.kind.geometry();
+        let blocks = per.div_ceil(EDGE_LANES);
+        let mut w = Vec::with_capacity(9 * per);
+        let mut dense = Vec::with_capacity(9);
+        for from in 0..3u8 {
+            for to in 0..3u8 {
+                let first = w.len();
+                for i in 0..per as u32 {
+                    // from == to never occurs (checked); its entries are unused filler.
+                    let side = super::EdgeSide { patch: 0, from, to };
+                    let b = if from == to {
+                        [1.0, 0.0, 0.0]
+                    } else {
+                        edges.barycentric(side, i)
+                    };
+                    w.push(SparseWeights::new(table.kind.weights(b), geometry));
+                }
+                let samples = &w[first..];
+                let idx: Vec<u8> = (0..geometry as u8)
+                    .filter(|&j| samples.iter().any(|s| s.terms().0.contains(&j)))
+                    .collect();
+                let mut data = vec![0.0; blocks * idx.len() * 3 * EDGE_LANES];
+                for (i, s) in samples.iter().enumerate() {
+                    let (blk, l) = (i / EDGE_LANES, i % EDGE_LANES);
+                    for (k, &j) in idx.iter().enumerate() {
+                        let o = (blk * idx.len() + k) * 3 * EDGE_LANES + l;
+                        let j = j as usize;
+                        data[o] = s.full.w[j];
+                        data[o + EDGE_LANES] = s.full.ws[j];
+                        data[o + 2 * EDGE_LANES] = s.full.wt[j];
+                    }
+                }
+                dense.push(DenseEdgeWeights { idx, data });
+            }
+        }
+        EdgeWeights {
+            per,
+            w,
+            dense,
+            avx: has_avx(),
+        }
+    }
+
+    /// Evaluates one pair's 2 · per points into `p` and `n`; the ends are the input
+    /// vertices as they are.
+    #[inline]
+    fn pair(
+        &self,
+        table: &PatchTable,
+        pair: &[super::EdgeSide; 2],
+        p: &mut [DVec3],
+        n: &mut [DVec3],
+    ) {
+        let geometry = table.kind.geometry();
+        for (side, e) in pair.iter().enumerate() {
+            let patch = e.patch as usize;
+            let at = 3 * e.from as usize + e.to as usize;
+            let d = &self.dense[at];
+            // The dense kernel adds the terms a sample's sparse list skips: ±0 on a finite
+            // point, which leaves every sum bitwise as it is (see `SparseWeights`).
+            let dense = self.avx
+                && geometry == table.stride
+                && d.idx
+                    .iter()
+                    .all(|&j| table.patch(patch)[j as usize].is_finite());
+            #[cfg(target_arch = "x86_64")]
+            if dense {
+                // SAFETY: `avx` says the CPU has AVX (checked by has_avx).
+                unsafe { edge_side_avx(table, patch, d, self.per, side, p, n) };
+            }
+            if !dense {
+                let w = &self.w[at * self.per..(at + 1) * self.per];
+                for (i, w) in w.iter().enumerate() {
+                    let sp = table.eval_sparse(patch, w);
+                    p[2 * i + side] = sp.p;
+                    n[2 * i + side] = sp.n;
+                }
+            }
+            p[side] = table.corner(patch, e.from as usize);
+            if self.per > 1 {
+                p[2 * (self.per - 1) + side] = table.corner(patch, e.to as usize);
+            }
+        }
+    }
+}
+
+fn has_avx() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// One side of an edge (patch `patch`, every geometry point finite, no normal field):
+/// [`EDGE_LANES`] samples per register, each sum the same products added in the same order
+/// as [`PatchTable::eval_sparse`] and the normal computed as [`crate::patch::unit_normal`]
+/// does (cross product, dot, sqrt, division, each lane by lane, no fused operations), so
+/// bitwise its values. Writes sample i to `p[2 i + side]`, `n[2 i + side]`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn edge_side_avx(
+    table: &PatchTable,
+    patch: usize,
+    d: &DenseEdgeWeights,
+    per: usize,
+    side: usize,
+    p: &mut [DVec3],
+    n: &mut [DVec3],
+) {
+    use std::arch::x86_64::*;
+    let c = table.patch(patch);
+    let flat = table.flat_normals[patch];
+    let terms = d.idx.len();
+    let lanes = |v: __m256d| {
+        let mut a = [0.0f64; EDGE_LANES];
+        // SAFETY: stores four f64 into a four-element array.
+        unsafe { _mm256_storeu_pd(a.as_mut_ptr(), v) };
+        a
+    };
+    for (blk, wb) in d.data.chunks_exact(terms * 3 * EDGE_LANES).enumerate() {
+        let z = _mm256_setzero_pd();
+        let [mut px, mut py, mut pz, mut sx, mut sy, mut sz, mut tx, mut ty, mut tz] = [z; 9];
+        for (&j, w3) in d.idx.iter().zip(wb.chunks_exact(3 * EDGE_LANES)) {
+            let cj = c[j as usize];
+            // SAFETY: each load reads four f64 of the 12 in `w3`.
+            let (w, ws, wt) = unsafe {
+                (
+                    _mm256_loadu_pd(w3.as_ptr()),
+                    _mm256_loadu_pd(w3.as_ptr().add(EDGE_LANES)),
+                    _mm256_loadu_pd(w3.as_ptr().add(2 * EDGE_LANES)),
+                )
+            };
+            let (cx, cy, cz) = (
+                _mm256_set1_pd(cj.x),
+                _mm256_set1_pd(cj.y),
+                _mm256_set1_pd(cj.z),
+            );
+            px = _mm256_add_pd(px, _mm256_mul_pd(w, cx));
+            py = _mm256_add_pd(py, _mm256_mul_pd(w, cy));
+            pz = _mm256_add_pd(pz, _mm256_mul_pd(w, cz));
+            sx = _mm256_add_pd(sx, _mm256_mul_pd(ws, cx));
+            sy = _mm256_add_pd(sy, _mm256_mul_pd(ws, cy));
+            sz = _mm256_add_pd(sz, _mm256_mul_pd(ws, cz));
+            tx = _mm256_add_pd(tx, _mm256_mul_pd(wt, cx));
+            ty = _mm256_add_pd(ty, _mm256_mul_pd(wt, cy));
+            tz = _mm256_add_pd(tz, _mm256_mul_pd(wt, cz));
+        }
+        // S_s × S_t as DVec3::cross, |·| as DVec3::length, then the division.
+        let nx = _mm256_sub_pd(_mm256_mul_pd(sy, tz), _mm256_mul_pd(ty, sz));
+        let ny = _mm256_sub_pd(_mm256_mul_pd(sz, tx), _mm256_mul_pd(tz, sx));
+        let nz = _mm256_sub_pd(_mm256_mul_pd(sx, ty), _mm256_mul_pd(tx, sy));
+        let dot = _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(nx, nx), _mm256_mul_pd(ny, ny)),
+            _mm256_mul_pd(nz, nz),
+        );
+        let len = _mm256_sqrt_pd(dot);
+        let [px, py, pz] = [lanes(px), lanes(py), lanes(pz)];
+        let [ux, uy, uz] = [
+            lanes(_mm256_div_pd(nx, len)),
+            lanes(_mm256_div_pd(ny, len)),
+            lanes(_mm256_div_pd(nz, len)),
+        ];
+        let len = lanes(len);
+        let first = blk * EDGE_LANES;
+        for l in 0..EDGE_LANES.min(per - first) {
+            let q = 2 * (first + l) + side;
+            p[q] = DVec3::new(px[l], py[l], pz[l]);
+            n[q] = if len[l] > crate::patch::MIN_NORMAL_LEN_F64 && len[l].is_finite() {
+                DVec3::new(ux[l], uy[l], uz[l])
+            } else {
+                flat
+            };
         }
     }
 }

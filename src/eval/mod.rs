@@ -7,7 +7,10 @@ pub mod pattern;
 
 use glam::DVec3;
 
-pub use pattern::{grid_barycentrics, grid_corners, grid_len, grid_triangles, PatchPoint, Pattern};
+pub use pattern::{
+    grid_barycentrics, grid_corners, grid_len, grid_triangles, EdgePairs, EdgeSide, PatchPoint,
+    Pattern,
+};
 
 use crate::patch::PatchTable;
 use crate::Result;
@@ -17,8 +20,8 @@ use crate::Result;
 /// [`Evaluator::evaluate_f32`]).
 ///
 /// For [`Pattern::Grid`] `first` is the first patch of the chunk and the samples are
-/// `grid_len(level)` per patch in grid order; for [`Pattern::Points`] `first` is the index
-/// of the first point. Corner samples (b = a unit vector) are the input vertices bit for
+/// `grid_len(level)` per patch in grid order; for [`Pattern::Points`] and [`EdgePairs`]
+/// `first` is the index of the first point. Corner samples (b = a unit vector) are the input vertices bit for
 /// bit, in either precision (f32: the input rounded once).
 pub struct Chunk<'a, V = DVec3> {
     pub first: usize,
@@ -144,6 +147,43 @@ pub fn evaluate_f32_via_f64(
     })
 }
 
+/// Most evaluation points [`evaluate_edges_via_points`] expands at once (8 MiB of
+/// [`PatchPoint`]s).
+pub const EDGE_EXPAND_POINTS: usize = 1 << 18;
+
+/// [`Evaluator::evaluate_edges`] through [`Pattern::Points`]: the points expanded
+/// [`EDGE_EXPAND_POINTS`] at a time, each run evaluated by `evaluator.evaluate` and its
+/// chunks renumbered in the whole pattern. The default of `evaluate_edges`.
+pub fn evaluate_edges_via_points(
+    evaluator: &(impl Evaluator + ?Sized),
+    table: &PatchTable,
+    edges: &EdgePairs,
+    sink: &mut dyn FnMut(Chunk<'_>) -> Result<()>,
+) -> Result<()> {
+    edges.check(table.len())?;
+    let total = edges.len();
+    let mut points = Vec::with_capacity(EDGE_EXPAND_POINTS.min(total));
+    let mut start = 0;
+    while start < total {
+        let end = (start + EDGE_EXPAND_POINTS).min(total);
+        points.clear();
+        edges.points_into(start..end, &mut points);
+        let pattern = Pattern::Points(std::mem::take(&mut points));
+        evaluator.evaluate(table, &pattern, &mut |c| {
+            sink(Chunk {
+                first: start + c.first,
+                positions: c.positions,
+                normals: c.normals,
+            })
+        })?;
+        if let Pattern::Points(p) = pattern {
+            points = p;
+        }
+        start = end;
+    }
+    Ok(())
+}
+
 /// A backend that evaluates positions and unit normals of a patch table.
 pub trait Evaluator {
     /// Which backend and device, for reports ("cpu (2 threads)", the adapter's name, ...).
@@ -168,6 +208,19 @@ pub trait Evaluator {
         sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
     ) -> Result<()> {
         evaluate_f32_via_f64(self, table, pattern, sink)
+    }
+
+    /// Evaluates the edge pattern `edges` on `table` (f64), chunk by chunk in its point
+    /// order: the same values as [`Pattern::Points`] of [`EdgePairs::points`]. The default
+    /// expands the points a bounded run at a time ([`EDGE_EXPAND_POINTS`]) and evaluates
+    /// those; the CPU backend evaluates the pattern directly.
+    fn evaluate_edges(
+        &self,
+        table: &PatchTable,
+        edges: &EdgePairs,
+        sink: &mut dyn FnMut(Chunk<'_>) -> Result<()>,
+    ) -> Result<()> {
+        evaluate_edges_via_points(self, table, edges, sink)
     }
 
     /// Evaluates `pattern` into two whole arrays (convenience for small runs and tests).

@@ -1,4 +1,5 @@
-//! Sample patterns: the barycentric grid of level n and explicit (patch, point) lists.
+//! Sample patterns: the barycentric grid of level n, explicit (patch, point) lists, and the
+//! continuity pattern of shared edges ([`EdgePairs`]).
 
 /// One evaluation point on one patch.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,6 +30,106 @@ impl Pattern {
 
     pub fn is_empty(&self, patches: usize) -> bool {
         self.len(patches) == 0
+    }
+}
+
+/// One use of an edge by a patch: the patch, and the barycentric slots of the edge's start
+/// and end vertex on it (`from != to`, both below 3). At parameter t the point is
+/// `b[from] = 1 − t`, `b[to] = t`, the third coordinate 0.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EdgeSide {
+    pub patch: u32,
+    pub from: u8,
+    pub to: u8,
+}
+
+/// The continuity pattern of shared edges (Table 1 of `spec/EVALUATION.md`): for each pair
+/// (the two uses of one interior edge, walked from the same start vertex), for each sample
+/// i in `0..samples` at t = i / (samples − 1), the point on side 0 then the same point on
+/// side 1. Both ends are exact (t = 0 and t = 1; a single sample is t = 0).
+///
+/// The samples are [`len`](Self::len) = 2 · samples · pairs evaluation points, in exactly
+/// the order of [`points`](Self::points) (so a result index is `2 · (samples · pair + i) +
+/// side`), at 12 bytes per edge instead of an explicit point list's 2 · samples · 32.
+/// Evaluated with [`crate::eval::Evaluator::evaluate_edges`]: the CPU backend computes
+/// the basis once per (from, to, i) and never looks a point up; any backend gives the same
+/// values as [`Pattern::Points`] of [`points`](Self::points).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct EdgePairs {
+    /// Samples per edge, both ends included.
+    pub samples: u32,
+    pub pairs: Vec<[EdgeSide; 2]>,
+}
+
+impl EdgePairs {
+    /// Evaluation points: 2 · samples per pair.
+    pub fn len(&self) -> usize {
+        2 * self.samples as usize * self.pairs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// (1 − t, t) of sample `i`: t = i / (samples − 1), exactly 0 and 1 at the ends.
+    #[inline]
+    pub fn params(&self, i: u32) -> (f64, f64) {
+        let n = self.samples.saturating_sub(1).max(1);
+        ((n - i.min(n)) as f64 / n as f64, i.min(n) as f64 / n as f64)
+    }
+
+    /// Barycentric point of sample `i` on `side`.
+    #[inline]
+    pub fn barycentric(&self, side: EdgeSide, i: u32) -> [f64; 3] {
+        let (s, t) = self.params(i);
+        let mut b = [0.0; 3];
+        b[side.from as usize] = s;
+        b[side.to as usize] = t;
+        b
+    }
+
+    /// Evaluation point `index` (in [`len`](Self::len) order).
+    pub fn point(&self, index: usize) -> PatchPoint {
+        let per = self.samples as usize;
+        let (q, side) = (index / 2, index % 2);
+        let e = self.pairs[q / per][side];
+        PatchPoint {
+            patch: e.patch,
+            b: self.barycentric(e, (q % per) as u32),
+        }
+    }
+
+    /// Appends evaluation points `range` (in [`len`](Self::len) order) to `out`.
+    pub fn points_into(&self, range: std::ops::Range<usize>, out: &mut Vec<PatchPoint>) {
+        out.extend(range.map(|k| self.point(k)));
+    }
+
+    /// Every evaluation point, as an explicit list.
+    pub fn points(&self) -> Vec<PatchPoint> {
+        let mut out = Vec::with_capacity(self.len());
+        self.points_into(0..self.len(), &mut out);
+        out
+    }
+
+    /// Checks every side against a table of `patches` patches.
+    pub fn check(&self, patches: usize) -> crate::Result<()> {
+        for (k, pair) in self.pairs.iter().enumerate() {
+            for e in pair {
+                if e.patch as usize >= patches {
+                    return Err(crate::Error::Invalid(format!(
+                        "edge pair {k}: patch {} of a table of {patches} patches",
+                        e.patch
+                    )));
+                }
+                if e.from == e.to || e.from > 2 || e.to > 2 {
+                    return Err(crate::Error::Invalid(format!(
+                        "edge pair {k}: barycentric slots {} -> {} (two different slots of 0, 1, 2 expected)",
+                        e.from, e.to
+                    )));
+                }
+            }
+        }
+        Ok(())
     }
 }
 

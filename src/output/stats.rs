@@ -7,18 +7,18 @@
 //! cos statistics and reported on their own (`crease_edges`, `crease_max_gap`).
 //!
 //! Everything streams: the edges come from a compact [`EdgeIndex`] (or an [`Adjacency`]),
-//! a chunk of edges at a time gets its evaluation points, the patches of its triangles
-//! (built for the chunk by a [`PatchBuilder`], or read from a whole [`PatchTable`]), one
-//! [`Evaluator::evaluate`] call, and its samples are folded into running statistics. Memory
-//! beyond the mesh is the edge index (4 bytes per half-edge and per vertex, 4 per triangle
-//! for the chunk's patch numbering) and one chunk. The statistics are accumulated in sample
+//! a chunk of edges at a time gets the patches of its triangles (built for the chunk by a
+//! [`PatchBuilder`], or read from a whole [`PatchTable`]), its edge pattern ([`EdgePairs`]:
+//! 12 bytes per edge), one [`Evaluator::evaluate_edges`] call, and its samples are folded
+//! into running statistics. Memory beyond the mesh is the edge index (4 bytes per half-edge
+//! and per vertex, 4 per triangle for the chunk's patch numbering) and one chunk. The statistics are accumulated in sample
 //! order whatever the chunk size, so every chunking gives bitwise the same result.
 
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::eval::{Evaluator, PatchPoint, Pattern};
+use crate::eval::{EdgePairs, EdgeSide, Evaluator, PatchPoint};
 use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
@@ -77,18 +77,30 @@ struct Edge {
 }
 
 impl Edge {
-    fn new(mesh: &Mesh, v: [u32; 2], uses: [EdgeUse; 2]) -> Edge {
-        let crease = v.iter().any(|&x| {
-            normal_key(use_normal(mesh, uses[0], x)) != normal_key(use_normal(mesh, uses[1], x))
-        });
-        Edge { v, uses, crease }
+    /// The edge, its crease flag not yet computed ([`Edge::with_crease`]).
+    fn new(v: [u32; 2], uses: [EdgeUse; 2]) -> Edge {
+        Edge {
+            v,
+            uses,
+            crease: false,
+        }
     }
 
-    /// Its evaluation points into `out` (42): for each t from e.v[0] (t = 0) to e.v[1]
-    /// (t = 1), the point on the first triangle then the same point on the second, which
-    /// are patches `patch[0]` and `patch[1]` of the table evaluated.
-    fn points(&self, triangles: &[[u32; 3]], patch: [u32; 2], out: &mut [PatchPoint]) {
-        for (j, u) in self.uses.iter().enumerate() {
+    /// Sets the crease flag (done for a chunk of edges in parallel: the corner normals are
+    /// scattered reads).
+    fn with_crease(&mut self, mesh: &Mesh) {
+        let (v, uses) = (self.v, self.uses);
+        self.crease = v.iter().any(|&x| {
+            normal_key(use_normal(mesh, uses[0], x)) != normal_key(use_normal(mesh, uses[1], x))
+        });
+    }
+
+    /// Its two uses as edge sides: the barycentric slots of e.v[0] (t = 0) and e.v[1]
+    /// (t = 1) on the first and second triangle, which are patches `patch[0]` and
+    /// `patch[1]` of the table evaluated.
+    fn sides(&self, triangles: &[[u32; 3]], patch: [u32; 2]) -> [EdgeSide; 2] {
+        std::array::from_fn(|j| {
+            let u = self.uses[j];
             let k = u.local as usize;
             // Coordinate slots of the edge's ends v[0] and v[1] on this triangle.
             let (a, b) = if triangles[u.triangle as usize][k] == self.v[0] {
@@ -96,71 +108,46 @@ impl Edge {
             } else {
                 ((k + 1) % 3, k)
             };
-            for (i, &(s, t)) in EDGE_PARAMS.iter().enumerate() {
-                let at = |m: usize| {
-                    if m == a {
-                        s
-                    } else if m == b {
-                        t
-                    } else {
-                        0.0
-                    }
-                };
-                out[2 * i + j] = PatchPoint {
-                    patch: patch[j],
-                    b: [at(0), at(1), at(2)],
-                };
+            EdgeSide {
+                patch: patch[j],
+                from: a as u8,
+                to: b as u8,
             }
-        }
+        })
     }
 }
 
-/// (1 − t, t) at the samples of an edge, t = i / 20: both ends exact.
-const EDGE_PARAMS: [(f64, f64); SAMPLES_PER_EDGE as usize] = {
-    let n = SAMPLES_PER_EDGE - 1;
-    let mut out = [(0.0, 0.0); SAMPLES_PER_EDGE as usize];
-    let mut i = 0;
-    while i <= n {
-        out[i as usize] = ((n - i) as f64 / n as f64, i as f64 / n as f64);
-        i += 1;
-    }
-    out
-};
-
-/// The interior edges of an adjacency.
-fn adjacency_edges<'a>(
-    mesh: &'a Mesh,
-    adjacency: &'a Adjacency,
-) -> impl Iterator<Item = Edge> + 'a {
+/// The interior edges of an adjacency (crease flags not set).
+fn adjacency_edges(adjacency: &Adjacency) -> impl Iterator<Item = Edge> + '_ {
     adjacency
         .interior_edges()
-        .map(move |e| Edge::new(mesh, e.v, [e.uses[0], e.uses[1]]))
+        .map(move |e| Edge::new(e.v, [e.uses[0], e.uses[1]]))
 }
 
-/// The interior edges of an edge index.
-fn index_edges<'a>(mesh: &'a Mesh, index: &'a EdgeIndex<'a>) -> impl Iterator<Item = Edge> + 'a {
+/// The interior edges of an edge index (crease flags not set).
+fn index_edges<'a>(index: &'a EdgeIndex<'a>) -> impl Iterator<Item = Edge> + 'a {
     index
         .edges()
         .filter(|e| e.is_interior())
-        .map(move |e| Edge::new(mesh, e.v, [e.use_at(0), e.use_at(1)]))
+        .map(move |e| Edge::new(e.v, [e.use_at(0), e.use_at(1)]))
 }
 
 /// The evaluation points of every interior edge: for each edge and each t, the point on the
-/// first triangle then the same point on the second (patch = triangle index).
+/// first triangle then the same point on the second (patch = triangle index), as
+/// [`edge_pairs`] lists them.
 pub fn edge_points(mesh: &Mesh, adjacency: &Adjacency) -> Vec<PatchPoint> {
-    let mut out = Vec::with_capacity(adjacency.interior * POINTS_PER_EDGE);
-    for e in adjacency_edges(mesh, adjacency) {
-        let at = out.len();
-        out.resize(
-            at + POINTS_PER_EDGE,
-            PatchPoint {
-                patch: 0,
-                b: [0.0; 3],
-            },
-        );
-        e.points(&mesh.triangles, e.uses.map(|u| u.triangle), &mut out[at..]);
+    edge_pairs(mesh, adjacency).points()
+}
+
+/// The edge pattern of every interior edge ([`SAMPLES_PER_EDGE`] samples each, patch =
+/// triangle index), crease edges included.
+pub fn edge_pairs(mesh: &Mesh, adjacency: &Adjacency) -> EdgePairs {
+    EdgePairs {
+        samples: SAMPLES_PER_EDGE,
+        pairs: adjacency_edges(adjacency)
+            .map(|e| e.sides(&mesh.triangles, e.uses.map(|u| u.triangle)))
+            .collect(),
     }
-    out
 }
 
 /// Edge samples (pairs of evaluations) per block of the running statistics: 48 edges.
@@ -410,7 +397,10 @@ fn run(
     let mut fold = Fold::new();
     let mut crease_edges = 0;
     let mut batch: Vec<Edge> = Vec::with_capacity(chunk_edges.min(CHUNK_EDGES));
-    let mut points: Vec<PatchPoint> = Vec::new();
+    let mut edges_pattern = EdgePairs {
+        samples: SAMPLES_PER_EDGE,
+        pairs: Vec::with_capacity(chunk_edges.min(CHUNK_EDGES)),
+    };
     // Per triangle: its patch in the chunk's table, or one of the marks above.
     let mut slot: Vec<u32> = match patches {
         Patches::Table(_) => Vec::new(),
@@ -433,6 +423,10 @@ fn run(
         if batch.is_empty() {
             break;
         }
+        batch
+            .par_iter_mut()
+            .with_min_len(1024)
+            .for_each(|e| e.with_crease(mesh));
         crease_edges += batch.iter().filter(|e| e.crease).count();
         let table = match patches {
             Patches::Table(t) => t,
@@ -459,26 +453,15 @@ fn run(
                 &built
             }
         };
-        points.resize(
-            batch.len() * POINTS_PER_EDGE,
-            PatchPoint {
-                patch: 0,
-                b: [0.0; 3],
-            },
-        );
         let slot_ref = &slot;
-        points
-            .par_chunks_mut(POINTS_PER_EDGE)
-            .zip(batch.par_iter())
-            .with_min_len(256)
-            .for_each(|(out, e)| {
-                let patch = e.uses.map(|u| match patches {
-                    Patches::Table(_) => u.triangle,
-                    Patches::Builder(_) => slot_ref[u.triangle as usize],
-                });
-                e.points(triangles, patch, out);
+        edges_pattern.pairs.clear();
+        edges_pattern.pairs.extend(batch.iter().map(|e| {
+            let patch = e.uses.map(|u| match patches {
+                Patches::Table(_) => u.triangle,
+                Patches::Builder(_) => slot_ref[u.triangle as usize],
             });
-        let pattern = Pattern::Points(std::mem::take(&mut points));
+            e.sides(triangles, patch)
+        }));
         let mut pending: Option<(DVec3, DVec3)> = None;
         let mut next = 0usize;
         let first_pair = fold.pairs;
@@ -487,7 +470,7 @@ fn run(
                 .get((i - first_pair) / SAMPLES_PER_EDGE as usize)
                 .is_some_and(|e| e.crease)
         };
-        evaluator.evaluate(table, &pattern, &mut |chunk| {
+        evaluator.evaluate_edges(table, &edges_pattern, &mut |chunk| {
             let (mut pos, mut nrm) = (chunk.positions, chunk.normals);
             if chunk.first != next || pos.len() != nrm.len() {
                 return Err(Error::Invalid(format!(
@@ -507,9 +490,6 @@ fn run(
             }
             Ok(())
         })?;
-        if let Pattern::Points(p) = pattern {
-            points = p;
-        }
         let expected = batch.len() * SAMPLES_PER_EDGE as usize;
         if fold.pairs - first_pair != expected || pending.is_some() {
             return Err(Error::Invalid(format!(
@@ -553,7 +533,7 @@ pub fn continuity(
             ),
         ));
     }
-    let mut edges = adjacency_edges(mesh, adjacency);
+    let mut edges = adjacency_edges(adjacency);
     Ok(run(
         mesh,
         &mut edges,
@@ -599,7 +579,7 @@ impl<'m> EdgeStats<'m> {
                 "statistics: the patch builder belongs to another mesh".into(),
             ));
         }
-        let mut edges = index_edges(self.mesh, &self.index);
+        let mut edges = index_edges(&self.index);
         run(
             self.mesh,
             &mut edges,

@@ -569,7 +569,9 @@ impl<'a> PatchBuilder<'a> {
         };
         table.points.resize(n * stride, DVec3::ZERO);
         table.flat_normals.resize(n, DVec3::ZERO);
-        table.fallbacks = table
+        // Fallbacks counted, and whether any control point is not finite (checked while
+        // the patch is in cache; the first such one is looked up only on failure).
+        let (fallbacks, bad) = table
             .points
             .par_chunks_mut(stride)
             .zip(table.flat_normals.par_iter_mut())
@@ -579,14 +581,15 @@ impl<'a> PatchBuilder<'a> {
                 let tri = mesh.triangles[t];
                 *flat = crate::mesh::normals::face_normal(tri.map(|v| mesh.positions[v as usize]));
                 let f = self.inner.build(t, out);
-                if i < counted {
-                    f
-                } else {
-                    0
-                }
+                let bad = !out.iter().all(|p| p.is_finite());
+                (if i < counted { f } else { 0 }, bad)
             })
-            .sum();
-        if let Some(i) = table.points.par_iter().position_first(|p| !p.is_finite()) {
+            .reduce(|| (0, false), |a, b| (a.0 + b.0, a.1 || b.1));
+        table.fallbacks = fallbacks;
+        if let Some(i) = bad
+            .then(|| table.points.iter().position(|p| !p.is_finite()))
+            .flatten()
+        {
             return Err(Error::mesh(
                 &mesh.name,
                 format!(
