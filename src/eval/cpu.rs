@@ -127,8 +127,18 @@ impl Evaluator for CpuEvaluator {
                             || crate::patch::basis::WeightMemo::new(table.kind),
                             |memo, ((p, n), pts)| {
                                 for ((p, n), pp) in p.iter_mut().zip(n.iter_mut()).zip(pts) {
-                                    let sp = table.eval_sparse(pp.patch as usize, memo.get(pp.b));
-                                    *p = sp.p;
+                                    let i = pp.patch as usize;
+                                    let sp = table.eval_sparse(i, memo.get(pp.b));
+                                    // A corner is the input vertex bit for bit (as on the
+                                    // grid and edge paths), whatever the sums give.
+                                    let corner =
+                                        pp.b.iter()
+                                            .position(|&x| x == 1.0)
+                                            .filter(|&k| (0..3).all(|j| j == k || pp.b[j] == 0.0));
+                                    *p = match corner {
+                                        Some(k) => table.corner(i, k),
+                                        None => sp.p,
+                                    };
                                     *n = sp.n;
                                 }
                             },
