@@ -134,7 +134,34 @@ pub fn normalize_args(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> 
     out
 }
 
+/// Mesa's Vulkan loader prints "error: XDG_RUNTIME_DIR is invalid or not set" to every user
+/// whose session has no runtime directory (containers, ssh, CI), though nothing is wrong.
+/// Where the variable is unset, point it at a private directory of our own, as the
+/// freedesktop spec asks (owned by the user, mode 0700). Runs first, before any thread
+/// exists, so changing the environment is safe.
+fn quiet_vulkan_loader() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::{DirBuilderExt, MetadataExt, PermissionsExt};
+        let uid = std::fs::metadata("/proc/self")
+            .map(|m| m.uid())
+            .unwrap_or(0);
+        let dir = std::env::temp_dir().join(format!("g1tess-xdg-{uid}"));
+        let _ = std::fs::DirBuilder::new().mode(0o700).create(&dir);
+        let ours = std::fs::symlink_metadata(&dir)
+            .is_ok_and(|m| m.is_dir() && m.uid() == uid && m.permissions().mode() & 0o777 == 0o700);
+        if ours {
+            // SAFETY: called at the start of main, before any other thread is started.
+            unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
+        }
+    }
+}
+
 pub fn main() -> ExitCode {
+    quiet_vulkan_loader();
     install_signal_handler();
     let cli = Cli::parse_from(normalize_args(std::env::args_os().collect()));
     match run(cli) {
