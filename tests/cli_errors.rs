@@ -226,3 +226,36 @@ fn tessellate_writes_a_readable_obj() {
         assert!((r - 1.0).abs() < 2e-4, "{l}");
     }
 }
+
+#[test]
+fn devices_and_endless_lines_are_refused_in_one_line() {
+    // /dev/zero never ends and holds no newline: refused before reading, exit 1.
+    let err = fails(&["stats", "/dev/zero"]);
+    assert!(err.contains("/dev/zero: not a regular file"), "{err}");
+    let p = tmp("zeros.obj", &"\0".repeat(3 << 20));
+    let err = fails(&["stats", p.to_str().unwrap()]);
+    assert!(
+        err.contains("zeros.obj:1: line longer than 1 MiB: not a mesh file"),
+        "{err}"
+    );
+    // A huge normal is a direction like any other; collinear faces are dropped and counted.
+    let p = tmp(
+        "huge-normal.obj",
+        &format!("{TRI}v 2 0 0\nvn 1e300 1e300 0\nf 1//1 2//1 3//1\nf 1 2 4\n"),
+    );
+    let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+        .args(["stats", p.to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("\"triangles\":1,"), "{text}");
+    assert!(
+        text.contains("\"degenerate_triangles_dropped\":1,"),
+        "{text}"
+    );
+}

@@ -710,7 +710,7 @@ fn a_large_file_reads_like_its_soup_and_names_lines_deep_inside() {
     let have = (row + 1) * n;
     assert!(
         e.ends_with(&format!(
-            ":{}: face corner '-9999999': vertex index -9999999 out of range (only {have} vertexs so far)",
+            ":{}: face corner '-9999999': vertex index -9999999 out of range (only {have} vertices so far)",
             at + 6
         )),
         "{e}"
@@ -718,7 +718,7 @@ fn a_large_file_reads_like_its_soup_and_names_lines_deep_inside() {
     let e = fails("sheet-forward.obj", &|l| l[at + 7] = "f 1 2 9999999".into());
     assert!(
         e.ends_with(&format!(
-            ":{}: vertex index 9999999 out of range (the file has {} vertices)",
+            ":{}: face corner '9999999': vertex index 9999999 out of range (the file has {} vertices)",
             at + 8,
             n * n
         )),
@@ -729,7 +729,7 @@ fn a_large_file_reads_like_its_soup_and_names_lines_deep_inside() {
     });
     assert!(
         e.ends_with(&format!(
-            ":{}: normal index 999999 out of range (the file has {} normals)",
+            ":{}: face corner '3//999999': normal index 999999 out of range (the file has {} normals)",
             at + 10,
             n * n
         )),
@@ -811,4 +811,269 @@ fn a_large_point_normal_file_reads_like_its_soup_and_names_lines_deep_inside() {
         e.ends_with(&format!(":{deep}: a second 'counts' line")),
         "{e}"
     );
+}
+
+/// Loads `text` as a file named `name`, expecting an error; returns its message.
+fn load_err(name: &str, text: impl AsRef<[u8]>) -> String {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mesh_input");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    Mesh::load(p.to_str().unwrap(), &LoadOptions::default())
+        .unwrap_err()
+        .to_string()
+}
+
+/// Every scheme's patches on `m`, evaluated at corners, edge midpoints and the centre: all
+/// finite, normals unit.
+fn patches_are_finite(m: &Mesh) {
+    use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+    for scheme in Scheme::all() {
+        let table = PatchTable::build(m, scheme, &SchemeOptions::default())
+            .unwrap_or_else(|e| panic!("{scheme:?} on {}: {e}", m.name));
+        for i in 0..table.len() {
+            for b in [[1.0, 0.0, 0.0], [0.5, 0.5, 0.0], [1.0 / 3.0; 3]] {
+                let sp = table.eval(i, b);
+                assert!(sp.p.is_finite(), "{scheme:?} {} patch {i}", m.name);
+                // Unit normals up to rounding of one normalisation.
+                assert!(
+                    (sp.n.length() - 1.0).abs() < 1e-12,
+                    "{scheme:?} {} patch {i}: {}",
+                    m.name,
+                    sp.n
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn huge_and_subnormal_normals_are_normalised_in_every_reader() {
+    // Lengths overflow (1e300·√2) or underflow (1e-320 squared) if computed directly.
+    let s = 0.5f64.sqrt();
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 1e300 1e300 0\nvn 0 0 1e-320\n\
+                f 1//1 2//2 3//2\n";
+    let m = load_path(&write_obj("huge-vn.obj", text), &LoadOptions::default());
+    // Within rounding of one normalisation (1e-15, a few ulps).
+    assert!((m.corner_normals[0][0] - DVec3::new(s, s, 0.0)).length() < 1e-15);
+    assert_eq!(m.corner_normals[0][1], DVec3::Z);
+    let pn = "g1tess-pn 1\ncounts 3 1 0\nv 0 0 0 1e300 1e300 0\nv 1 0 0 0 0 1e-320\n\
+              v 0 1 0 0 0 -1e308\nt 0 1 2\n";
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mesh_input");
+    std::fs::write(dir.join("huge-vn.pn"), pn).unwrap();
+    let m = load_path(&dir.join("huge-vn.pn"), &LoadOptions::default());
+    assert!((m.corner_normals[0][0] - DVec3::new(s, s, 0.0)).length() < 1e-15);
+    assert_eq!(m.corner_normals[0][1], DVec3::Z);
+    assert_eq!(m.corner_normals[0][2], -DVec3::Z);
+    let p = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let n = [[1e300, 1e300, 0.0], [0.0, 0.0, 1e-320], [0.0, 0.0, 1e308]];
+    let m = Mesh::from_soup("soup", &p, &[[0, 1, 2]], Some(&n), &LoadOptions::default()).unwrap();
+    assert!((m.corner_normals[0][0] - DVec3::new(s, s, 0.0)).length() < 1e-15);
+    assert_eq!(m.corner_normals[0][1..], [DVec3::Z, DVec3::Z]);
+    // Zero stays an error, naming the line.
+    let e = load_err("zero-vn.obj", "v 0 0 0\nvn 0 0 0\n");
+    assert!(e.ends_with("zero-vn.obj:2: zero-length normal"), "{e}");
+}
+
+/// A regular tetrahedron's corners scaled by `s`, as OBJ text.
+fn tetra_obj(s: &str) -> String {
+    format!("v 0 0 0\nv {s} 0 0\nv 0 {s} 0\nv 0 0 {s}\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+}
+
+#[test]
+fn extreme_coordinates_work_or_are_refused_naming_the_line() {
+    // Up to 1e75 in magnitude, and down to edges of 1e-75, every scheme's patches are
+    // finite (fourth powers of coordinates stay within f64).
+    for s in ["1e75", "-1e75", "1e-70", "1e-75"] {
+        let m = load_path(
+            &write_obj(&format!("tetra{s}.obj"), &tetra_obj(s)),
+            &LoadOptions::default(),
+        );
+        assert_eq!(m.triangles.len(), 4, "{s}");
+        patches_are_finite(&m);
+    }
+    // Above: refused at the vertex's line, in OBJ, .pn and soups.
+    let e = load_err("tetra-big.obj", tetra_obj("1e200"));
+    assert!(
+        e.ends_with(
+            "tetra-big.obj:2: vertex: coordinate '1e200' above 1e75 in magnitude \
+             (products of such coordinates overflow)"
+        ),
+        "{e}"
+    );
+    let e = load_err(
+        "big.pn",
+        "g1tess-pn 1\ncounts 3 1 0\nv 0 0 0 0 0 1\nv 0 -2e75 0 0 0 1\nv 0 1 0 0 0 1\nt 0 1 2\n",
+    );
+    assert!(
+        e.ends_with("big.pn:4: vertex: coordinate '-2e75' above 1e75 in magnitude (products of such coordinates overflow)"),
+        "{e}"
+    );
+    let e = Mesh::from_soup(
+        "soup",
+        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1e76]],
+        &[[0, 1, 2]],
+        None,
+        &LoadOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.starts_with("soup: vertex 2 has a coordinate above 1e75"),
+        "{e}"
+    );
+    // Below: a triangle whose area underflows f64 has no normal; it is dropped like any
+    // degenerate triangle, and a mesh of nothing else names its first face.
+    let e = load_err("tetra-small.obj", tetra_obj("1e-200"));
+    assert!(
+        e.contains("tetra-small.obj:5: every face is degenerate"),
+        "{e}"
+    );
+    let text = format!(
+        "{}v 5 5 5\nv 5 5 5.5\nv 5 5.5 5\nf 5 6 7\n",
+        tetra_obj("1e-200")
+    );
+    let m = load_path(
+        &write_obj("tetra-small-mixed.obj", &text),
+        &LoadOptions::default(),
+    );
+    assert_eq!(m.triangles.len(), 1);
+    assert_eq!(m.load_report.degenerate_triangles_dropped, 4);
+    assert_eq!(m.load_report.unused_vertices_dropped, 4);
+}
+
+#[test]
+fn collinear_triangles_are_dropped_and_counted_in_every_reader() {
+    // Triangle 2 has three distinct but collinear corners: no normal, dropped.
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
+    let m = load_path(&write_obj("collinear.obj", text), &LoadOptions::default());
+    assert_eq!(m.triangles.len(), 1);
+    assert_eq!(m.positions.len(), 3);
+    assert_eq!(m.load_report.degenerate_triangles_dropped, 1);
+    assert_eq!(m.load_report.unused_vertices_dropped, 1);
+    assert!(m.corner_normals[0].iter().all(|&n| n == DVec3::Z));
+    let pn = "g1tess-pn 1\ncounts 4 2 0\nv 0 0 0 0 0 1\nv 1 0 0 0 0 1\nv 0 1 0 0 0 1\n\
+              v 2 0 0 0 0 1\nt 0 1 2\nt 0 1 3\n";
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mesh_input");
+    std::fs::write(dir.join("collinear.pn"), pn).unwrap();
+    let m = load_path(&dir.join("collinear.pn"), &LoadOptions::default());
+    assert_eq!(
+        (
+            m.triangles.len(),
+            m.load_report.degenerate_triangles_dropped
+        ),
+        (1, 1)
+    );
+    let p = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [2.0, 0.0, 0.0],
+    ];
+    let m = Mesh::from_soup(
+        "s",
+        &p,
+        &[[0, 1, 2], [0, 1, 3]],
+        None,
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(
+        (
+            m.triangles.len(),
+            m.load_report.degenerate_triangles_dropped
+        ),
+        (1, 1)
+    );
+    // Only collinear faces: an error naming the first one.
+    let e = load_err(
+        "all-collinear.obj",
+        "v 0 0 0\nv 1 1 1\nv 3 3 3\n\nf 1 2 3\n",
+    );
+    assert!(
+        e.contains("all-collinear.obj:5: every face is degenerate"),
+        "{e}"
+    );
+}
+
+#[test]
+fn texture_indices_out_of_range_are_refused_both_ways() {
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\n";
+    let e = load_err("vt-pos.obj", format!("{tri}f 1/1 2/2 3/1\n"));
+    assert!(
+        e.ends_with(
+            "vt-pos.obj:5: face corner '2/2': texture coordinate index 2 out of range \
+             (the file has 1 texture coordinates)"
+        ),
+        "{e}"
+    );
+    let e = load_err("vt-neg.obj", format!("{tri}f 1/-2 2/1 3/1\n"));
+    assert!(
+        e.ends_with(
+            "vt-neg.obj:5: face corner '1/-2': texture coordinate index -2 out of range \
+             (only 1 texture coordinates so far)"
+        ),
+        "{e}"
+    );
+    // A forward reference that the file fills later is fine.
+    let m = load_path(
+        &write_obj("vt-forward.obj", &format!("{tri}f 1/2 2/1 3/1\nvt 1 1\n")),
+        &LoadOptions::default(),
+    );
+    assert_eq!(m.triangles.len(), 1);
+    // Plurals are words ("vertices"), for every kind.
+    let e = load_err("v-neg.obj", "v 0 0 0\nf 1 -2 -1\n");
+    assert!(
+        e.ends_with(
+            "v-neg.obj:2: face corner '-2': vertex index -2 out of range (only 1 vertices so far)"
+        ),
+        "{e}"
+    );
+    let e = load_err("v-pos.obj", "v 0 0 0\nf 1 2 1\n");
+    assert!(e.ends_with("(the file has 1 vertices)"), "{e}");
+}
+
+#[test]
+fn long_lines_and_files_that_are_not_regular_are_refused() {
+    // A 2 MiB line in the middle of a file, and a 10 MiB file without a newline.
+    let long = format!("v 0 0 0\n# {}\nv 1 0 0\n", "x".repeat(2 << 20));
+    let e = load_err("long-line.obj", &long);
+    assert!(
+        e.ends_with("long-line.obj:2: line longer than 1 MiB: not a mesh file"),
+        "{e}"
+    );
+    let e = load_err("no-newline.obj", vec![0u8; 10 << 20]);
+    assert!(
+        e.ends_with("no-newline.obj:1: line longer than 1 MiB: not a mesh file"),
+        "{e}"
+    );
+    // A line continued past the bound: named by its first line.
+    let cont = format!(
+        "v 0 0 0\nf 1 \\\n{}",
+        format!("{} \\\n", "1".repeat(1000)).repeat(1100)
+    );
+    let e = load_err("continued.obj", &cont);
+    assert!(
+        e.ends_with("continued.obj:2: line longer than 1 MiB: not a mesh file"),
+        "{e}"
+    );
+    let pn = format!("g1tess-pn 1\ncounts 0 0 0\n#{}", "y".repeat(3 << 20));
+    let e = load_err("long.pn", &pn);
+    assert!(
+        e.ends_with("long.pn:3: line longer than 1 MiB: not a mesh file"),
+        "{e}"
+    );
+    // A character device that never ends, and a directory: refused before reading.
+    for spec in ["/dev/zero", "/dev/null"] {
+        let e = Mesh::load(spec, &LoadOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with(&format!("{spec}: not a regular file")), "{e}");
+    }
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mesh_input/dir.pn");
+    std::fs::create_dir_all(&dir).unwrap();
+    let e = Mesh::load(dir.to_str().unwrap(), &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("dir.pn: not a regular file"), "{e}");
 }

@@ -40,7 +40,8 @@ pub struct LoadReport {
     pub unused_vertices_dropped: usize,
     /// Input vertices merged into another one at the same position.
     pub vertices_welded: usize,
-    /// Triangles dropped because two of their corners are the same welded vertex.
+    /// Triangles dropped because two of their corners are the same welded vertex, or their
+    /// corners are collinear (no area in f64, so no normal).
     pub degenerate_triangles_dropped: usize,
     /// Polygons with more than three corners that were triangulated.
     pub polygons_triangulated: usize,
@@ -123,11 +124,13 @@ impl Mesh {
     /// holds one: `positions`, `triangles` indexing them (counter-clockwise seen from the
     /// outside) and, optionally, one normal per position.
     ///
-    /// The input is checked first: a non-finite coordinate, a zero or non-finite normal, a
+    /// The input is checked first: a non-finite coordinate or one above
+    /// [`normals::MAX_COORD`] in magnitude, a zero or non-finite normal, a
     /// normal count that differs from the position count or a triangle index out of range is
     /// an error naming the element (`"NAME: vertex 12 has a non-finite coordinate"`). The soup
     /// is then welded exactly like file input ([`weld::weld`]: equal coordinates, `-0.0`
-    /// equal to `0.0`, so a split-vertex mesh comes out closed); triangles that collapse and
+    /// equal to `0.0`, so a split-vertex mesh comes out closed); triangles that collapse or
+    /// have no area (collinear corners) and
     /// unused vertices are dropped and counted in [`Mesh::load_report`]. Each corner keeps
     /// the normal given for its input vertex (renormalised), so split normals survive the
     /// weld; without normals they are estimated with `opts.weighting`. The options'
@@ -164,6 +167,19 @@ impl Mesh {
                 format!("vertex {i} has a non-finite coordinate"),
             ));
         }
+        if let Some(i) = positions
+            .iter()
+            .position(|p| p.abs().max_element() > normals::MAX_COORD)
+        {
+            return Err(Error::mesh(
+                &name,
+                format!(
+                    "vertex {i} has a coordinate above {:e} in magnitude (products of such \
+                     coordinates overflow)",
+                    normals::MAX_COORD
+                ),
+            ));
+        }
         let nv = positions.len();
         if let Some((t, v)) = triangles
             .iter()
@@ -192,16 +208,9 @@ impl Mesh {
                 n.iter()
                     .enumerate()
                     .map(|(i, &n)| {
-                        let n: DVec3 = n.into();
-                        let len = n.length();
-                        if len == 0.0 || !len.is_finite() {
-                            Err(Error::mesh(
-                                &name,
-                                format!("normal {i} is zero or non-finite"),
-                            ))
-                        } else {
-                            Ok(n / len)
-                        }
+                        normals::unit(n.into()).ok_or_else(|| {
+                            Error::mesh(&name, format!("normal {i} is zero or non-finite"))
+                        })
                     })
                     .collect::<Result<_>>()?,
             ),
@@ -310,8 +319,21 @@ pub(crate) mod text {
 
     use crate::{Error, Result};
 
-    /// Bytes read per chunk (a chunk grows past this only for one longer statement).
+    /// Bytes read per chunk.
     pub const CHUNK: usize = 8 << 20;
+
+    /// The longest statement (line, or lines joined by continuations) a mesh file may hold:
+    /// a longer one is not mesh data (and reading it whole would be unbounded).
+    pub const MAX_LINE: usize = 1 << 20;
+
+    /// The error for a statement longer than [`MAX_LINE`] starting at `line`.
+    pub fn too_long(path: &Path, line: usize) -> Error {
+        Error::parse(
+            path,
+            line,
+            format!("line longer than {} MiB: not a mesh file", MAX_LINE >> 20),
+        )
+    }
 
     /// Whether the terminator byte at `i` (`\n` or `\r`) ends a statement: not the `\r` of a
     /// `\r\n`, not a `\r` that may be followed by `\n` in data not yet read, and not the end
@@ -387,12 +409,25 @@ pub(crate) mod text {
     /// Reads `path` chunk by chunk, each chunk ending at a statement boundary (a UTF-8 BOM at
     /// the start dropped), and hands each to `f` in order with the number of its first line;
     /// `f` returns how many lines the chunk holds. The next chunk is read while `f` works.
+    ///
+    /// Only regular files are read: the readers read a file a second time to name the line
+    /// of a defect, which a pipe or device cannot give, and a device such as `/dev/zero`
+    /// never ends. A statement longer than [`MAX_LINE`] is an error naming its line, so
+    /// memory stays bounded whatever the file holds.
     pub fn for_each_chunk<F>(path: &Path, mut f: F) -> Result<()>
     where
         F: FnMut(&[u8], usize) -> Result<usize> + Send,
     {
         let io = |e| Error::io(path, e);
         let mut file = std::fs::File::open(path).map_err(io)?;
+        let meta = file.metadata().map_err(io)?;
+        if !meta.is_file() {
+            return Err(Error::Invalid(format!(
+                "{}: not a regular file (a mesh is read from a file, which is read twice \
+                 when it holds an error; save a pipe or device to a file first)",
+                path.display()
+            )));
+        }
         let mut cur = Vec::new();
         let mut eof = fill(&mut file, &mut cur, CHUNK).map_err(io)?;
         if cur.starts_with(b"\xef\xbb\xbf") {
@@ -404,6 +439,8 @@ pub(crate) mod text {
                 cur.len()
             } else if let Some(c) = last_boundary(&cur) {
                 c
+            } else if cur.len() > MAX_LINE {
+                return Err(too_long(path, line));
             } else {
                 // One statement longer than a chunk: read on.
                 eof = fill(&mut file, &mut cur, CHUNK).map_err(io)?;
@@ -450,7 +487,9 @@ pub(crate) mod text {
     /// Calls `f(line, statement)` for each statement of `text` (lines end with `\n`, `\r\n`
     /// or `\r`; with `continuation`, a backslash at the end of a line continues the statement
     /// on the next, also at the end of the text). Returns the number of lines.
+    /// A statement longer than [`MAX_LINE`] is an error (from [`too_long`]).
     pub fn statements(
+        path: &Path,
         text: &str,
         first_line: usize,
         continuation: bool,
@@ -463,6 +502,16 @@ pub(crate) mod text {
         let mut pending_line = 0;
         while i < b.len() {
             let mut j = find_eol(b, i);
+            if j - i + pending.len() > MAX_LINE {
+                return Err(too_long(
+                    path,
+                    if pending.is_empty() {
+                        line
+                    } else {
+                        pending_line
+                    },
+                ));
+            }
             let content = &text[i..j];
             let continued = continuation && j > i && b[j - 1] == b'\\';
             if let Some(body) = continued.then(|| &text[i..j - 1]) {
@@ -583,6 +632,7 @@ pub(crate) mod text {
 
     /// Whitespace-separated tokens of a statement up to a `#` comment. ASCII statements are
     /// split on ASCII blanks; others on Unicode whitespace.
+    #[derive(Clone)]
     pub enum Tokens<'a> {
         Ascii(&'a str, usize),
         Unicode(std::str::SplitWhitespace<'a>),
@@ -730,7 +780,7 @@ mod tests {
     fn statements_follow_every_line_ending_and_continuations() {
         let collect = |text: &str| {
             let mut out = Vec::new();
-            let n = statements(text, 1, true, |line, s| {
+            let n = statements(std::path::Path::new("t"), text, 1, true, |line, s| {
                 out.push((line, s.to_string()));
                 Ok(())
             })
@@ -757,7 +807,7 @@ mod tests {
             let mut line = 1;
             for p in &pieces {
                 let p = std::str::from_utf8(p).unwrap();
-                line += statements(p, line, true, |l, s| {
+                line += statements(std::path::Path::new("t"), p, line, true, |l, s| {
                     all.push((l, s.to_string()));
                     Ok(())
                 })

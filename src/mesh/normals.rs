@@ -65,6 +65,40 @@ pub fn corner_weights(p: [DVec3; 3], weighting: NormalWeighting) -> Option<(DVec
     Some((cross / len, w))
 }
 
+/// Largest coordinate magnitude a mesh may hold. Normals and patches take lengths of cross
+/// products of edges, fourth powers of coordinates: below this bound they stay finite in
+/// f64 (edges up to 2e75, cross products up to about 1.2e151, their squares about 1.4e302).
+pub const MAX_COORD: f64 = 1e75;
+
+/// `n` scaled to unit length, computed without overflow or underflow (huge and subnormal
+/// finite vectors work); `None` for a zero or non-finite vector.
+pub fn unit(n: DVec3) -> Option<DVec3> {
+    if !n.is_finite() {
+        return None;
+    }
+    // The plain quotient where the squared length is a normal finite f64 (the common case,
+    // unchanged bit for bit); scaled by the largest component first elsewhere.
+    let len = n.length();
+    if len.is_finite() && len >= 1e-150 {
+        return Some(n / len);
+    }
+    let m = n.abs().max_element();
+    if m == 0.0 {
+        return None;
+    }
+    let s = n / m;
+    Some(s / s.length())
+}
+
+/// Whether a triangle has an area, so a normal: the squared length of the cross product of
+/// its edges is finite and at least the smallest normal f64. Repeated or collinear corners,
+/// and triangles so small that their squared area underflows (edges below about 1e-77),
+/// have none.
+pub fn has_area(p: [DVec3; 3]) -> bool {
+    let sq = (p[1] - p[0]).cross(p[2] - p[0]).length_squared();
+    sq.is_finite() && sq >= f64::MIN_POSITIVE
+}
+
 /// Unit normal of a flat triangle (zero for a degenerate one).
 pub fn face_normal(p: [DVec3; 3]) -> DVec3 {
     (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()

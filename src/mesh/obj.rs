@@ -32,6 +32,7 @@ const V: usize = 0;
 const VT: usize = 1;
 const VN: usize = 2;
 const WHAT: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+const PLURAL: [&str; 3] = ["vertices", "texture coordinates", "normals"];
 
 /// What one block of statements holds.
 #[derive(Default)]
@@ -44,8 +45,8 @@ struct Block {
     tris: Vec<[i64; 3]>,
     tri_normals: Vec<[i64; 3]>,
     polygons: usize,
-    /// Largest absolute position and normal index (-1 if none).
-    max_abs: [i64; 2],
+    /// Largest absolute index of each kind (-1 if none).
+    max_abs: [i64; 3],
     /// Smallest relative index of each kind (0 if none): it must not reach before the file.
     min_rel: [i64; 3],
 }
@@ -55,9 +56,8 @@ struct Block {
 struct Mode {
     /// Counts before the block when known (sequential pass): indices resolve exactly.
     base: Option<Counts>,
-    /// The file's final position and normal counts, when a sequential pass checks forward
-    /// references.
-    totals: Option<[usize; 2]>,
+    /// The file's final counts, when a sequential pass checks forward references.
+    totals: Option<Counts>,
 }
 
 /// Outcome of a pass: a parallel pass only learns that something is wrong.
@@ -75,7 +75,7 @@ impl From<Error> for Fail {
 impl Block {
     fn new() -> Block {
         Block {
-            max_abs: [-1; 2],
+            max_abs: [-1; 3],
             ..Default::default()
         }
     }
@@ -97,16 +97,22 @@ impl Block {
         };
         match kw.as_bytes() {
             b"v" => {
-                let p = numbers::<3>(tok, "vertex", &err)?;
+                let p = numbers::<3>(tok.clone(), "vertex", &err)?;
+                if let Some(k) = p.iter().position(|x| x.abs() > normals::MAX_COORD) {
+                    let s = tok.nth(k).unwrap_or_default();
+                    return Err(err(format!(
+                        "vertex: coordinate '{}' above {:e} in magnitude (products of such \
+                         coordinates overflow)",
+                        echo(s),
+                        normals::MAX_COORD
+                    )));
+                }
                 self.positions.push(DVec3::from_array(p));
             }
             b"vn" => {
                 let n = DVec3::from_array(numbers::<3>(tok, "normal", &err)?);
-                let len = n.length();
-                if len == 0.0 || !len.is_finite() {
-                    return Err(err("zero-length normal".into()));
-                }
-                self.normals.push(n / len);
+                let n = normals::unit(n).ok_or_else(|| err("zero-length normal".into()))?;
+                self.normals.push(n);
             }
             b"vt" => {
                 numbers::<1>(tok, "texture coordinate", &err)?;
@@ -184,18 +190,17 @@ impl Block {
         let what = WHAT[slot];
         if k > 0 {
             let abs = k - 1;
-            if slot != VT {
-                let a = usize::from(slot == VN);
-                if let Some(total) = mode.totals.map(|t| t[a]) {
-                    if abs as u64 >= total as u64 {
-                        return Err(err(format!(
-                            "{what} index {k} out of range (the file has {total} {})",
-                            if slot == V { "vertices" } else { "normals" }
-                        )));
-                    }
+            if let Some(total) = mode.totals.map(|t| t[slot]) {
+                if abs as u64 >= total as u64 {
+                    return Err(err(format!(
+                        "face corner '{}': {what} index {k} out of range (the file has \
+                         {total} {})",
+                        echo(c),
+                        PLURAL[slot]
+                    )));
                 }
-                self.max_abs[a] = self.max_abs[a].max(abs);
             }
+            self.max_abs[slot] = self.max_abs[slot].max(abs);
             return Ok(abs);
         }
         if k == 0 {
@@ -210,8 +215,9 @@ impl Block {
                 let have = base[slot] + local;
                 if k.unsigned_abs() > have as u64 {
                     return Err(err(format!(
-                        "face corner '{}': {what} index {k} out of range (only {have} {what}s so far)",
-                        echo(c)
+                        "face corner '{}': {what} index {k} out of range (only {have} {} so far)",
+                        echo(c),
+                        PLURAL[slot]
                     )));
                 }
                 Ok(have as i64 + k)
@@ -259,7 +265,7 @@ struct Raw {
     /// Normal index of each corner, `u32::MAX` for none.
     tri_normals: Vec<[u32; 3]>,
     polygons: usize,
-    max_abs: [i64; 2],
+    max_abs: [i64; 3],
 }
 
 impl Raw {
@@ -294,7 +300,7 @@ impl Raw {
         self.normals.extend_from_slice(&b.normals);
         self.texcoords += b.texcoords;
         self.polygons += b.polygons;
-        self.max_abs = [0, 1].map(|a| self.max_abs[a].max(b.max_abs[a]));
+        self.max_abs = [0, 1, 2].map(|a| self.max_abs[a].max(b.max_abs[a]));
         Ok(())
     }
 
@@ -312,7 +318,7 @@ impl Raw {
 
 /// One pass over the file: parallel (`totals` = None, any defect gives `Retry`) or
 /// sequential (exact errors).
-fn pass(path: &Path, parallel: bool, totals: Option<[usize; 2]>) -> std::result::Result<Raw, Fail> {
+fn pass(path: &Path, parallel: bool, totals: Option<Counts>) -> std::result::Result<Raw, Fail> {
     let file_len = std::fs::metadata(path)
         .map_err(|e| Error::io(path, e))?
         .len();
@@ -323,7 +329,7 @@ fn pass(path: &Path, parallel: bool, totals: Option<[usize; 2]>) -> std::result:
         tris: Vec::new(),
         tri_normals: Vec::new(),
         polygons: 0,
-        max_abs: [-1; 2],
+        max_abs: [-1; 3],
     };
     let mut read = 0usize;
     let mut retry = false;
@@ -349,9 +355,10 @@ fn pass(path: &Path, parallel: bool, totals: Option<[usize; 2]>) -> std::result:
                     };
                     let mut b = Block::new();
                     let text = std::str::from_utf8(piece).ok()?;
-                    let n =
-                        text::statements(text, 0, true, |line, s| b.statement(path, mode, line, s))
-                            .ok()?;
+                    let n = text::statements(path, text, 0, true, |line, s| {
+                        b.statement(path, mode, line, s)
+                    })
+                    .ok()?;
                     Some((b, n))
                 })
                 .collect();
@@ -373,7 +380,7 @@ fn pass(path: &Path, parallel: bool, totals: Option<[usize; 2]>) -> std::result:
                     totals,
                 };
                 let mut b = Block::new();
-                lines += text::statements(text, first_line + lines, true, |line, s| {
+                lines += text::statements(path, text, first_line + lines, true, |line, s| {
                     b.statement(path, mode, line, s)
                 })?;
                 if raw.join(b).is_err() {
@@ -419,8 +426,8 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
     };
     // Positive indices may point forward; check them against the final counts (a second,
     // sequential pass names the first face that is out of range).
-    let totals = [raw.positions.len(), raw.normals.len()];
-    if raw.max_abs[0] >= totals[0] as i64 || raw.max_abs[1] >= totals[1] as i64 {
+    let totals = raw.counts();
+    if (0..3).any(|k| raw.max_abs[k] >= totals[k] as i64) {
         sequential(Some(totals))?;
         return Err(Error::Invalid(format!(
             "{}: internal error: an index out of range was not found again",
@@ -428,6 +435,21 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
         )));
     }
     build(path, raw, opts)
+}
+
+/// The line of the file's first face (a second, sequential read: for an error message).
+fn first_face_line(path: &Path) -> Result<usize> {
+    let mut found = None;
+    text::for_each_chunk(path, |chunk, first_line| {
+        let text = text::utf8(path, chunk, first_line)?;
+        text::statements(path, text, first_line, true, |line, s| {
+            if found.is_none() && Tokens::new(s).next() == Some("f") {
+                found = Some(line);
+            }
+            Ok(())
+        })
+    })?;
+    Ok(found.unwrap_or(1))
 }
 
 /// Welds, drops, and gives every corner its normal.
@@ -458,9 +480,11 @@ fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
         &mut report,
     )?;
     if tris.is_empty() {
-        return Err(Error::mesh(
-            path.display().to_string(),
-            "empty mesh: every face is degenerate",
+        return Err(Error::parse(
+            path,
+            first_face_line(path)?,
+            "every face is degenerate (repeated or collinear corners, or an area below the \
+             smallest f64), this one first: empty mesh",
         ));
     }
     let missing = tri_normals

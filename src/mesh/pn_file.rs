@@ -23,7 +23,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::text::{self, echo, Tokens};
-use super::{weld, LoadReport, Mesh};
+use super::{normals, weld, LoadReport, Mesh};
 use crate::{Error, Result};
 
 /// The first line of every version-1 file.
@@ -174,11 +174,7 @@ impl Raw {
                 float(f[1], "normal")?,
                 float(f[2], "normal")?,
             );
-            let len = n.length();
-            if len == 0.0 || !len.is_finite() {
-                return Err(err("zero-length normal".into()));
-            }
-            Ok(n / len)
+            normals::unit(n).ok_or_else(|| err("zero-length normal".into()))
         };
         if kw != "counts" && self.counts.is_none() && self.expect_counts {
             return Err(err(format!(
@@ -200,11 +196,19 @@ impl Raw {
             }
             b"v" => {
                 need(6)?;
-                self.positions.push(DVec3::new(
-                    float(fields[0], "vertex")?,
-                    float(fields[1], "vertex")?,
-                    float(fields[2], "vertex")?,
-                ));
+                let mut p = [0.0; 3];
+                for k in 0..3 {
+                    p[k] = float(fields[k], "vertex")?;
+                    if p[k].abs() > normals::MAX_COORD {
+                        return Err(err(format!(
+                            "vertex: coordinate '{}' above {:e} in magnitude (products of \
+                             such coordinates overflow)",
+                            echo(fields[k]),
+                            normals::MAX_COORD
+                        )));
+                    }
+                }
+                self.positions.push(DVec3::from_array(p));
                 self.normals.push(normal(&fields[3..])?);
             }
             b"t" => {
@@ -257,7 +261,7 @@ fn pass(path: &Path, parallel: bool) -> Option<Result<Raw>> {
     let done = text::for_each_chunk(path, |chunk, first_line| {
         if !parallel {
             let text = text::utf8(path, chunk, first_line)?;
-            return text::statements(text, first_line, false, |line, s| {
+            return text::statements(path, text, first_line, false, |line, s| {
                 raw.line(path, true, line, s)
             });
         }
@@ -280,7 +284,8 @@ fn pass(path: &Path, parallel: bool) -> Option<Result<Raw>> {
                     ..Default::default()
                 };
                 let text = std::str::from_utf8(piece).ok()?;
-                text::statements(text, 1, false, |line, s| b.line(path, false, line, s)).ok()?;
+                text::statements(path, text, 1, false, |line, s| b.line(path, false, line, s))
+                    .ok()?;
                 Some(b)
             })
             .collect();
@@ -395,7 +400,12 @@ fn build(path: &Path, raw: Raw) -> Result<Mesh> {
     if triangles.is_empty() {
         return Err(Error::mesh(
             path.display().to_string(),
-            "empty mesh: no triangles",
+            if report.degenerate_triangles_dropped > 0 {
+                "empty mesh: every triangle is degenerate (repeated or collinear corners, or \
+                 an area below the smallest f64)"
+            } else {
+                "empty mesh: no triangles"
+            },
         ));
     }
     Ok(Mesh {
@@ -499,14 +509,14 @@ mod tests {
             "{HEADER}\ncounts 3 1 0\n\
              v 0.30000000000000004 1e-05 -0.0 0 0 1\n\
              v 1.0 2.5e-300 0.0 0 0 2\n\
-             v 0.0 1.0 -1.7976931348623157e+308 0 0 1\n\
+             v 0.0 1.0 -9.87654321e+74 0 0 1\n\
              t 0 1 2\n"
         );
         let m = load("exact.pn", &text).unwrap();
         assert_eq!(m.positions[0].x, 0.1 + 0.2);
         assert_eq!(m.positions[0].y, 1e-5);
         assert_eq!(m.positions[1].y, 2.5e-300);
-        assert_eq!(m.positions[2].z, -f64::MAX);
+        assert_eq!(m.positions[2].z, -9.87654321e74);
         // The second vertex normal (0, 0, 2) is renormalised.
         assert_eq!(m.corner_normals[0][1], DVec3::Z);
     }

@@ -4,7 +4,8 @@
 //! Two vertices are the same point when their coordinates are equal as numbers, so `-0.0`
 //! equals `0.0` (a zero's sign never splits a vertex; the welded position carries `+0.0`).
 //! Every vertex maps to the first vertex of the input at its position; triangles that then
-//! repeat a vertex are dropped, and so are the vertices no remaining triangle uses. The
+//! repeat a vertex or have no area (collinear corners, or an area that underflows in f64:
+//! no normal) are dropped as degenerate, and so are the vertices no remaining triangle uses. The
 //! vertices kept are numbered in input order or in order of first use ([`Order`]; OBJ files
 //! use the latter, as they always have, since the patches' rounding follows vertex ids).
 //! Output-side welding (tessellated samples) is a
@@ -78,7 +79,8 @@ pub fn representatives(positions: &[DVec3]) -> Vec<u32> {
 /// Welds `positions` (see the module documentation) and returns the welded positions.
 ///
 /// `triangles` index into `positions`; they are rewritten in place to index the returned
-/// positions, with the triangles that repeat a welded vertex removed. `payload` holds one
+/// positions, with the degenerate triangles (a repeated welded vertex, no area) removed.
+/// `payload` holds one
 /// entry per input triangle (corner normals, for instance) and is filtered alongside; pass an
 /// empty vector for none. The counts of what changed are added to `report`
 /// (`vertices_welded`, `unused_vertices_dropped`, `degenerate_triangles_dropped`).
@@ -128,7 +130,11 @@ pub fn weld<P>(
             state[v as usize] |= REF;
         }
         let w = t.map(|v| rep[v as usize]);
-        if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] {
+        if w[0] == w[1]
+            || w[1] == w[2]
+            || w[2] == w[0]
+            || !super::normals::has_area(w.map(|v| positions[v as usize]))
+        {
             report.degenerate_triangles_dropped += 1;
             continue;
         }

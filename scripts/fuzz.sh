@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Long fuzzing campaign: the in-process reader fuzzers of tests/fuzz.rs (OBJ, .pn, built-in
+# specs, soups) with many more cases, and optionally more command lines.
+#
+#   scripts/fuzz.sh [EXECUTIONS] [CLI_CASES]
+#
+# EXECUTIONS (default 1000000) is split over the four reader tests in the proportions of
+# the normal suite (4 : 3 : 2 : 1); CLI_CASES (default 1000) command lines are spawned.
+# Prints the executions per second. A failure prints the minimal failing input.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+total=${1:-1000000}
+cli=${2:-1000}
+cargo test --release --no-run --quiet --test fuzz
+run() { # TEST CASES VAR
+    local start end
+    start=$(date +%s.%N)
+    env "$3=$2" cargo test --release --quiet --test fuzz -- --exact "$1" >/dev/null
+    end=$(date +%s.%N)
+    awk -v t="$1" -v n="$2" -v s="$start" -v e="$end" \
+        'BEGIN { d = e - s; printf "%-15s %9d cases %8.1f s %9.0f /s\n", t, n, d, n / d }'
+}
+start=$(date +%s.%N)
+run obj_mutants $((total * 4 / 10)) PROPTEST_CASES
+run pn_mutants $((total * 3 / 10)) PROPTEST_CASES
+run spec_strings $((total * 2 / 10)) PROPTEST_CASES
+run soups $((total / 10)) PROPTEST_CASES
+end=$(date +%s.%N)
+awk -v n="$total" -v s="$start" -v e="$end" \
+    'BEGIN { d = e - s; printf "readers: %d executions in %.1f s: %.0f /s\n", n, d, n / d }'
+run command_lines "$cli" FUZZ_CLI_CASES
