@@ -609,6 +609,35 @@ impl<'m> EdgeStats<'m> {
     }
 }
 
+/// The statistics report of `scheme` on `mesh`, streamed in bounded memory: what
+/// `g1tess stats` prints. The edge index (one thread) is built while the scheme prepares
+/// its per-mesh data; patches are then built a chunk of edges at a time.
+pub fn stats_report(
+    mesh: &Mesh,
+    scheme: Scheme,
+    opts: &SchemeOptions,
+    evaluator: &dyn Evaluator,
+) -> Result<StatsReport> {
+    let (stats, builder) = std::thread::scope(|s| {
+        let index = s.spawn(|| EdgeStats::new(mesh));
+        let builder = PatchBuilder::new(mesh, scheme, opts);
+        let index = index
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        (index, builder)
+    });
+    let builder = builder?;
+    let (c, fallbacks) = stats.continuity(&builder, evaluator)?;
+    Ok(StatsReport::new(
+        mesh,
+        stats.counts(),
+        scheme,
+        fallbacks,
+        c,
+        evaluator.describe(),
+    ))
+}
+
 /// Everything `g1tess stats --json` prints for one mesh and scheme.
 #[derive(Clone, Debug, Serialize)]
 pub struct StatsReport {
