@@ -187,6 +187,7 @@ fn stats_json_has_the_documented_fields() {
     assert_eq!(v["triangles"], 320);
     assert_eq!(v["interior_edges"], 480);
     assert_eq!(v["samples"], 480 * 21);
+    // G1 to f64 rounding (~1e-16); 1e-12 is far above that and far below any real kink.
     assert!(1.0 - v["cos"]["min"].as_f64().unwrap() <= 1e-12);
 }
 
@@ -223,6 +224,8 @@ fn tessellate_writes_a_readable_obj() {
     for l in text.lines().filter(|l| l.starts_with("v ")) {
         let c: Vec<f64> = l[2..].split(' ').map(|x| x.parse().unwrap()).collect();
         let r = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        // 2e-4: ten times the G1 sphere320's mean distance to the unit sphere (2.0e-5,
+        // README), room for its largest deviation at a sample.
         assert!((r - 1.0).abs() < 2e-4, "{l}");
     }
 }

@@ -75,6 +75,8 @@ fn cube_is_reproduced_exactly() {
         let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
         let c = stats(&mesh, &table);
         assert_eq!(c.crease_edges, 12);
+        // The unit cube's faces are axis planes and its creases straight edges: every
+        // bound below is exact up to a few roundings of unit-size values (1e-15 ≈ 4 ulps of 1).
         assert!(c.crease_max_gap < 1e-15, "crease gap {}", c.crease_max_gap);
         assert!(1.0 - c.cos.min < 1e-15);
         let level = 6;
@@ -132,8 +134,11 @@ fn fandisk_creases_without_cracks() {
     let c = stats(&mesh, &table);
     assert!(c.crease_edges > 300, "only {} crease edges", c.crease_edges);
     assert!(c.samples > 0);
+    // G1 to f64 rounding (~1e-16); 1e-12 is far above that and far below any real kink.
     assert!(1.0 - c.cos.min <= 1e-12, "1 - min cos {}", 1.0 - c.cos.min);
     assert_eq!(c.folded, 0);
+    // Both sides evaluate the same crease curve (and shared boundaries elsewhere): the gaps
+    // and the snap are a few f64 ulps of the coordinates, below 1e-14 of the diagonal.
     assert!(
         c.crease_max_gap <= 1e-14 * diag,
         "crease gap {}",
@@ -142,6 +147,7 @@ fn fandisk_creases_without_cracks() {
     assert!(c.max_gap <= 1e-14 * diag);
 
     let (w, plan, snap) = stitch(&mesh, &table, &CpuEvaluator::default(), 3).unwrap();
+    // Edge samples of two patches on one shared curve: the same rounding bound as the gaps.
     assert!(snap <= 1e-14 * diag, "snap {snap}");
     assert_eq!(plan.report.split_edges, c.crease_edges);
     assert!(plan.records > plan.positions);
@@ -168,6 +174,7 @@ fn fandisk_creases_without_cracks() {
         naive.points[18 * t..18 * t + 18].copy_from_slice(&p);
     }
     let cn = stats(&mesh, &naive);
+    // Not rounding: 1e-4 of the diagonal is a real crack, ten orders above the bound above.
     assert!(
         cn.crease_max_gap > 1e-4 * diag,
         "naive gap {}",
@@ -190,6 +197,7 @@ fn crease_curve_end_tangents() {
         let c = crease_curve(qa, qb, na, nb, [true, split_b], &mut f);
         let ta = (c[1] - c[0]).normalize();
         let tb = (c[3] - c[2]).normalize();
+        // Unit tangents built from unit normals: a few f64 roundings of unit-size values.
         assert!(ta.dot(na[0]).abs() < 1e-15 && ta.dot(na[1]).abs() < 1e-15);
         assert!(ta.dot(qb - qa) > 0.0);
         if split_b {

@@ -128,6 +128,8 @@ fn check(mesh_spec: &str, scheme: Scheme, extra: &[&str], opts: LoadOptions) {
         for b in samples {
             let want = table.eval(t, b).p;
             let got = eval_patch(&net, p, b);
+            // The test's own evaluation of the net (another order of operations) on top of
+            // the 1-ulp parse: a few dozen f64 roundings of coordinate-size values.
             assert!((got - want).length() <= 1e-14 * diag, "patch {t} at {b:?}");
         }
         // Corners interpolate the mesh.

@@ -39,6 +39,7 @@ fn every_face_form_and_negative_indices() {
     assert_eq!(m.triangles.len(), 10);
     assert_eq!(m.load_report.polygons_triangulated, 5);
     // The first two quads have no normals: estimated (+z); the others give vn renormalised.
+    // Axis-aligned: exact up to one rounding of a unit vector (1e-15 ≈ 4 ulps of 1).
     for n in m.corner_normals.iter().flatten() {
         assert!((n.length() - 1.0).abs() < 1e-15);
         assert!((*n - DVec3::Z).length() < 1e-15);
@@ -75,6 +76,7 @@ fn per_corner_normals_are_kept() {
     let m = load_path(&p, &LoadOptions::default());
     let s = 0.5f64.sqrt();
     assert_eq!(m.corner_normals[0][1], DVec3::Z);
+    // (0, 1, 1) normalised once: an ulp or two of (0, √½, √½).
     assert!((m.corner_normals[1][0] - DVec3::new(0.0, s, s)).length() < 1e-15);
 }
 
@@ -117,6 +119,7 @@ fn normal_weightings_on_a_known_fan() {
     // Face normals: +z (area 8, angle 90°) and +x (area 0.5... angle 45°).
     let nz = DVec3::Z;
     let nx = (pos[3] - pos[0]).cross(pos[4] - pos[0]).normalize();
+    // Cross product of small integer vectors (exact), normalised once.
     assert!((nx - DVec3::X).length() < 1e-15);
     let expect = |wz: f64, wx: f64| (wz * nz + wx * nx).normalize();
     let cases = [
@@ -129,6 +132,8 @@ fn normal_weightings_on_a_known_fan() {
     ];
     for (w, e) in cases {
         let n = vertex_normals(&pos, &tris, w);
+        // Two weighted unit normals summed and normalised, here and in the loader: a few
+        // roundings of unit-size values.
         assert!((n[0] - e).length() < 1e-15, "{w:?}: {:?} vs {e:?}", n[0]);
     }
 }
@@ -156,6 +161,7 @@ fn builtin_meshes_match_their_definitions() {
     for (t, tri) in s.triangles.iter().enumerate() {
         for k in 0..3 {
             let p = s.positions[tri[k] as usize];
+            // Vertices normalised once, normals equal to them: one rounding of unit values.
             assert!((p.length() - 1.0).abs() < 1e-15);
             assert!(
                 (s.corner_normals[t][k] - p).length() < 1e-15,
@@ -176,16 +182,20 @@ fn builtin_meshes_match_their_definitions() {
     let avg = vertex_normals(&t.positions, &t.triangles, NormalWeighting::Unweighted);
     for (tri, cn) in t.triangles.iter().zip(&t.corner_normals) {
         for k in 0..3 {
+            // The same mean of unit normals: at most a few roundings of unit-size values.
             assert!((cn[k] - avg[tri[k] as usize]).length() < 1e-15);
         }
     }
     // Outer equator vertex (u = 0, v = 0) at (1.5, 0, 0) with normal close to +x.
+    // cos 0 = 1 and sin 0 = 0: exact up to one rounding.
     assert!((t.positions[0] - DVec3::new(1.5, 0.0, 0.0)).length() < 1e-15);
     let analytic = torus(10, 10, 1.0, 0.5, TorusNormals::Analytic);
     for (tri, cn) in analytic.triangles.iter().zip(&analytic.corner_normals) {
         for k in 0..3 {
             let p = analytic.positions[tri[k] as usize];
             let ring = DVec3::new(p.x, p.y, 0.0).normalize();
+            // Trigonometric normals vs normalised differences of rounded positions: a few
+            // dozen roundings of unit-size values.
             assert!((cn[k] - (p - ring).normalize()).length() < 1e-14);
         }
         let q = tri.map(|v| analytic.positions[v as usize]);
@@ -230,6 +240,7 @@ fn non_unit_normals_are_renormalised() {
     }
     let p = write_obj("rounded.obj", &text);
     let m = load_path(&p, &LoadOptions::default());
+    // Renormalised on load: unit up to one rounding (1e-15 ≈ 4 ulps of 1).
     for n in m.corner_normals.iter().flatten() {
         assert!((n.length() - 1.0).abs() < 1e-15);
     }
@@ -243,6 +254,7 @@ fn non_unit_normals_are_renormalised() {
         &g1tess::eval::cpu::CpuEvaluator::default(),
     )
     .unwrap();
+    // G1 to f64 rounding (~1e-16); 1e-12 is far above that and far below any real kink.
     assert!(
         1.0 - c.cos.min <= 1e-12,
         "1 - min cos = {:e}",
@@ -272,6 +284,7 @@ fn cube_without_normals_is_closed() {
     for (t, tri) in m.triangles.iter().enumerate() {
         for k in 0..3 {
             if tri[k] == i {
+                // Three axis normals with equal weights, summed and normalised: one rounding.
                 assert!((m.corner_normals[t][k] - d).length() < 1e-15);
             }
         }
@@ -854,7 +867,7 @@ fn huge_and_subnormal_normals_are_normalised_in_every_reader() {
     let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 1e300 1e300 0\nvn 0 0 1e-320\n\
                 f 1//1 2//2 3//2\n";
     let m = load_path(&write_obj("huge-vn.obj", text), &LoadOptions::default());
-    // Within rounding of one normalisation (1e-15, a few ulps).
+    // Within rounding of one normalisation (1e-15, a few ulps), in every reader below.
     assert!((m.corner_normals[0][0] - DVec3::new(s, s, 0.0)).length() < 1e-15);
     assert_eq!(m.corner_normals[0][1], DVec3::Z);
     let pn = "g1tess-pn 1\ncounts 3 1 0\nv 0 0 0 1e300 1e300 0\nv 1 0 0 0 0 1e-320\n\

@@ -46,6 +46,7 @@ proptest! {
                 prop_assert!(m.positions.iter().all(|x| x.is_finite()));
                 for (t, n) in m.triangles.iter().zip(&m.corner_normals) {
                     prop_assert!(t.iter().all(|&v| (v as usize) < m.positions.len()));
+                    // Unit normals up to the rounding of one normalisation (a few ulps).
                     prop_assert!(n.iter().all(|x| (x.length() - 1.0).abs() < 1e-12));
                 }
                 // Whatever loads builds a G1 table that evaluates to finite values.

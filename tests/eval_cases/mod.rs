@@ -35,7 +35,7 @@ pub fn cases(mesh: &Mesh) -> Vec<(ShaderFile, PatchTable, String)> {
     out
 }
 
-/// Unit roundoff of f32 and f64.
+/// Unit roundoff of f32 and f64 (2⁻²⁴ ≈ 5.96e-8 and 2⁻⁵³ ≈ 1.11e-16, rounded up).
 pub const EPS32: f64 = 5.97e-8;
 pub const EPS64: f64 = 1.12e-16;
 
@@ -71,7 +71,9 @@ pub fn angle(a: DVec3, b: DVec3) -> f64 {
     2.0 * ((a - b).length() / 2.0).min(1.0).asin()
 }
 
-/// How many times the predicted rounding error ([`normal_error`]) a normal's error may be.
+/// How many times the predicted rounding error ([`normal_error`]) a normal's error may be:
+/// the prediction gives the error's size without the small constant factors (roundings per
+/// sum, the normalisation), which 16 covers.
 pub const ROUNDING_FACTOR: f64 = 16.0;
 
 /// Whether a sample is regular: `ROUNDING_FACTOR` times its predicted rounding error is
