@@ -90,6 +90,17 @@ fn kind_name(kind: PatchKind) -> &'static str {
 /// Writes the control nets of `table` (built on `mesh`) to `path`, atomically, one patch
 /// at a time.
 pub fn write_nets(path: &Path, mesh: &Mesh, table: &PatchTable) -> Result<()> {
+    // JSON has no infinities: serde_json would write `null`. Tables are built finite, so
+    // this only guards a table assembled by hand.
+    if let Some(i) = table.points.iter().position(|p| !p.is_finite()) {
+        return Err(crate::Error::mesh(
+            &mesh.name,
+            format!(
+                "patch {} has a non-finite control point: no control nets written",
+                i / table.stride
+            ),
+        ));
+    }
     let degree = table.kind.layout().degree;
     let header = serde_json::json!({
         "format": "g1tess-control-nets",
