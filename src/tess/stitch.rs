@@ -102,6 +102,11 @@ pub struct StitchPlan {
     use_new_rec: Vec<bool>,
     interior_pos: Vec<u32>,
     interior_rec: Vec<u32>,
+    /// Per level, computed once: grid index of each corner, of the sample at step
+    /// i (1..n) along local edge k (`edge_g[k(n − 1) + i − 1]`), and the interior rows.
+    corner_g: [u32; 3],
+    edge_g: Vec<u32>,
+    interior: Vec<Range<usize>>,
 }
 
 /// Grid index of corner k of the grid of level n.
@@ -128,11 +133,6 @@ fn interior_rows(n: u32) -> Vec<Range<usize>> {
     (1..n.saturating_sub(1))
         .map(|j| grid_index(n, 1, j)..grid_index(n, n - j, j))
         .collect()
-}
-
-/// Interior grid points (i, j ≥ 1, i + j ≤ n − 1) in grid order.
-fn interior_grid(n: u32) -> impl Iterator<Item = usize> {
-    (1..n.saturating_sub(1)).flat_map(move |j| (1..n - j).map(move |i| grid_index(n, i, j)))
 }
 
 impl StitchPlan {
@@ -179,6 +179,11 @@ impl StitchPlan {
             use_new_rec: vec![false; 3 * nf],
             interior_pos: vec![NONE; nf],
             interior_rec: vec![NONE; nf],
+            corner_g: [0, 1, 2].map(|k| corner_grid(n, k) as u32),
+            edge_g: (0..3)
+                .flat_map(|k| (1..n).map(move |i| edge_grid(n, k, i) as u32))
+                .collect(),
+            interior: interior_rows(n),
         };
         let split: Vec<bool> = split_ends(mesh, adjacency)
             .iter()
@@ -259,33 +264,55 @@ impl StitchPlan {
         self.vertices + e as usize * (self.level as usize - 1) + (m as usize - 1)
     }
 
+    /// Grid indices of the samples of local edge k at steps 1..n (from corner k).
+    fn edge_grids(&self, k: usize) -> &[u32] {
+        let m = self.level as usize - 1;
+        &self.edge_g[k * m..(k + 1) * m]
+    }
+
     /// Record id and position id of every grid point of patch `p`, in grid order.
     pub fn local_ids(&self, p: usize, rec: &mut Vec<u32>, pos: &mut Vec<u32>) {
-        let n = self.level;
-        let len = grid_len(n);
-        rec.clear();
-        rec.resize(len, NONE);
-        pos.clear();
-        pos.resize(len, NONE);
+        let len = grid_len(self.level);
+        // Every grid point is written below (corners, edges, interior), so buffers of the
+        // right length are reused as they are.
+        if rec.len() != len {
+            rec.clear();
+            rec.resize(len, NONE);
+        }
+        if pos.len() != len {
+            pos.clear();
+            pos.resize(len, NONE);
+        }
         let tri = self.tris[p];
         for (k, &v) in tri.iter().enumerate() {
-            let g = corner_grid(n, k);
+            let g = self.corner_g[k] as usize;
             rec[g] = self.corner_rec[3 * p + k];
             pos[g] = self.vertex_pos[v as usize];
         }
         for k in 0..3 {
             let u = 3 * p + k;
             let e = self.use_edge[u] as usize;
-            for m in 1..n {
-                let i = if self.use_rev[u] { n - m } else { m };
-                let g = edge_grid(n, k, i);
-                rec[g] = self.use_rec[u] + m - 1;
-                pos[g] = self.edge_pos[e] + m - 1;
+            let (r0, p0) = (self.use_rec[u], self.edge_pos[e]);
+            let eg = self.edge_grids(k);
+            // Canonical sample m (1..n) lies at step n − m on a reversed use.
+            let mut put = |m: u32, g: u32| {
+                rec[g as usize] = r0 + m;
+                pos[g as usize] = p0 + m;
+            };
+            if self.use_rev[u] {
+                eg.iter().rev().zip(0..).for_each(|(&g, m)| put(m, g));
+            } else {
+                eg.iter().zip(0..).for_each(|(&g, m)| put(m, g));
             }
         }
-        for (idx, g) in interior_grid(n).enumerate() {
-            rec[g] = self.interior_rec[p] + idx as u32;
-            pos[g] = self.interior_pos[p] + idx as u32;
+        let (mut r, mut q) = (self.interior_rec[p], self.interior_pos[p]);
+        for row in &self.interior {
+            for (a, b) in rec[row.clone()].iter_mut().zip(&mut pos[row.clone()]) {
+                *a = r;
+                *b = q;
+                r += 1;
+                q += 1;
+            }
         }
     }
 
@@ -467,10 +494,14 @@ pub fn memory_estimate(
     }
 }
 
-/// One patch's output, built in parallel, handed to the sink in order.
+/// One patch's output, built in parallel, handed to the sink in order. `records` and
+/// `new_positions` keep the length of a grid (a patch never has more), filled up to
+/// `nrec` and `npos`, so nothing is cleared or reallocated between patches.
 struct PatchBuf<V> {
     new_positions: Vec<V>,
-    new_records: Vec<VertexRecord<V>>,
+    npos: usize,
+    records: Vec<VertexRecord<V>>,
+    nrec: usize,
     triangles: Vec<[u32; 3]>,
     position_triangles: Vec<[u32; 3]>,
     grid_positions: Vec<V>,
@@ -483,7 +514,9 @@ impl<V> Default for PatchBuf<V> {
     fn default() -> Self {
         PatchBuf {
             new_positions: Vec::new(),
-            new_records: Vec::new(),
+            npos: 0,
+            records: Vec::new(),
+            nrec: 0,
             triangles: Vec::new(),
             position_triangles: Vec::new(),
             grid_positions: Vec::new(),
@@ -509,7 +542,6 @@ pub struct Stitcher<'a, V = DVec3> {
     /// meet; the size of the crack otherwise).
     pub max_snap: f64,
     grid: Vec<[u32; 3]>,
-    interior: Vec<Range<usize>>,
     bufs: Vec<PatchBuf<V>>,
 }
 
@@ -521,7 +553,6 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             next_patch: 0,
             max_snap: 0.0,
             grid: grid_triangles(plan.level),
-            interior: interior_rows(plan.level),
             bufs: Vec::new(),
         }
     }
@@ -562,14 +593,13 @@ impl<'a, V: Vector> Stitcher<'a, V> {
         let mut start = 0;
         while start < count {
             let len = batch.min(count - start);
-            let (store, grid, interior) = (&self.store, &self.grid, &self.interior);
+            let (store, grid) = (&self.store, &self.grid);
             let build = |(j, buf): (usize, &mut PatchBuf<V>)| {
                 let k = start + j;
                 build_patch(
                     plan,
                     store,
                     grid,
-                    interior,
                     chunk.first + k,
                     &chunk.positions[k * per..(k + 1) * per],
                     &chunk.normals[k * per..(k + 1) * per],
@@ -587,8 +617,8 @@ impl<'a, V: Vector> Stitcher<'a, V> {
                 self.max_snap = self.max_snap.max(buf.snap);
                 sink.patch(&PatchOut {
                     patch: chunk.first + start + j,
-                    new_positions: &buf.new_positions,
-                    new_records: &buf.new_records,
+                    new_positions: &buf.new_positions[..buf.npos],
+                    new_records: &buf.records[..buf.nrec],
                     triangles: &buf.triangles,
                     position_triangles: &buf.position_triangles,
                     grid_positions: &buf.grid_positions,
@@ -604,19 +634,27 @@ impl<'a, V: Vector> Stitcher<'a, V> {
     /// Stores the samples patch `p` owns (its first uses of vertices and edges).
     fn store_owned(&mut self, p: usize, pos: &[V]) {
         let plan = self.plan;
-        let n = plan.level;
         for (k, &vk) in plan.tris[p].iter().enumerate() {
             if plan.vertex_owner[vk as usize] == p as u32 {
-                self.store[vk as usize] = pos[corner_grid(n, k)];
+                self.store[vk as usize] = pos[plan.corner_g[k] as usize];
             }
         }
+        let m = plan.level as usize - 1;
         for k in 0..3 {
             let u = 3 * p + k;
             let e = plan.use_edge[u];
             if plan.edge_owner[e as usize] == u as u32 {
-                for m in 1..n {
-                    let i = if plan.use_rev[u] { n - m } else { m };
-                    self.store[plan.edge_slot(e, m)] = pos[edge_grid(n, k, i)];
+                let s0 = plan.edge_slot(e, 1);
+                let dst = &mut self.store[s0..s0 + m];
+                let eg = plan.edge_grids(k);
+                if plan.use_rev[u] {
+                    for (d, &g) in dst.iter_mut().zip(eg.iter().rev()) {
+                        *d = pos[g as usize];
+                    }
+                } else {
+                    for (d, &g) in dst.iter_mut().zip(eg) {
+                        *d = pos[g as usize];
+                    }
                 }
             }
         }
@@ -629,86 +667,111 @@ fn build_patch<V: Vector>(
     plan: &StitchPlan,
     store: &[V],
     grid: &[[u32; 3]],
-    interior: &[Range<usize>],
     p: usize,
     pos: &[V],
     nrm: &[V],
     needs: Needs,
     buf: &mut PatchBuf<V>,
 ) {
-    let n = plan.level;
-    buf.new_positions.clear();
-    buf.new_records.clear();
+    let per = pos.len();
+    if buf.records.len() != per {
+        let blank = VertexRecord {
+            position: V::NAN,
+            normal: V::NAN,
+            position_id: NONE,
+        };
+        buf.records.clear();
+        buf.records.resize(per, blank);
+    }
+    if needs.positions && buf.new_positions.len() != per {
+        buf.new_positions.clear();
+        buf.new_positions.resize(per, V::NAN);
+    }
     buf.grid_positions.clear();
     if needs.grid_positions {
         buf.grid_positions.extend_from_slice(pos);
     }
+    let (mut nrec, mut npos) = (0, 0);
+    let records = &mut buf.records[..];
+    let new_positions = &mut buf.new_positions[..];
+    let grid_positions = &mut buf.grid_positions[..];
     // Largest squared snap distance.
     let mut snap2 = 0f64;
-    // Grid point g (position id `pid`) maps onto store slot `slot`.
-    let mut visit =
-        |buf: &mut PatchBuf<V>, g: usize, slot: usize, pid: u32, owner: bool, new_rec: bool| {
-            let q = store[slot];
-            if owner {
-                buf.new_positions.push(q);
-            } else {
-                snap2 = snap2.max(pos[g].to_dvec3().distance_squared(q.to_dvec3()));
+    // Grid point g (position id `pid`) maps onto the shared sample q.
+    let mut visit = |g: usize, q: V, pid: u32, owner: bool, new_rec: bool| {
+        if owner {
+            if needs.positions {
+                new_positions[npos] = q;
+                npos += 1;
             }
-            if needs.grid_positions {
-                buf.grid_positions[g] = q;
-            }
-            if new_rec {
-                buf.new_records.push(VertexRecord {
-                    position: q,
-                    normal: nrm[g],
-                    position_id: pid,
-                });
-            }
-        };
+        } else {
+            snap2 = snap2.max(pos[g].to_dvec3().distance_squared(q.to_dvec3()));
+        }
+        if needs.grid_positions {
+            grid_positions[g] = q;
+        }
+        if new_rec {
+            records[nrec] = VertexRecord {
+                position: q,
+                normal: nrm[g],
+                position_id: pid,
+            };
+            nrec += 1;
+        }
+    };
     for (k, &vk) in plan.tris[p].iter().enumerate() {
         let v = vk as usize;
         visit(
-            buf,
-            corner_grid(n, k),
-            v,
+            plan.corner_g[k] as usize,
+            store[v],
             plan.vertex_pos[v],
             plan.vertex_owner[v] == p as u32,
             plan.corner_new_rec[3 * p + k],
         );
     }
+    let m = plan.level as usize - 1;
     for k in 0..3 {
         let u = 3 * p + k;
         let e = plan.use_edge[u];
         let owner = plan.edge_owner[e as usize] == u as u32;
         let new_rec = plan.use_new_rec[u];
-        for m in 1..n {
-            let i = if plan.use_rev[u] { n - m } else { m };
-            let slot = plan.edge_slot(e, m);
-            let pid = plan.edge_pos[e as usize] + m - 1;
-            visit(buf, edge_grid(n, k, i), slot, pid, owner, new_rec);
+        let s0 = plan.edge_slot(e, 1);
+        let shared = &store[s0..s0 + m];
+        let pid0 = plan.edge_pos[e as usize];
+        let eg = plan.edge_grids(k);
+        // Canonical sample m (1..n) lies at step n − m on a reversed use.
+        if plan.use_rev[u] {
+            for ((&q, &g), pid) in shared.iter().zip(eg.iter().rev()).zip(pid0..) {
+                visit(g as usize, q, pid, owner, new_rec);
+            }
+        } else {
+            for ((&q, &g), pid) in shared.iter().zip(eg).zip(pid0..) {
+                visit(g as usize, q, pid, owner, new_rec);
+            }
         }
     }
     buf.snap = snap2.sqrt();
     let mut id = plan.interior_pos[p];
-    for row in interior {
+    for row in &plan.interior {
+        let len = row.len();
         if needs.positions {
-            buf.new_positions.extend_from_slice(&pos[row.clone()]);
+            new_positions[npos..npos + len].copy_from_slice(&pos[row.clone()]);
+            npos += len;
         }
-        buf.new_records
-            .extend(
-                pos[row.clone()]
-                    .iter()
-                    .zip(&nrm[row.clone()])
-                    .map(|(&position, &normal)| {
-                        id += 1;
-                        VertexRecord {
-                            position,
-                            normal,
-                            position_id: id - 1,
-                        }
-                    }),
-            );
+        let out = &mut records[nrec..nrec + len];
+        // Field by field: a whole-record store goes through the stack, and the misaligned
+        // reload stalls store forwarding on every sample.
+        for ((r, position), normal) in out.iter_mut().zip(&pos[row.clone()]).zip(&nrm[row.clone()])
+        {
+            r.position = *position;
+            r.normal = *normal;
+            r.position_id = id;
+            id += 1;
+        }
+        nrec += len;
     }
+    buf.nrec = nrec;
+    buf.npos = npos;
     buf.triangles.clear();
     buf.position_triangles.clear();
     if needs.triangles {
