@@ -377,91 +377,116 @@ const BUILT: u32 = u32::MAX - 1;
 const FRESH: u32 = u32::MAX - 2;
 const AGAIN: u32 = u32::MAX - 3;
 
-/// The protocol over `edges`, `chunk_edges` edges per evaluation: the continuity and the
-/// fallbacks of the construction (each triangle counted once).
-fn run(
-    mesh: &Mesh,
-    edges: &mut dyn Iterator<Item = Edge>,
-    patches: Patches<'_, '_>,
-    evaluator: &dyn Evaluator,
-    chunk_edges: usize,
-) -> Result<(Continuity, usize)> {
-    let chunk_edges = chunk_edges.max(1);
-    let triangles = &mesh.triangles;
-    if triangles.len() >= AGAIN as usize {
-        return Err(Error::mesh(
-            &mesh.name,
-            "too many triangles for the statistics",
-        ));
-    }
-    let mut fold = Fold::new();
-    let mut crease_edges = 0;
-    let mut batch: Vec<Edge> = Vec::with_capacity(chunk_edges.min(CHUNK_EDGES));
-    let mut edges_pattern = EdgePairs {
-        samples: SAMPLES_PER_EDGE,
-        pairs: Vec::with_capacity(chunk_edges.min(CHUNK_EDGES)),
-    };
-    // Per triangle: its patch in the chunk's table, or one of the marks above.
-    let mut slot: Vec<u32> = match patches {
-        Patches::Table(_) => Vec::new(),
-        Patches::Builder(_) => vec![NEVER; triangles.len()],
-    };
-    let (mut fresh, mut again) = (Vec::new(), Vec::new());
-    // The chunk's table (builder only), its arrays reused chunk after chunk.
-    let mut built = match patches {
-        Patches::Table(t) => PatchTable {
-            points: Vec::new(),
-            flat_normals: Vec::new(),
-            ..*t
-        },
-        Patches::Builder(b) => b.empty_table(),
-    };
-    let mut fallbacks = 0;
-    loop {
-        batch.clear();
-        batch.extend(edges.take(chunk_edges));
-        if batch.is_empty() {
-            break;
+/// One chunk of edges made ready for evaluation: its edges (crease flags set), the patches
+/// of their triangles (builder only) and its edge pattern.
+struct Batch {
+    edges: Vec<Edge>,
+    pattern: EdgePairs,
+    /// The chunk's table (builder only), its arrays reused chunk after chunk.
+    table: PatchTable,
+    /// Triangles of the chunk's table: first builds, then those built again.
+    fresh: Vec<u32>,
+    again: Vec<u32>,
+    /// Fallbacks of the first builds, and crease edges, of the chunk.
+    fallbacks: usize,
+    creases: usize,
+}
+
+impl Batch {
+    fn new(patches: Patches<'_, '_>, chunk_edges: usize) -> Batch {
+        Batch {
+            edges: Vec::with_capacity(chunk_edges.min(CHUNK_EDGES)),
+            pattern: EdgePairs {
+                samples: SAMPLES_PER_EDGE,
+                pairs: Vec::with_capacity(chunk_edges.min(CHUNK_EDGES)),
+            },
+            table: match patches {
+                Patches::Table(t) => PatchTable {
+                    points: Vec::new(),
+                    flat_normals: Vec::new(),
+                    ..*t
+                },
+                Patches::Builder(b) => b.empty_table(),
+            },
+            fresh: Vec::new(),
+            again: Vec::new(),
+            fallbacks: 0,
+            creases: 0,
         }
-        batch
+    }
+
+    /// Takes the next `chunk_edges` edges (none at the end) and prepares them. `done` are
+    /// the triangles of the previous chunk's table, marked built first; `slot` is the
+    /// per-triangle numbering of [`run`].
+    fn prepare(
+        &mut self,
+        mesh: &Mesh,
+        edges: &mut (dyn Iterator<Item = Edge> + Send),
+        patches: Patches<'_, '_>,
+        slot: &mut [u32],
+        done: &[u32],
+        chunk_edges: usize,
+    ) -> Result<()> {
+        for &t in done {
+            slot[t as usize] = BUILT;
+        }
+        self.edges.clear();
+        self.edges.extend(edges.take(chunk_edges));
+        self.fresh.clear();
+        self.again.clear();
+        self.fallbacks = 0;
+        if self.edges.is_empty() {
+            return Ok(());
+        }
+        self.edges
             .par_iter_mut()
             .with_min_len(1024)
             .for_each(|e| e.with_crease(mesh));
-        crease_edges += batch.iter().filter(|e| e.crease).count();
-        let table = match patches {
-            Patches::Table(t) => t,
-            Patches::Builder(b) => {
-                fresh.clear();
-                again.clear();
-                for u in batch.iter().flat_map(|e| e.uses) {
-                    let s = &mut slot[u.triangle as usize];
-                    if *s == NEVER {
-                        *s = FRESH;
-                        fresh.push(u.triangle);
-                    } else if *s == BUILT {
-                        *s = AGAIN;
-                        again.push(u.triangle);
-                    }
+        self.creases = self.edges.iter().filter(|e| e.crease).count();
+        if let Patches::Builder(b) = patches {
+            for u in self.edges.iter().flat_map(|e| e.uses) {
+                let s = &mut slot[u.triangle as usize];
+                if *s == NEVER {
+                    *s = FRESH;
+                    self.fresh.push(u.triangle);
+                } else if *s == BUILT {
+                    *s = AGAIN;
+                    self.again.push(u.triangle);
                 }
-                let counted = fresh.len();
-                fresh.append(&mut again);
-                for (i, &t) in fresh.iter().enumerate() {
-                    slot[t as usize] = i as u32;
-                }
-                b.table_of_into(&fresh, counted, &mut built)?;
-                fallbacks += built.fallbacks;
-                &built
             }
-        };
-        let slot_ref = &slot;
-        edges_pattern.pairs.clear();
-        edges_pattern.pairs.extend(batch.iter().map(|e| {
+            let counted = self.fresh.len();
+            self.fresh.append(&mut self.again);
+            for (i, &t) in self.fresh.iter().enumerate() {
+                slot[t as usize] = i as u32;
+            }
+            b.table_of_into(&self.fresh, counted, &mut self.table)?;
+            self.fallbacks = self.table.fallbacks;
+        }
+        let triangles = &mesh.triangles;
+        let slot: &[u32] = slot;
+        self.pattern.pairs.clear();
+        self.pattern.pairs.extend(self.edges.iter().map(|e| {
             let patch = e.uses.map(|u| match patches {
                 Patches::Table(_) => u.triangle,
-                Patches::Builder(_) => slot_ref[u.triangle as usize],
+                Patches::Builder(_) => slot[u.triangle as usize],
             });
             e.sides(triangles, patch)
         }));
+        Ok(())
+    }
+
+    /// Evaluates the prepared chunk and folds its samples into `fold`.
+    fn evaluate(
+        &self,
+        patches: Patches<'_, '_>,
+        evaluator: &dyn Evaluator,
+        fold: &mut Fold,
+    ) -> Result<()> {
+        let table = match patches {
+            Patches::Table(t) => t,
+            Patches::Builder(_) => &self.table,
+        };
+        let batch = &self.edges;
         let mut pending: Option<(DVec3, DVec3)> = None;
         let mut next = 0usize;
         let first_pair = fold.pairs;
@@ -470,7 +495,7 @@ fn run(
                 .get((i - first_pair) / SAMPLES_PER_EDGE as usize)
                 .is_some_and(|e| e.crease)
         };
-        evaluator.evaluate_edges(table, &edges_pattern, &mut |chunk| {
+        evaluator.evaluate_edges(table, &self.pattern, &mut |chunk| {
             let (mut pos, mut nrm) = (chunk.positions, chunk.normals);
             if chunk.first != next || pos.len() != nrm.len() {
                 return Err(Error::Invalid(format!(
@@ -497,9 +522,56 @@ fn run(
                 2 * expected
             )));
         }
-        for &t in &fresh {
-            slot[t as usize] = BUILT;
-        }
+        Ok(())
+    }
+}
+
+/// The protocol over `edges`, `chunk_edges` edges per evaluation: the continuity and the
+/// fallbacks of the construction (each triangle counted once). The next chunk is prepared
+/// (edges walked, patches built) while the current one is evaluated and folded; the
+/// results are those of doing one after the other.
+fn run(
+    mesh: &Mesh,
+    edges: &mut (dyn Iterator<Item = Edge> + Send),
+    patches: Patches<'_, '_>,
+    evaluator: &dyn Evaluator,
+    chunk_edges: usize,
+) -> Result<(Continuity, usize)> {
+    let chunk_edges = chunk_edges.max(1);
+    let triangles = &mesh.triangles;
+    if triangles.len() >= AGAIN as usize {
+        return Err(Error::mesh(
+            &mesh.name,
+            "too many triangles for the statistics",
+        ));
+    }
+    let mut fold = Fold::new();
+    let mut crease_edges = 0;
+    // Per triangle: its patch in the chunk's table, or one of the marks above.
+    let mut slot: Vec<u32> = match patches {
+        Patches::Table(_) => Vec::new(),
+        Patches::Builder(_) => vec![NEVER; triangles.len()],
+    };
+    let mut fallbacks = 0;
+    let mut current = Batch::new(patches, chunk_edges);
+    let mut next = Batch::new(patches, chunk_edges);
+    current.prepare(mesh, edges, patches, &mut slot, &[], chunk_edges)?;
+    while !current.edges.is_empty() {
+        crease_edges += current.creases;
+        fallbacks += current.fallbacks;
+        let mut prepared = Ok(());
+        let evaluated = rayon::in_place_scope(|s| {
+            let (next, slot, done) = (&mut next, &mut slot, &current.fresh);
+            let prepared = &mut prepared;
+            let edges = &mut *edges;
+            s.spawn(move |_| {
+                *prepared = next.prepare(mesh, edges, patches, slot, done, chunk_edges);
+            });
+            current.evaluate(patches, evaluator, &mut fold)
+        });
+        evaluated?;
+        prepared?;
+        std::mem::swap(&mut current, &mut next);
     }
     match patches {
         Patches::Table(t) => fallbacks = t.fallbacks,
