@@ -234,8 +234,11 @@ where
     }
     let result = (|| {
         let file = File::create(&tmp).map_err(io)?;
+        let writeback = EarlyWriteback::start(&file);
         let mut w = BufWriter::with_capacity(1 << 20, file);
-        f(&mut w)?;
+        let written = f(&mut w);
+        drop(writeback);
+        written?;
         w.flush().map_err(io)?;
         w.get_ref().sync_all().map_err(io)?;
         std::fs::rename(&tmp, &target).map_err(io)
@@ -250,4 +253,74 @@ where
 /// Creates `dir` and its parents.
 pub fn ensure_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
+}
+
+/// Starts the kernel's writeback of a file being written while the writing goes on: a
+/// thread looks at the file's length every few milliseconds and hands each new 16 MiB to
+/// `sync_file_range(SYNC_FILE_RANGE_WRITE)`, which queues the pages for the disk without
+/// waiting. Left alone, Linux holds gigabytes of dirty pages until the final `fsync`, which
+/// then waits for all of them while nothing else runs; this way the disk works while the
+/// surface is evaluated. Purely a hint: errors are ignored, and the final `sync_all` still
+/// makes the file durable. A no-op elsewhere than Linux.
+struct EarlyWriteback {
+    #[cfg(target_os = "linux")]
+    stop: Option<(std::sync::mpsc::Sender<()>, std::thread::JoinHandle<()>)>,
+}
+
+impl EarlyWriteback {
+    #[cfg(target_os = "linux")]
+    fn start(file: &File) -> EarlyWriteback {
+        use std::os::fd::AsRawFd;
+        const STEP: i64 = 16 << 20;
+        let Ok(file) = file.try_clone() else {
+            return EarlyWriteback { stop: None };
+        };
+        let (tx, rx) = std::sync::mpsc::channel::<()>();
+        let thread = std::thread::Builder::new()
+            .name("g1tess-writeback".into())
+            .spawn(move || {
+                let mut queued: i64 = 0;
+                loop {
+                    match rx.recv_timeout(std::time::Duration::from_millis(20)) {
+                        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                        _ => return,
+                    }
+                    let Ok(len) = file.metadata().map(|m| m.len() as i64) else {
+                        return;
+                    };
+                    if len - queued >= STEP {
+                        let upto = len - len % STEP;
+                        // SAFETY: a plain system call on a descriptor this thread owns
+                        // (a duplicate, closed when `file` drops).
+                        unsafe {
+                            libc::sync_file_range(
+                                file.as_raw_fd(),
+                                queued,
+                                upto - queued,
+                                libc::SYNC_FILE_RANGE_WRITE,
+                            );
+                        }
+                        queued = upto;
+                    }
+                }
+            });
+        EarlyWriteback {
+            stop: thread.ok().map(|t| (tx, t)),
+        }
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    fn start(_: &File) -> EarlyWriteback {
+        EarlyWriteback {}
+    }
+}
+
+impl Drop for EarlyWriteback {
+    fn drop(&mut self) {
+        #[cfg(target_os = "linux")]
+        if let Some((tx, thread)) = self.stop.take() {
+            drop(tx);
+            let _ = thread.join();
+        }
+    }
 }
