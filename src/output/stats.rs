@@ -376,6 +376,9 @@ const BUILT: u32 = u32::MAX - 1;
 /// Slots of a triangle of the current chunk before it is numbered: first build, or again.
 const FRESH: u32 = u32::MAX - 2;
 const AGAIN: u32 = u32::MAX - 3;
+/// Slot of a triangle of the current chunk whose patch is copied from the previous chunk's
+/// table, before it is numbered.
+const COPY: u32 = u32::MAX - 4;
 
 /// One chunk of edges made ready for evaluation: its edges (crease flags set), the patches
 /// of their triangles (builder only) and its edge pattern.
@@ -387,6 +390,9 @@ struct Batch {
     /// Triangles of the chunk's table: first builds, then those built again.
     fresh: Vec<u32>,
     again: Vec<u32>,
+    /// Triangles of the chunk whose patches are in the previous chunk's table, with their
+    /// slot there: copied, not built again.
+    copy: Vec<(u32, u32)>,
     /// Fallbacks of the first builds, and crease edges, of the chunk.
     fallbacks: usize,
     creases: usize,
@@ -410,14 +416,17 @@ impl Batch {
             },
             fresh: Vec::new(),
             again: Vec::new(),
+            copy: Vec::new(),
             fallbacks: 0,
             creases: 0,
         }
     }
 
     /// Takes the next `chunk_edges` edges (none at the end) and prepares them. `done` are
-    /// the triangles of the previous chunk's table, marked built first; `slot` is the
-    /// per-triangle numbering of [`run`].
+    /// the triangles of the previous chunk's table `prev` (their slots still number them
+    /// there: patches needed again are copied from it), marked built afterwards; `slot` is
+    /// the per-triangle numbering of [`run`].
+    #[allow(clippy::too_many_arguments)]
     fn prepare(
         &mut self,
         mesh: &Mesh,
@@ -425,17 +434,19 @@ impl Batch {
         patches: Patches<'_, '_>,
         slot: &mut [u32],
         done: &[u32],
+        prev: &PatchTable,
         chunk_edges: usize,
     ) -> Result<()> {
-        for &t in done {
-            slot[t as usize] = BUILT;
-        }
         self.edges.clear();
         self.edges.extend(edges.take(chunk_edges));
         self.fresh.clear();
         self.again.clear();
+        self.copy.clear();
         self.fallbacks = 0;
         if self.edges.is_empty() {
+            for &t in done {
+                slot[t as usize] = BUILT;
+            }
             return Ok(());
         }
         self.edges
@@ -452,6 +463,16 @@ impl Batch {
                 } else if *s == BUILT {
                     *s = AGAIN;
                     self.again.push(u.triangle);
+                } else if *s < COPY {
+                    self.copy.push((u.triangle, *s));
+                    *s = COPY;
+                }
+            }
+            // The rest of the previous chunk's triangles are done with.
+            for &t in done {
+                let s = &mut slot[t as usize];
+                if *s < COPY {
+                    *s = BUILT;
                 }
             }
             let counted = self.fresh.len();
@@ -461,6 +482,17 @@ impl Batch {
             }
             b.table_of_into(&self.fresh, counted, &mut self.table)?;
             self.fallbacks = self.table.fallbacks;
+            // Patches are built the same wherever they are built: copies are bitwise those.
+            let stride = self.table.stride;
+            for &(t, s) in &self.copy {
+                let s = s as usize;
+                slot[t as usize] = self.fresh.len() as u32;
+                self.fresh.push(t);
+                self.table
+                    .points
+                    .extend_from_slice(&prev.points[s * stride..(s + 1) * stride]);
+                self.table.flat_normals.push(prev.flat_normals[s]);
+            }
         }
         let triangles = &mesh.triangles;
         let slot: &[u32] = slot;
@@ -555,17 +587,18 @@ fn run(
     let mut fallbacks = 0;
     let mut current = Batch::new(patches, chunk_edges);
     let mut next = Batch::new(patches, chunk_edges);
-    current.prepare(mesh, edges, patches, &mut slot, &[], chunk_edges)?;
+    let empty = current.table.clone();
+    current.prepare(mesh, edges, patches, &mut slot, &[], &empty, chunk_edges)?;
     while !current.edges.is_empty() {
         crease_edges += current.creases;
         fallbacks += current.fallbacks;
         let mut prepared = Ok(());
         let evaluated = rayon::in_place_scope(|s| {
-            let (next, slot, done) = (&mut next, &mut slot, &current.fresh);
+            let (next, slot, done, prev) = (&mut next, &mut slot, &current.fresh, &current.table);
             let prepared = &mut prepared;
             let edges = &mut *edges;
             s.spawn(move |_| {
-                *prepared = next.prepare(mesh, edges, patches, slot, done, chunk_edges);
+                *prepared = next.prepare(mesh, edges, patches, slot, done, prev, chunk_edges);
             });
             current.evaluate(patches, evaluator, &mut fold)
         });
