@@ -110,50 +110,41 @@ impl Evaluator for CpuEvaluator {
                         table.len()
                     )));
                 }
-                let step = self.chunk_samples.max(1);
-                let (mut pos, mut nrm) = take_buffers(step.min(points.len()));
-                let mut result = Ok(());
-                for (c, chunk) in points.chunks(step).enumerate() {
-                    pos.resize(chunk.len(), DVec3::ZERO);
-                    nrm.resize(chunk.len(), DVec3::ZERO);
-                    // Blocks of points; each rayon job keeps a memo of basis weights per
-                    // distinct barycentric point (edge samples have few) and evaluates
-                    // through the nonzero ones: bitwise what `table.eval` returns.
-                    const BLOCK: usize = 4096;
-                    pos.par_chunks_mut(BLOCK)
-                        .zip(nrm.par_chunks_mut(BLOCK))
-                        .zip(chunk.par_chunks(BLOCK))
-                        .for_each_init(
-                            || crate::patch::basis::WeightMemo::new(table.kind),
-                            |memo, ((p, n), pts)| {
-                                for ((p, n), pp) in p.iter_mut().zip(n.iter_mut()).zip(pts) {
-                                    let i = pp.patch as usize;
-                                    let sp = table.eval_sparse(i, memo.get(pp.b));
-                                    // A corner is the input vertex bit for bit (as on the
-                                    // grid and edge paths), whatever the sums give.
-                                    let corner =
-                                        pp.b.iter()
-                                            .position(|&x| x == 1.0)
-                                            .filter(|&k| (0..3).all(|j| j == k || pp.b[j] == 0.0));
-                                    *p = match corner {
-                                        Some(k) => table.corner(i, k),
-                                        None => sp.p,
-                                    };
-                                    *n = sp.n;
-                                }
-                            },
-                        );
-                    result = sink(Chunk {
-                        first: c * step,
-                        positions: &pos,
-                        normals: &nrm,
-                    });
-                    if result.is_err() {
-                        break;
-                    }
-                }
-                BUFFERS.set((pos, nrm));
-                result
+                stream_chunks(
+                    points.len(),
+                    self.chunk_samples.max(1),
+                    sink,
+                    |r, pos, nrm| {
+                        let chunk = &points[r];
+                        // Blocks of points; each rayon job keeps a memo of basis weights per
+                        // distinct barycentric point (edge samples have few) and evaluates
+                        // through the nonzero ones: bitwise what `table.eval` returns.
+                        const BLOCK: usize = 4096;
+                        pos.par_chunks_mut(BLOCK)
+                            .zip(nrm.par_chunks_mut(BLOCK))
+                            .zip(chunk.par_chunks(BLOCK))
+                            .for_each_init(
+                                || crate::patch::basis::WeightMemo::new(table.kind),
+                                |memo, ((p, n), pts)| {
+                                    for ((p, n), pp) in p.iter_mut().zip(n.iter_mut()).zip(pts) {
+                                        let i = pp.patch as usize;
+                                        let sp = table.eval_sparse(i, memo.get(pp.b));
+                                        // A corner is the input vertex bit for bit (as on the
+                                        // grid and edge paths), whatever the sums give.
+                                        let corner =
+                                            pp.b.iter().position(|&x| x == 1.0).filter(|&k| {
+                                                (0..3).all(|j| j == k || pp.b[j] == 0.0)
+                                            });
+                                        *p = match corner {
+                                            Some(k) => table.corner(i, k),
+                                            None => sp.p,
+                                        };
+                                        *n = sp.n;
+                                    }
+                                },
+                            );
+                    },
+                )
             }
         }
     }
@@ -175,27 +166,15 @@ impl Evaluator for CpuEvaluator {
         let per = edges.samples as usize;
         let weights = EdgeWeights::new(table, edges);
         let pairs_per_chunk = (self.chunk_samples / (2 * per)).max(1);
-        let (mut pos, mut nrm) = take_buffers(2 * per * pairs_per_chunk.min(edges.pairs.len()));
-        let mut result = Ok(());
-        for (c, chunk) in edges.pairs.chunks(pairs_per_chunk).enumerate() {
-            pos.resize(chunk.len() * 2 * per, DVec3::ZERO);
-            nrm.resize(chunk.len() * 2 * per, DVec3::ZERO);
+        let step = 2 * per * pairs_per_chunk;
+        stream_chunks(2 * per * edges.pairs.len(), step, sink, |r, pos, nrm| {
+            let chunk = &edges.pairs[r.start / (2 * per)..r.end / (2 * per)];
             pos.par_chunks_mut(2 * per)
                 .zip(nrm.par_chunks_mut(2 * per))
                 .zip(chunk.par_iter())
                 .with_min_len(64)
                 .for_each(|((p, n), pair)| weights.pair(table, pair, p, n));
-            result = sink(Chunk {
-                first: c * pairs_per_chunk * 2 * per,
-                positions: &pos,
-                normals: &nrm,
-            });
-            if result.is_err() {
-                break;
-            }
-        }
-        BUFFERS.set((pos, nrm));
-        result
+        })
     }
 
     /// Grids run the f32 SIMD kernel (see [`GridWeightsF32`]): control points relative to
@@ -232,6 +211,37 @@ fn take_buffers(need: usize) -> (Vec<DVec3>, Vec<DVec3>) {
         return (Vec::new(), Vec::new());
     }
     (pos, nrm)
+}
+
+/// Evaluates `count` samples `step` at a time into this thread's reused buffers: `fill`
+/// computes the samples of a range, and each run goes to `sink` with `first` its first
+/// sample's index. Stops at the first error of `sink`.
+fn stream_chunks(
+    count: usize,
+    step: usize,
+    sink: &mut dyn FnMut(Chunk<'_>) -> Result<()>,
+    fill: impl Fn(std::ops::Range<usize>, &mut [DVec3], &mut [DVec3]),
+) -> Result<()> {
+    let (mut pos, mut nrm) = take_buffers(step.min(count));
+    let mut result = Ok(());
+    let mut first = 0;
+    while first < count {
+        let len = step.min(count - first);
+        pos.resize(len, DVec3::ZERO);
+        nrm.resize(len, DVec3::ZERO);
+        fill(first..first + len, &mut pos, &mut nrm);
+        result = sink(Chunk {
+            first,
+            positions: &pos,
+            normals: &nrm,
+        });
+        if result.is_err() {
+            break;
+        }
+        first += len;
+    }
+    BUFFERS.set((pos, nrm));
+    result
 }
 
 /// Basis weights of an edge pattern, computed once per call: for each ordered slot pair
