@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use clap::Args;
 use glam::DVec3;
 
-use super::{BackendArgs, InputArgs};
+use super::{BackendArgs, Budget, InputArgs, MemoryArgs};
 use crate::eval::Evaluator;
 use crate::mesh::Mesh;
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
@@ -47,6 +47,8 @@ pub struct RenderArgs {
     /// Evaluation backend and precision (help text set on the struct).
     #[command(flatten)]
     pub backend: BackendArgs,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
     /// No summary line on stderr.
     #[arg(long, short)]
     pub quiet: bool,
@@ -71,14 +73,6 @@ pub fn check_view_up(view: DVec3, up: DVec3) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Half the machine's memory (from /proc/meminfo), or None where it cannot be read.
-fn memory_budget() -> Option<u128> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let kib: u128 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024 / 2)
-}
-
 /// The largest level ≤ `level` whose surface passes `fits`, if any.
 fn largest_fitting(triangles: usize, level: u32, fits: impl Fn(&SurfaceSize) -> bool) -> u32 {
     let (mut lo, mut hi) = (0u32, level);
@@ -94,17 +88,17 @@ fn largest_fitting(triangles: usize, level: u32, fits: impl Fn(&SurfaceSize) -> 
 }
 
 /// Refuses a level whose surface the device cannot draw or whose picture needs more than
-/// half the machine's memory, naming the largest level that fits.
+/// the memory budget (`--max-memory`), naming the largest level that fits.
 fn check_level(
     gpu: &crate::gpu::GpuContext,
     mesh: &Mesh,
     level: u32,
     explicit: bool,
+    budget: &Budget,
 ) -> anyhow::Result<()> {
     let t = mesh.triangles.len();
-    let budget = memory_budget();
-    let fits =
-        |s: &SurfaceSize| s.check_device(gpu).is_ok() && budget.is_none_or(|b| s.host_bytes() <= b);
+    let budget = budget.bytes as u128;
+    let fits = |s: &SurfaceSize| s.check_device(gpu).is_ok() && s.host_bytes() <= budget;
     let size = SurfaceSize::new(t, level);
     if fits(&size) {
         return Ok(());
@@ -112,9 +106,9 @@ fn check_level(
     let why = match size.check_device(gpu) {
         Err(e) => e.to_string(),
         Ok(()) => format!(
-            "the picture needs about {} MB, more than half of this machine's memory ({} MB)",
+            "the picture needs about {} MB, over the memory budget of {} MB (--max-memory)",
             size.host_bytes() / 1_000_000,
-            budget.unwrap_or(0) / 1_000_000
+            budget / 1_000_000
         ),
     };
     let best = largest_fitting(t, level, fits);
@@ -211,7 +205,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     );
     let mesh = Mesh::load(&a.input.mesh, &a.input.load_options())?;
     let level = a.level.unwrap_or_else(|| auto_level(mesh.triangles.len()));
-    check_level(&gpu, &mesh, level, a.level.is_some())?;
+    check_level(&gpu, &mesh, level, a.level.is_some(), &a.memory.budget())?;
     let mut backend = a.backend.clone();
     backend.quiet |= a.quiet;
     // Pictures are drawn in f32: the GPU evaluates in f32 unless told otherwise.
