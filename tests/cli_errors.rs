@@ -262,3 +262,109 @@ fn devices_and_endless_lines_are_refused_in_one_line() {
         "{text}"
     );
 }
+
+/// Runs g1tess and returns (exit code, stderr).
+fn run_code(args: &[&str]) -> (Option<i32>, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn usage_errors_are_one_line_with_exit_code_2() {
+    let cases: [(&[&str], &[&str]); 5] = [
+        (
+            &["stats", "--frobnicate"],
+            &[
+                "unexpected argument '--frobnicate'",
+                "'g1tess stats --help'",
+            ],
+        ),
+        (&["stats"], &["<MESH>", "'g1tess stats --help'"]),
+        (
+            &["tessellate", "x.obj", "--level", "abc"],
+            &[
+                "invalid value 'abc' for '--level",
+                "'g1tess tessellate --help'",
+            ],
+        ),
+        (
+            &["stats", "x", "--scheme", "foo"],
+            &["invalid value 'foo'", "possible values: g1,"],
+        ),
+        (
+            &["frob"],
+            &["unrecognized subcommand 'frob'", "'g1tess --help'"],
+        ),
+    ];
+    for (args, wanted) in cases {
+        let (code, err) = run_code(args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert_eq!(
+            err.trim_end().lines().count(),
+            1,
+            "{args:?}: one line: {err}"
+        );
+        assert!(err.starts_with("error: "), "{err}");
+        for w in wanted {
+            assert!(err.contains(w), "{args:?}: {w:?} in {err}");
+        }
+    }
+    // A long argument is echoed cut to 80 characters.
+    let long = "9".repeat(5000);
+    let (code, err) = run_code(&["tessellate", "x.obj", "--level", &format!("x{long}")]);
+    assert_eq!(code, Some(2));
+    assert!(err.len() < 300 && err.contains('…'), "{err}");
+}
+
+#[test]
+fn every_evaluating_command_refuses_work_over_the_memory_budget() {
+    // (arguments, what the refusal names). Each is refused before it allocates: the
+    // built-in torus is 8 M triangles (about 1.2 GiB to load); the study's grid at level
+    // 100000 holds 5 G points.
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["stats", "torus:2000x2000", "--max-memory", "100M"],
+            "stats: loading torus:2000x2000 needs about 1.2 GiB",
+        ),
+        (
+            &[
+                "compare",
+                "sphere320",
+                "torus:2000x2000",
+                "--max-memory",
+                "100M",
+            ],
+            "compare: loading torus:2000x2000 needs",
+        ),
+        (
+            &["sweep", "--level", "100000", "-q", "-o", "unused-sweep-dir"],
+            "sweep: the distance study at level 100000 needs about 2.1 TiB",
+        ),
+        (
+            &["--max-memory", "10M", "-q"],
+            "the default run: the distance study at level 16 needs",
+        ),
+        (
+            &["stats", "sphere320", "--max-memory", "1M"],
+            "over the memory budget of 1.0 MiB (--max-memory)",
+        ),
+    ];
+    for (args, wanted) in cases {
+        let (code, err) = run_code(args);
+        assert_eq!(code, Some(1), "{args:?}: {err}");
+        assert_eq!(
+            err.trim_end().lines().count(),
+            1,
+            "{args:?}: one line: {err}"
+        );
+        assert!(err.contains(wanted), "{args:?}: {wanted:?} in {err}");
+        assert!(err.contains("(--max-memory)"), "{err}");
+    }
+    assert!(!std::path::Path::new("unused-sweep-dir").exists());
+}

@@ -368,10 +368,12 @@ fn run_cli(args: &[String]) -> Result<(), TestCaseError> {
             prop_assert_eq!(lines.len(), 1, "{:?}: {}", args, stderr);
             prop_assert!(lines[0].starts_with("error: "), "{args:?}: {stderr}");
         }
-        // Usage errors from the argument parser (clap): its own exit code, and a few
-        // lines ending in a pointer to --help.
+        // Usage errors from the argument parser: exit code 2, one line ending in a
+        // pointer to --help.
         Some(2) => prop_assert!(
-            stderr.starts_with("error: ") && stderr.contains("try '--help'"),
+            stderr.starts_with("error: ")
+                && stderr.trim_end().lines().count() == 1
+                && stderr.trim_end().ends_with("--help')"),
             "{args:?}: {stderr}"
         ),
         code => prop_assert!(

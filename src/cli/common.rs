@@ -349,3 +349,74 @@ pub fn tessellation_need(
         (estimate.plan_bytes + estimate.store_bytes).saturating_add(evaluation.max(writer.1));
     (need, estimate, weights)
 }
+
+/// Peak bytes of loading `spec`, estimated before anything is read: a built-in's triangle
+/// count times [`LOADED_BYTES_PER_TRIANGLE`], or a file's size times a factor of its kind
+/// ([`TEXT_LOAD_FACTOR`], [`BINARY_LOAD_FACTOR`]) plus [`LOAD_OVERHEAD`].
+pub fn load_need(spec: &str) -> u64 {
+    if let Some(t) = crate::mesh::generators::spec_triangles(spec) {
+        return t.saturating_mul(LOADED_BYTES_PER_TRIANGLE);
+    }
+    let text = std::path::Path::new(spec)
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj") || e.eq_ignore_ascii_case("pn"));
+    let factor = if text {
+        TEXT_LOAD_FACTOR
+    } else {
+        BINARY_LOAD_FACTOR
+    };
+    std::fs::metadata(spec)
+        .map(|m| m.len().saturating_mul(factor).saturating_add(LOAD_OVERHEAD))
+        .unwrap_or(0)
+}
+
+/// Bytes per triangle of a generated mesh: 12 of indices, 72 of per-corner f64 normals,
+/// half a vertex of 24 bytes, and the generator's and weld's working arrays (measured:
+/// `stats torus:2000x2000`, 8 M triangles, peaks at 1.06 GB, 132 bytes per triangle with
+/// the statistics' edge index).
+pub const LOADED_BYTES_PER_TRIANGLE: u64 = 160;
+
+/// Peak bytes per byte of an OBJ or `.pn` file: measured 1.4 (`/usr/bin/time -f %M g1tess
+/// stats` on the bunny tessellated at level 4, a 120 MB OBJ: 170 MB peak); 2 leaves room
+/// for denser text (fewer digits per number).
+pub const TEXT_LOAD_FACTOR: u64 = 2;
+
+/// Binary meshes hold 4-byte floats and indices that become 8-byte floats and per-corner
+/// normals in memory: up to about 6 times their size.
+pub const BINARY_LOAD_FACTOR: u64 = 6;
+
+/// Buffers of a load whatever the file's size: the 8 MiB read chunks and per-thread blocks.
+pub const LOAD_OVERHEAD: u64 = 32 << 20;
+
+impl Budget {
+    /// Refuses, before reading it, a mesh whose loading would exceed the budget.
+    pub fn check_load(&self, command: &str, spec: &str) -> anyhow::Result<()> {
+        self.check(
+            command,
+            &format!("loading {spec}"),
+            load_need(spec),
+            "estimated",
+        )
+    }
+
+    /// Refuses continuity statistics of `mesh` that would exceed the budget: the mesh, its
+    /// edge index and one chunk of edges (see `output::stats`).
+    pub fn check_stats(&self, command: &str, mesh: &Mesh) -> anyhow::Result<()> {
+        let t = mesh.triangles.len() as u64;
+        let v = mesh.positions.len() as u64;
+        // Mesh arrays, then the edge index: 4 bytes per half-edge and per vertex, 4 per
+        // triangle for the chunk's patch numbering; then one chunk: 2^18 evaluation points
+        // of position + normal in f64, their patches and the evaluator's buffers (measured:
+        // the bunny's whole run peaks at 36 MB, 24 MB above its mesh and the binary).
+        let mesh_bytes = t * 84 + v * 24;
+        let index = t * 3 * 4 + v * 4 + t * 4;
+        let need = mesh_bytes + index + (32 << 20);
+        self.check(
+            command,
+            &format!("statistics of {}", mesh.name),
+            need,
+            &format!("{} triangles", human_count(t)),
+        )
+    }
+}

@@ -30,6 +30,8 @@ pub struct CompareArgs {
     pub phong_alpha: f64,
     #[command(flatten)]
     pub backend: BackendArgs,
+    #[command(flatten)]
+    pub memory: super::common::MemoryArgs,
 }
 
 impl CompareArgs {
@@ -43,6 +45,7 @@ impl CompareArgs {
             recompute_normals: false,
             phong_alpha: 0.75,
             backend: BackendArgs::default(),
+            memory: Default::default(),
         }
     }
 
@@ -56,6 +59,11 @@ impl CompareArgs {
 
     /// Runs the comparison on the chosen backend (GPU in f64 by default, else the CPU).
     pub fn reports(&self) -> anyhow::Result<Vec<crate::output::stats::StatsReport>> {
+        // Meshes are loaded one at a time: each must fit (its statistics stream).
+        let budget = self.memory.budget();
+        for mesh in &self.meshes {
+            budget.check_load("compare", mesh)?;
+        }
         Ok(table1::compare(
             &self.meshes,
             &LoadOptions {

@@ -160,10 +160,89 @@ fn quiet_vulkan_loader() {
     }
 }
 
+/// `s` with every '…'-quoted part passed through the readers' echo (control characters
+/// escaped, cut to 80 characters), and any other control character escaped.
+fn quote_quoted(s: &str) -> String {
+    let mut out = String::new();
+    for (i, part) in s.split('\'').enumerate() {
+        if i > 0 {
+            out.push('\'');
+        }
+        if i % 2 == 1 {
+            out.push_str(&crate::mesh::text::echo(part));
+        } else {
+            out.extend(part.chars().flat_map(|c| {
+                let esc: Vec<char> = if c.is_control() {
+                    c.escape_default().collect()
+                } else {
+                    vec![c]
+                };
+                esc
+            }));
+        }
+    }
+    out
+}
+
+/// Help and version go to stdout as clap writes them; a usage error is one line on stderr
+/// (clap's first line, which names the argument and what is wrong, and where to find help),
+/// with exit code 2.
+fn usage_error(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    if matches!(
+        e.kind(),
+        ErrorKind::DisplayHelp
+            | ErrorKind::DisplayVersion
+            | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+    ) {
+        let _ = e.print();
+        return if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+            ExitCode::from(2)
+        } else {
+            ExitCode::SUCCESS
+        };
+    }
+    // clap's first paragraph: the message and what it lists (missing arguments, possible
+    // values), joined on one line; its tips and usage are left to --help.
+    let text = e.render().to_string();
+    let first = text
+        .lines()
+        .take_while(|l| !l.trim().is_empty())
+        .map(str::trim)
+        .collect::<Vec<_>>()
+        .join(" ");
+    let first = first.trim_start_matches("error: ").trim_end_matches(':');
+    let first = if first.is_empty() {
+        "invalid arguments"
+    } else {
+        first
+    };
+    // clap quotes the argument as given: escape control characters (an argument must not
+    // drive the terminal) and cut what it echoes (a 5 MB argument gives a short line).
+    let first = quote_quoted(first);
+    let sub = std::env::args()
+        .skip(1)
+        .find(|a| !a.starts_with('-'))
+        .filter(|a| {
+            <Cli as clap::CommandFactory>::command()
+                .get_subcommands()
+                .any(|c| c.get_name() == a)
+        });
+    let usage = match sub {
+        Some(sub) => format!("g1tess {sub}"),
+        None => "g1tess".into(),
+    };
+    eprintln!("error: {first} (see '{usage} --help')");
+    ExitCode::from(2)
+}
+
 pub fn main() -> ExitCode {
     quiet_vulkan_loader();
     install_signal_handler();
-    let cli = Cli::parse_from(normalize_args(std::env::args_os().collect()));
+    let cli = match Cli::try_parse_from(normalize_args(std::env::args_os().collect())) {
+        Ok(cli) => cli,
+        Err(e) => return usage_error(e),
+    };
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

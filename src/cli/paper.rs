@@ -27,11 +27,19 @@ pub struct PaperArgs {
     /// summary are still printed on stdout).
     #[arg(short, long)]
     pub quiet: bool,
+    #[command(flatten)]
+    pub memory: super::common::MemoryArgs,
 }
 
 /// The default run with its options: statistics in f64 on the GPU unless `--precision`
 /// says otherwise.
 pub fn run_args(a: &PaperArgs) -> anyhow::Result<()> {
+    // The run's work is fixed: the largest step is the distance study's grid.
+    super::sweep::check_sweep(
+        &a.memory.budget(),
+        "the default run",
+        SweepPlan::default().level,
+    )?;
     let mut backend = a.backend.clone();
     backend.quiet |= a.quiet;
     let evaluator = backend.evaluator(crate::gpu::Precision::F64)?;

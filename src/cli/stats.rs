@@ -15,11 +15,16 @@ pub struct StatsArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub memory: super::MemoryArgs,
 }
 
 pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
     // No whole patch table: the statistics build the patches a chunk of edges at a time.
+    let budget = a.memory.budget();
+    budget.check_load("stats", &a.input.mesh)?;
     let mesh = Mesh::load(&a.input.mesh, &a.input.load_options())?;
+    budget.check_stats("stats", &mesh)?;
     let evaluator = a.backend.evaluator(crate::gpu::Precision::F64)?;
     let report = stats_report(
         &mesh,

@@ -40,6 +40,37 @@ pub struct SweepArgs {
     /// Phong tessellation's shape factor α.
     #[arg(long, default_value_t = 0.75)]
     pub phong_alpha: f64,
+    #[command(flatten)]
+    pub memory: super::common::MemoryArgs,
+}
+
+/// What the distance study holds at grid level `level`: the basis weights of every grid
+/// point (the CPU evaluator's `Weights`, with their barycentrics), one chunk of f64
+/// samples (position + normal), and the study's meshes and patches (under 1 MiB each).
+pub fn sweep_need(level: u32) -> u64 {
+    let points = crate::eval::grid_len(level) as u64;
+    let per_point = std::mem::size_of::<crate::patch::basis::Weights>() as u64 + 24;
+    points
+        .saturating_mul(per_point)
+        .saturating_add(super::common::CHUNK_SAMPLES as u64 * 48)
+        .saturating_add(16 << 20)
+}
+
+/// Refuses a study whose grid would exceed the budget, before anything is allocated.
+pub fn check_sweep(
+    budget: &super::common::Budget,
+    command: &str,
+    level: u32,
+) -> anyhow::Result<()> {
+    budget.check(
+        command,
+        &format!("the distance study at level {level}"),
+        sweep_need(level),
+        &format!(
+            "{} grid points per patch",
+            super::common::human_count(crate::eval::grid_len(level) as u64)
+        ),
+    )
 }
 
 /// What `sweep` wrote.
@@ -164,6 +195,8 @@ pub fn summary(rows: &[SweepRow]) -> String {
 }
 
 pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(a.level >= 1, "--level must be at least 1");
+    check_sweep(&a.memory.budget(), "sweep", a.level)?;
     let plan = SweepPlan {
         level: a.level,
         options: SchemeOptions {

@@ -216,3 +216,23 @@ fn orient_outward(pos: &[DVec3], tris: &mut [[u32; 3]], centre: DVec3) {
         }
     }
 }
+
+/// Triangles of the built-in mesh named by `spec`, without building it; `None` when `spec`
+/// names no well-formed built-in (then [`from_spec`] says what is wrong, or it is a file).
+pub fn spec_triangles(spec: &str) -> Option<u64> {
+    match spec {
+        "sphere320" => return Some(320),
+        "torus200" => return Some(200),
+        _ => {}
+    }
+    if let Some(level) = spec.strip_prefix("icosphere:") {
+        let level: u32 = level.parse().ok().filter(|&l| l <= 7)?;
+        return Some(20 << (2 * level));
+    }
+    let rest = spec.strip_prefix("torus:")?;
+    let dims = rest.split(':').next()?;
+    let (n, m) = dims.split_once('x')?;
+    let (n, m): (u64, u64) = (n.parse().ok()?, m.parse().ok()?);
+    let dims = 3..=2000;
+    (dims.contains(&n) && dims.contains(&m)).then_some(2 * n * m)
+}
