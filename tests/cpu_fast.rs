@@ -488,3 +488,24 @@ fn edge_pairs_agree_with_the_f64_reference_on_every_backend() {
         }
     }
 }
+
+#[test]
+fn an_unallocatable_grid_is_an_error_not_an_abort() {
+    // Level 10⁷: 5·10¹³ grid points, petabytes of basis tables on any machine.
+    let mesh = g1tess::mesh::Mesh::load("sphere320", &Default::default()).unwrap();
+    let table = PatchTable::build(&mesh, g1tess::patch::Scheme::G1, &Default::default()).unwrap();
+    let cpu = CpuEvaluator::default();
+    let grid = Pattern::Grid { level: 10_000_000 };
+    let err = cpu.evaluate(&table, &grid, &mut |_| Ok(())).unwrap_err();
+    assert!(
+        err.to_string().contains("the grid of level 10000000 needs"),
+        "{err}"
+    );
+    let err = cpu
+        .evaluate_f32(&table, &grid, &mut |_| Ok(()))
+        .unwrap_err();
+    assert!(
+        err.to_string().contains("more than can be allocated"),
+        "{err}"
+    );
+}

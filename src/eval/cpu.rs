@@ -42,6 +42,24 @@ impl CpuEvaluator {
     }
 }
 
+/// Fails, instead of aborting, when the per-grid tables of `level` (`bytes_per_point` at
+/// each of its points) cannot be allocated: the allocation is tried and given back.
+/// Commands check a memory budget before; this keeps a library call with an absurd level
+/// from ending the process.
+fn grid_fits(level: u32, bytes_per_point: usize) -> Result<()> {
+    let bytes = (grid_len(level) as u128) * bytes_per_point as u128;
+    let too_big = || {
+        crate::Error::Invalid(format!(
+            "the grid of level {level} needs {bytes} bytes of basis tables, more than can be \
+             allocated"
+        ))
+    };
+    let bytes = usize::try_from(bytes).map_err(|_| too_big())?;
+    let mut probe: Vec<u8> = Vec::new();
+    probe.try_reserve_exact(bytes).map_err(|_| too_big())?;
+    Ok(())
+}
+
 /// Basis values at every point of the grid of level n: the same for every patch of a
 /// table, so computed once.
 pub fn grid_weights(table: &PatchTable, level: u32) -> Vec<Weights> {
@@ -68,6 +86,7 @@ impl Evaluator for CpuEvaluator {
     ) -> Result<()> {
         match pattern {
             Pattern::Grid { level } => {
+                grid_fits(*level, std::mem::size_of::<Weights>() + 24)?;
                 let weights = grid_weights(table, *level);
                 let per = grid_len(*level);
                 let corners = grid_corners(*level);
@@ -188,6 +207,7 @@ impl Evaluator for CpuEvaluator {
     ) -> Result<()> {
         match pattern {
             Pattern::Grid { level } => {
+                grid_fits(*level, table.stride * 12 + 24)?;
                 let weights = GridWeightsF32::new(table.kind, *level);
                 self.grid_f32(table, &weights, sink)
             }
