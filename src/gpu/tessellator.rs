@@ -749,19 +749,9 @@ impl GpuTessellator {
         })
     }
 
-    /// Records the tessellation at grid level `level` (≥ 1) into `encoder`: the vertex,
-    /// index and indirect buffers hold the welded surface once the encoder's work has run.
-    /// The level's parameters (and its basis table) are written with `queue.write_buffer`,
-    /// so submit the encoder before tessellating again. Buffers are reused while large
-    /// enough; a finer level allocates larger ones (call [`GpuTessellator::vertices`] and
-    /// [`GpuTessellator::indices`] again after this).
-    pub fn tessellate(
-        &mut self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-        level: u32,
-    ) -> Result<TessCounts> {
+    /// Whether level `level` (≥ 1) fits: 32-bit indices and thread counts, and the vertex
+    /// and index buffers within the device's storage binding limit (the error says which).
+    pub fn check_level(&self, level: u32) -> Result<()> {
         if level == 0 {
             return Err(Error::Invalid(
                 "tessellation level must be at least 1".into(),
@@ -796,6 +786,31 @@ impl GpuTessellator {
                 )));
             }
         }
+        Ok(())
+    }
+
+    /// Records the tessellation at grid level `level` (≥ 1) into `encoder`: the vertex,
+    /// index and indirect buffers hold the welded surface once the encoder's work has run.
+    /// The level's parameters (and its basis table) are written with `queue.write_buffer`,
+    /// so submit the encoder before tessellating again. Buffers are reused while large
+    /// enough; a finer level allocates larger ones (call [`GpuTessellator::vertices`] and
+    /// [`GpuTessellator::indices`] again after this).
+    pub fn tessellate(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        level: u32,
+    ) -> Result<TessCounts> {
+        self.check_level(level)?;
+        let topo = &self.topology;
+        let records = topo.records(level);
+        let index_count = topo.index_count(level);
+        let per = grid_len(level) as u64;
+        let threads = topo.patches as u64 * per;
+        let copy_threads = topo.patches as u64 * 3 * (level as u64 - 1);
+        let vertex_bytes = records * VERTEX_BYTES;
+        let index_bytes = index_count * 4;
         let rb = self.precision.bytes() as u64;
         let table_bytes = per * self.kind.stride() as u64 * 3 * rb;
         let use_table = table_bytes <= MAX_GRID_TABLE_BYTES.min(self.max_binding);
