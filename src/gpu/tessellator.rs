@@ -37,22 +37,46 @@
 //! sample count (a scan pass per frame), while `a` stays as it is.
 //!
 //! ```no_run
-//! # fn demo(device: &wgpu::Device, queue: &wgpu::Queue) -> g1tess::Result<()> {
+//! # fn demo(
+//! #     device: &wgpu::Device,
+//! #     queue: &wgpu::Queue,
+//! #     pipeline: &wgpu::RenderPipeline,
+//! #     target: &wgpu::TextureView,
+//! # ) -> g1tess::Result<()> {
 //! use g1tess::gpu::tessellator::GpuTessellator;
 //! use g1tess::gpu::Precision;
 //! use g1tess::mesh::Mesh;
 //! use g1tess::patch::{PatchTable, Scheme};
 //!
+//! // Once: the patches, their upload and the topology table.
 //! let mesh = Mesh::load("icosphere:2", &Default::default())?;
 //! let table = PatchTable::build(&mesh, Scheme::G1, &Default::default())?;
 //! let mut tess = GpuTessellator::new(device, queue, &mesh, &table, Precision::F32)?;
+//!
+//! // Every frame: tessellate at this frame's level and draw, in one encoder.
+//! let level = 8;
 //! let mut encoder = device.create_command_encoder(&Default::default());
-//! let counts = tess.tessellate(device, queue, &mut encoder, 8)?;
-//! // ... a render pass in the same encoder, whose pipeline takes
-//! // g1tess::gpu::tessellator::vertex_layout() as its vertex buffer 0:
-//! //     tess.draw(&mut pass);
+//! tess.tessellate(device, queue, &mut encoder, level)?;
+//! {
+//!     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+//!         label: Some("surface"),
+//!         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+//!             view: target,
+//!             depth_slice: None,
+//!             resolve_target: None,
+//!             ops: wgpu::Operations::default(),
+//!         })],
+//!         depth_stencil_attachment: None,
+//!         timestamp_writes: None,
+//!         occlusion_query_set: None,
+//!         multiview_mask: None,
+//!     });
+//!     // A pipeline whose vertex buffer 0 is g1tess::gpu::tessellator::vertex_layout():
+//!     // @location(0) position, @location(1) unit normal, both vec3<f32>.
+//!     pass.set_pipeline(pipeline);
+//!     tess.draw(&mut pass); // vertex + index buffers, draw_indexed_indirect
+//! }
 //! queue.submit([encoder.finish()]);
-//! # let _ = counts;
 //! # Ok(())
 //! # }
 //! ```
