@@ -10,9 +10,13 @@ use std::process::Command;
 use glam::DVec3;
 
 use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::gpu::tessellator::GpuTessellator;
+use g1tess::gpu::Precision;
 use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::render::{device, ramp, render_panels, Panels, RenderOptions, BACKGROUND};
+use g1tess::render::{
+    device, ramp, render_panels, render_tessellated, Panels, RenderOptions, BACKGROUND,
+};
 use g1tess::tess::stitch::stitch;
 
 /// Whether a Vulkan device is there; fails under CI=true when it is not.
@@ -33,15 +37,26 @@ fn panels(spec: &str, scheme: Scheme, size: u32) -> Panels {
     let mesh = Mesh::load(spec, &LoadOptions::default()).unwrap();
     let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
     let (w, _, _) = stitch(&mesh, &table, &CpuEvaluator::default(), 6).unwrap();
-    render_panels(
-        &w,
-        &RenderOptions {
-            panel: size,
-            view: DVec3::Z,
-            up: DVec3::Y,
-        },
-    )
-    .unwrap()
+    render_panels(&w, &front(size)).unwrap()
+}
+
+fn front(size: u32) -> RenderOptions {
+    RenderOptions {
+        panel: size,
+        view: DVec3::Z,
+        up: DVec3::Y,
+    }
+}
+
+/// As [`panels`], tessellated on the GPU straight into the render pass's buffers (the
+/// path of `render` on a GPU backend), in f32.
+fn panels_gpu(spec: &str, scheme: Scheme, size: u32) -> Panels {
+    let mesh = Mesh::load(spec, &LoadOptions::default()).unwrap();
+    let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
+    let gpu = device().unwrap();
+    let mut tess =
+        GpuTessellator::new(&gpu.device, &gpu.queue, &mesh, &table, Precision::F32).unwrap();
+    render_tessellated(&gpu, &mut tess, 6, &front(size)).unwrap()
 }
 
 fn diff(a: [u8; 3], b: [u8; 3]) -> u32 {
@@ -49,14 +64,25 @@ fn diff(a: [u8; 3], b: [u8; 3]) -> u32 {
 }
 
 /// The unit sphere seen along −z: a disk whose pixels show ramp(n) with
-/// n = (u, v, √(1 − u² − v²)) at the pixel centre (u, v in disk radii, v up).
+/// n = (u, v, √(1 − u² − v²)) at the pixel centre (u, v in disk radii, v up), whether
+/// the surface was tessellated on the host or on the GPU (camera fitted to the extent the
+/// GPU found).
 #[test]
 fn sphere_shows_the_analytic_normal_components() {
     if !gpu_or_skip("sphere_shows_the_analytic_normal_components") {
         return;
     }
     let size = 160;
-    let p = panels("icosphere:3", Scheme::G1, size);
+    // The host surface uploaded, then the GPU tessellation drawn from its own buffers.
+    for p in [
+        panels("icosphere:3", Scheme::G1, size),
+        panels_gpu("icosphere:3", Scheme::G1, size),
+    ] {
+        sphere_picture_checks(&p, size);
+    }
+}
+
+fn sphere_picture_checks(p: &Panels, size: u32) {
     for c in 0..3 {
         // Not blank: the disk covers π/4 of the panel shrunk by the 4 % fitting margin.
         let covered = (0..size)

@@ -1,6 +1,7 @@
 //! `g1tess render`: pictures of the normal field (figures 13–16), headless on a Vulkan
 //! device. The render pass always needs that device; `--backend` chooses where the
-//! surface is evaluated. The device is opened first and the surface's size checked against
+//! surface is tessellated: on the GPU straight into the render pass's vertex and index
+//! buffers (`gpu::tessellator`), or on the CPU and uploaded into buffers of the same layout. The device is opened first and the surface's size checked against
 //! its limits and the host memory before anything is evaluated.
 
 use std::path::PathBuf;
@@ -10,10 +11,13 @@ use glam::DVec3;
 
 use super::{BackendArgs, Budget, InputArgs, MemoryArgs};
 use crate::eval::Evaluator;
+use crate::gpu::tessellator::GpuTessellator;
+use crate::gpu::Precision;
 use crate::mesh::Mesh;
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 use crate::render::{
-    device, max_panel, render_panels, write_png, RenderOptions, Row, SurfaceSize, MIN_PANEL,
+    device, max_panel, render_panels, render_tessellated, write_png, RenderOptions, Row,
+    SurfaceSize, MIN_PANEL,
 };
 use crate::tess::stitch::stitch;
 
@@ -151,6 +155,39 @@ pub fn auto_level(triangles: usize) -> u32 {
     fit.clamp(1, 16)
 }
 
+/// The working precision of `evaluator` when it evaluates on the GPU (its description,
+/// [`Evaluator::describe`], starts "gpu (f32" or "gpu (f64"), else `None` (the CPU, or a
+/// GPU backend that could not open: its own evaluation then reports why).
+fn gpu_precision(evaluator: &dyn Evaluator) -> Option<Precision> {
+    let d = evaluator.describe();
+    let rest = d.strip_prefix("gpu (")?;
+    [Precision::F32, Precision::F64]
+        .into_iter()
+        .find(|p| rest.starts_with(p.name()))
+}
+
+/// The picture of one scheme: with a GPU evaluator, tessellated on the device straight into
+/// the render pass's vertex and index buffers; otherwise evaluated and stitched on the host
+/// and uploaded into buffers of the same layout, drawn by the same pipeline.
+fn scheme_panels(
+    mesh: &Mesh,
+    table: &PatchTable,
+    level: u32,
+    opts: &RenderOptions,
+    evaluator: &dyn Evaluator,
+) -> anyhow::Result<crate::render::Panels> {
+    if let Some(precision) = gpu_precision(evaluator) {
+        let gpu = device()?;
+        let mut tess = GpuTessellator::new(&gpu.device, &gpu.queue, mesh, table, precision)?;
+        // Levels whose buffers exceed the device's storage binding limit go the host way.
+        if tess.check_level(level).is_ok() {
+            return Ok(render_tessellated(&gpu, &mut tess, level, opts)?);
+        }
+    }
+    let (surface, _, _) = stitch(mesh, table, evaluator, level)?;
+    Ok(render_panels(&surface, opts)?)
+}
+
 /// Renders `schemes` of `mesh` (one row each), evaluated by `evaluator`, into `output`.
 pub fn render_schemes(
     mesh: &Mesh,
@@ -164,10 +201,9 @@ pub fn render_schemes(
     let mut rows = Vec::new();
     for &scheme in schemes {
         let table = PatchTable::build(mesh, scheme, scheme_opts)?;
-        let (surface, _, _) = stitch(mesh, &table, evaluator, level)?;
         rows.push(Row {
             label: scheme.to_string(),
-            panels: render_panels(&surface, opts)?,
+            panels: scheme_panels(mesh, &table, level, opts, evaluator)?,
         });
     }
     let caption = format!(
@@ -209,7 +245,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let mut backend = a.backend.clone();
     backend.quiet |= a.quiet;
     // Pictures are drawn in f32: the GPU evaluates in f32 unless told otherwise.
-    let evaluator = backend.evaluator(crate::gpu::Precision::F32)?;
+    let evaluator = backend.evaluator(Precision::F32)?;
     let mut schemes = vec![a.input.scheme];
     schemes.extend(a.also.iter().copied().filter(|s| *s != a.input.scheme));
     let opts = RenderOptions {

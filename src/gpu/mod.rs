@@ -20,8 +20,10 @@
 
 pub mod readback;
 pub mod shaders;
+pub mod tessellator;
 
 pub use readback::read_buffer;
+pub use tessellator::GpuTessellator;
 
 use std::sync::{Arc, Mutex, OnceLock};
 

@@ -34,6 +34,19 @@ impl Camera {
     /// The camera looking along −`view`, with `up` projected perpendicular to it (any
     /// perpendicular when `up` is along `view`), fitted to `positions`.
     pub fn fit(positions: &[DVec3], view: DVec3, up: DVec3) -> Result<Camera> {
+        let [x, y, z] = Camera::frame(view, up)?;
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for p in positions {
+            let q = DVec3::new(p.dot(x), p.dot(y), p.dot(z));
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+        Camera::from_extent([x, y, z], lo, hi)
+    }
+
+    /// The camera's frame (right, up, towards the viewer) for looking along −`view` with
+    /// `up` projected perpendicular to it (any perpendicular when `up` is along `view`).
+    pub fn frame(view: DVec3, up: DVec3) -> Result<[DVec3; 3]> {
         let z = view
             .try_normalize()
             .ok_or_else(|| Error::Invalid("render: the view direction is zero".into()))?;
@@ -43,14 +56,14 @@ impl Camera {
             up = z.any_orthonormal_vector();
         }
         let y = up.normalize();
-        let x = y.cross(z);
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for p in positions {
-            let q = DVec3::new(p.dot(x), p.dot(y), p.dot(z));
-            lo = lo.min(q);
-            hi = hi.max(q);
-        }
-        if !lo.is_finite() || !hi.is_finite() {
+        Ok([y.cross(z), y, z])
+    }
+
+    /// The camera of `frame` ([`Camera::frame`]) fitted to a surface whose coordinates along
+    /// the frame's axes span `lo..hi` (e.g. the extent a GPU pass found).
+    pub fn from_extent(frame: [DVec3; 3], lo: DVec3, hi: DVec3) -> Result<Camera> {
+        let [x, y, z] = frame;
+        if !lo.is_finite() || !hi.is_finite() || lo.cmpgt(hi).any() {
             return Err(Error::Invalid("render: empty or non-finite surface".into()));
         }
         let half = 0.5 * (hi - lo);

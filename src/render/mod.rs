@@ -25,7 +25,7 @@ pub mod pipeline;
 pub use camera::Camera;
 #[cfg(feature = "cli")]
 pub use compose::{write_png, Row};
-pub use pipeline::{render_panels, render_panels_on, shader_source};
+pub use pipeline::{render_panels, render_panels_on, render_tessellated, shader_source};
 
 /// Background of the panels (white).
 pub const BACKGROUND: [u8; 3] = [255, 255, 255];

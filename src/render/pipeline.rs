@@ -1,12 +1,17 @@
-//! The render pass: the welded surface's triangles (record positions and normals as f32)
-//! drawn three times into one multisampled texture, one viewport per normal component,
-//! then resolved and read back as RGBA rows. Everything here works on a `wgpu::Device` and
-//! `Queue`; [`render_panels`] runs it on the process's shared [`GpuContext`].
+//! The render pass: the welded surface's triangles (vertex records: position and normal
+//! as f32, [`crate::gpu::tessellator::vertex_layout`]) drawn three times into one
+//! multisampled texture, one viewport per normal component, then resolved and read back
+//! as RGBA rows. The vertices and indices are either the GPU tessellation's own buffers
+//! ([`render_tessellated`]: nothing but a 24-byte extent comes back before drawing) or
+//! a CPU surface uploaded into buffers of the same layout ([`render_panels_on`]); both
+//! go through [`draw`]. Everything here works on a `wgpu::Device` and `Queue`;
+//! [`render_panels`] runs it on the process's shared [`GpuContext`].
 
 use wgpu::util::DeviceExt;
 
 use super::camera::Camera;
 use super::{device, Panels, RenderOptions, BACKGROUND, RAMP, RAMP_SEGMENTS};
+use crate::gpu::tessellator::{decode_bounds, vertex_layout, GpuTessellator, VERTEX_BYTES};
 use crate::gpu::GpuContext;
 use crate::tess::stitch::StitchedMesh;
 use crate::{Error, Result};
@@ -17,8 +22,6 @@ pub const RENDER_WGSL: &str = include_str!("../../shaders/render.wgsl");
 const SAMPLES: u32 = 4;
 const COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-/// Bytes of one vertex: position and normal, 3 f32 each.
-const VERTEX_BYTES: u64 = 24;
 
 /// The uniform block of `shaders/render.wgsl` (`struct Uniforms`), byte for byte.
 #[repr(C)]
@@ -50,6 +53,24 @@ pub fn shader_source() -> String {
     )
 }
 
+/// How many indices a draw takes.
+#[derive(Clone, Copy, Debug)]
+pub enum IndexCount<'a> {
+    /// Known on the host.
+    Direct(u32),
+    /// From `draw_indexed_indirect` arguments on the device
+    /// ([`GpuTessellator::indirect`]).
+    Indirect(&'a wgpu::Buffer),
+}
+
+/// What [`draw`] draws: vertices of [`vertex_layout`] and `u32` triangle indices.
+#[derive(Clone, Copy, Debug)]
+pub struct Geometry<'a> {
+    pub vertices: &'a wgpu::Buffer,
+    pub indices: &'a wgpu::Buffer,
+    pub count: IndexCount<'a>,
+}
+
 /// Draws `mesh` (welded, with its record normals) in three panels coloured by n_x, n_y,
 /// n_z, on the process's shared GPU ([`device`]).
 pub fn render_panels(mesh: &StitchedMesh, opts: &RenderOptions) -> Result<Panels> {
@@ -59,7 +80,8 @@ pub fn render_panels(mesh: &StitchedMesh, opts: &RenderOptions) -> Result<Panels
     render_panels_on(&*device()?, mesh, opts)
 }
 
-/// [`render_panels`] on a given GPU context.
+/// [`render_panels`] on a given GPU context: the surface (computed on the host) is
+/// uploaded into a vertex and an index buffer and drawn by [`draw`].
 pub fn render_panels_on(
     gpu: &GpuContext,
     mesh: &StitchedMesh,
@@ -82,7 +104,20 @@ pub fn render_panels_on(
             limits.max_buffer_size
         )));
     }
-    // Vertices: record positions and normals as f32, interleaved.
+    let (vertices, indices, count) = upload(&gpu.device, mesh);
+    let geometry = Geometry {
+        vertices: &vertices,
+        indices: &indices,
+        count: IndexCount::Direct(count),
+    };
+    let rgba = draw(&gpu.device, &gpu.queue, &geometry, &camera.rows(), size)?;
+    gpu.check()?;
+    Ok(Panels { panel: size, rgba })
+}
+
+/// Uploads a host surface into a vertex buffer of [`vertex_layout`] (record positions and
+/// normals rounded to f32) and an index buffer; returns them and the index count.
+pub fn upload(dev: &wgpu::Device, mesh: &StitchedMesh) -> (wgpu::Buffer, wgpu::Buffer, u32) {
     let mut vertices: Vec<f32> = Vec::with_capacity(6 * mesh.normals.len());
     for (r, n) in mesh.record_position.iter().zip(&mesh.normals) {
         let p = mesh.positions[*r as usize];
@@ -91,14 +126,65 @@ pub fn render_panels_on(
         ]);
     }
     let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-    let rgba = draw(
-        &gpu.device,
-        &gpu.queue,
-        &vertices,
-        &indices,
-        &camera.rows(),
-        size,
+    let vbuf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("render vertices"),
+        contents: bytemuck::cast_slice(&vertices),
+        usage: wgpu::BufferUsages::VERTEX,
+    });
+    let ibuf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("render indices"),
+        contents: bytemuck::cast_slice(&indices),
+        usage: wgpu::BufferUsages::INDEX,
+    });
+    (vbuf, ibuf, indices.len() as u32)
+}
+
+/// Tessellates at `level` on the GPU with `tess` (built on `gpu`'s device) and draws the
+/// result from the tessellator's own buffers. Only the surface's extent along the camera's
+/// axes (24 bytes, [`GpuTessellator::record_bounds`]) comes back to fit the camera, as
+/// [`Camera::fit`] fits it to a host surface.
+pub fn render_tessellated(
+    gpu: &GpuContext,
+    tess: &mut GpuTessellator,
+    level: u32,
+    opts: &RenderOptions,
+) -> Result<Panels> {
+    let (dev, queue) = (&gpu.device, &gpu.queue);
+    let size = opts.panel.max(super::MIN_PANEL).min(super::max_panel(gpu));
+    let frame = Camera::frame(opts.view, opts.up)?;
+    let axes = frame.map(|a| a.as_vec3().to_array());
+    let staging = dev.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("render extent"),
+        size: 24,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut enc = dev.create_command_encoder(&Default::default());
+    let counts = tess.tessellate(dev, queue, &mut enc, level)?;
+    if counts.indices == 0 {
+        return Err(Error::Invalid("render: no triangles".into()));
+    }
+    tess.record_bounds(queue, &mut enc, axes)?;
+    enc.copy_buffer_to_buffer(tess.bounds(), 0, &staging, 0, 24);
+    queue.submit([enc.finish()]);
+    let keys: Vec<u32> =
+        crate::gpu::read_buffer(dev, &staging, 24, |b| bytemuck::cast_slice(b).to_vec())?;
+    gpu.check()?;
+    let keys: [u32; 6] = keys
+        .try_into()
+        .map_err(|_| Error::Gpu("render: short extent read back".into()))?;
+    let (lo, hi) = decode_bounds(keys);
+    let camera = Camera::from_extent(
+        frame,
+        glam::Vec3::from(lo).as_dvec3(),
+        glam::Vec3::from(hi).as_dvec3(),
     )?;
+    let geometry = Geometry {
+        vertices: tess.vertices(),
+        indices: tess.indices(),
+        count: IndexCount::Indirect(tess.indirect()),
+    };
+    let rgba = draw(dev, queue, &geometry, &camera.rows(), size)?;
     gpu.check()?;
     Ok(Panels { panel: size, rgba })
 }
@@ -134,11 +220,7 @@ fn pipeline(dev: &wgpu::Device) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout)
             module: &module,
             entry_point: Some("vs"),
             compilation_options: Default::default(),
-            buffers: &[Some(wgpu::VertexBufferLayout {
-                array_stride: VERTEX_BYTES,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
-            })],
+            buffers: &[Some(vertex_layout())],
         },
         primitive: wgpu::PrimitiveState {
             topology: wgpu::PrimitiveTopology::TriangleList,
@@ -172,28 +254,16 @@ fn pipeline(dev: &wgpu::Device) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout)
     (pipeline, bgl)
 }
 
-/// Draws the triangles `indices` of `vertices` (6 f32 each: position, normal) under the
-/// map `rows` into three `size`-pixel panels side by side; returns their RGBA rows, top to
-/// bottom, 4 bytes per pixel.
+/// Draws `geometry` under the map `rows` into three `size`-pixel panels side by side;
+/// returns their RGBA rows, top to bottom, 4 bytes per pixel.
 pub fn draw(
     dev: &wgpu::Device,
     queue: &wgpu::Queue,
-    vertices: &[f32],
-    indices: &[u32],
+    geometry: &Geometry<'_>,
     rows: &[[f32; 4]; 3],
     size: u32,
 ) -> Result<Vec<u8>> {
     let width = 3 * size;
-    let vbuf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("render vertices"),
-        contents: bytemuck::cast_slice(vertices),
-        usage: wgpu::BufferUsages::VERTEX,
-    });
-    let ibuf = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("render indices"),
-        contents: bytemuck::cast_slice(indices),
-        usage: wgpu::BufferUsages::INDEX,
-    });
     let (pipeline, bgl) = pipeline(dev);
     let bind_groups: Vec<wgpu::BindGroup> = (0..3u32)
         .map(|component| {
@@ -295,8 +365,8 @@ pub fn draw(
             multiview_mask: None,
         });
         pass.set_pipeline(&pipeline);
-        pass.set_vertex_buffer(0, vbuf.slice(..));
-        pass.set_index_buffer(ibuf.slice(..), wgpu::IndexFormat::Uint32);
+        pass.set_vertex_buffer(0, geometry.vertices.slice(..));
+        pass.set_index_buffer(geometry.indices.slice(..), wgpu::IndexFormat::Uint32);
         for (c, bind) in bind_groups.iter().enumerate() {
             pass.set_viewport(
                 (c as u32 * size) as f32,
@@ -307,7 +377,10 @@ pub fn draw(
                 1.0,
             );
             pass.set_bind_group(0, bind, &[]);
-            pass.draw_indexed(0..indices.len() as u32, 0, 0..1);
+            match geometry.count {
+                IndexCount::Direct(n) => pass.draw_indexed(0..n, 0, 0..1),
+                IndexCount::Indirect(args) => pass.draw_indexed_indirect(args, 0),
+            }
         }
     }
     enc.copy_texture_to_buffer(

@@ -1,0 +1,1051 @@
+//! Device-resident tessellation: the welded, indexed surface of a patch table written by
+//! compute passes straight into a vertex and an index buffer on the host program's own
+//! `wgpu::Device`, ready for its render pass, with nothing read back.
+//!
+//! wgpu has no tessellation stage; [`GpuTessellator`] stands in for one. It is built once
+//! on the host's device and queue from a [`Mesh`] and its [`PatchTable`] (any patch kind,
+//! any backend the host chose), uploads the patch data and a level-independent
+//! [`Topology`] table once, and then, frame after frame, records the tessellation of any
+//! uniform grid level into the host's `CommandEncoder`:
+//!
+//! - [`GpuTessellator::vertices`]: one entry per vertex record, absolute f32 position and
+//!   unit f32 normal, 24 bytes ([`vertex_layout`]), usable as `VERTEX | STORAGE`;
+//! - [`GpuTessellator::indices`]: `u32` triangle indices (`INDEX | STORAGE`), level² per
+//!   patch;
+//! - [`GpuTessellator::indirect`]: the `draw_indexed_indirect` arguments
+//!   ([`wgpu::util::DrawIndexedIndirectArgs`], `INDIRECT`), and [`TessCounts`] on the host.
+//!
+//! Buffers are reused while they are large enough for the level asked for.
+//!
+//! **Numbering.** The output is the one of [`crate::tess::stitch::StitchPlan`] (records in
+//! the order they first appear, patch after patch: corners, edges from their lower vertex
+//! id, the interior in grid order), so the CPU and GPU paths give the same vertex and index
+//! buffers up to the rounding of the evaluated samples. Shared vertices and edge samples
+//! are written once, by the first patch that uses them (no cracks); where the input splits
+//! normals (creases) an edge sample has one record per side, with that side's normal and
+//! the owner's position. Corner samples are the input vertices rounded once to f32, bit for
+//! bit.
+//!
+//! **The topology table.** Every item of that order (a corner record, a block of n − 1
+//! edge records, a patch's interior) starts at `a + b (n − 1) + c (n − 1)(n − 2)/2`,
+//! where `a`, `b` and `c` count the corner records, edge blocks and interiors before it,
+//! none of which depends on the level n. [`Topology`] keeps `(a, b, c)` of every item a
+//! patch refers to ([`TOPO_STRIDE`] u32 per patch), so one compute pass places every
+//! sample and writes every triangle at any level, with no plan per level. Per-edge levels
+//! would keep the same table: `b (n − 1)` and `c (n − 1)(n − 2)/2` become the exclusive
+//! prefix sums, over edge blocks and over patches, of each block's and each interior's
+//! sample count (a scan pass per frame), while `a` stays as it is.
+//!
+//! ```no_run
+//! # fn demo(
+//! #     device: &wgpu::Device,
+//! #     queue: &wgpu::Queue,
+//! #     pipeline: &wgpu::RenderPipeline,
+//! #     target: &wgpu::TextureView,
+//! # ) -> g1tess::Result<()> {
+//! use g1tess::gpu::tessellator::GpuTessellator;
+//! use g1tess::gpu::Precision;
+//! use g1tess::mesh::Mesh;
+//! use g1tess::patch::{PatchTable, Scheme};
+//!
+//! // Once: the patches, their upload and the topology table.
+//! let mesh = Mesh::load("icosphere:2", &Default::default())?;
+//! let table = PatchTable::build(&mesh, Scheme::G1, &Default::default())?;
+//! let mut tess = GpuTessellator::new(device, queue, &mesh, &table, Precision::F32)?;
+//!
+//! // Every frame: tessellate at this frame's level and draw, in one encoder.
+//! let level = 8;
+//! let mut encoder = device.create_command_encoder(&Default::default());
+//! tess.tessellate(device, queue, &mut encoder, level)?;
+//! {
+//!     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+//!         label: Some("surface"),
+//!         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+//!             view: target,
+//!             depth_slice: None,
+//!             resolve_target: None,
+//!             ops: wgpu::Operations::default(),
+//!         })],
+//!         depth_stencil_attachment: None,
+//!         timestamp_writes: None,
+//!         occlusion_query_set: None,
+//!         multiview_mask: None,
+//!     });
+//!     // A pipeline whose vertex buffer 0 is g1tess::gpu::tessellator::vertex_layout():
+//!     // @location(0) position, @location(1) unit normal, both vec3<f32>.
+//!     pass.set_pipeline(pipeline);
+//!     tess.draw(&mut pass); // vertex + index buffers, draw_indexed_indirect
+//! }
+//! queue.submit([encoder.finish()]);
+//! # Ok(())
+//! # }
+//! ```
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use crate::eval::gpu::{Params, Real};
+use crate::eval::{grid_barycentrics, grid_len};
+use crate::mesh::creases::{normal_key, split_ends};
+use crate::mesh::{Adjacency, Mesh};
+use crate::patch::{PatchKind, PatchTable};
+use crate::{Error, Result};
+
+use super::shaders::{self, SLOT_CORNERS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO};
+use super::Precision;
+
+/// `shaders/tessellate.wgsl`, appended (after [`tess_header`]) to the evaluation module of
+/// the patch kind.
+pub const TESS_WGSL: &str = include_str!("../../shaders/tessellate.wgsl");
+
+/// Threads per workgroup of the tessellation entry points.
+pub const TESS_WORKGROUP: u32 = 64;
+/// u32 per patch in the topology table.
+pub const TOPO_STRIDE: usize = 36;
+/// Offset of corner k's `(a, b, c, flags)`: `TOPO_CORNER + 4k`.
+pub const TOPO_CORNER: usize = 0;
+/// Offset of local edge k's `(a, b, c, flags, owner a, owner b, owner c)`: `TOPO_EDGE + 7k`.
+pub const TOPO_EDGE: usize = 12;
+/// Offset of the interior's `(a, b)` (its c is the patch index).
+pub const TOPO_INTERIOR: usize = 33;
+/// The patch writes the record (it created it).
+pub const FLAG_WRITE: u32 = 1;
+/// The local edge runs from the higher vertex id to the lower one.
+pub const FLAG_REVERSED: u32 = 2;
+/// Split normals: the records are this patch's, their positions the owner's.
+pub const FLAG_COPY: u32 = 4;
+
+/// Bytes of one vertex: position then unit normal, 3 f32 each.
+pub const VERTEX_BYTES: u64 = 24;
+
+/// The vertex attributes: location 0 position (`Float32x3`, offset 0), location 1 unit
+/// normal (`Float32x3`, offset 12).
+pub const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
+    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+
+/// The layout of [`GpuTessellator::vertices`] for a render pipeline: stride 24 bytes, per
+/// vertex, [`VERTEX_ATTRIBUTES`].
+pub fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    wgpu::VertexBufferLayout {
+        array_stride: VERTEX_BYTES,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &VERTEX_ATTRIBUTES,
+    }
+}
+
+/// The header the tessellation WGSL is appended after: the table layout and workgroup
+/// size above, so `shaders/tessellate.wgsl` never copies the numbers.
+pub fn tess_header() -> String {
+    format!(
+        "// generated by src/gpu/tessellator.rs (tess_header)\n\
+         const TESS_WORKGROUP: u32 = {TESS_WORKGROUP}u;\n\
+         const TOPO_STRIDE: u32 = {TOPO_STRIDE}u;\n\
+         const TOPO_CORNER: u32 = {TOPO_CORNER}u;\n\
+         const TOPO_EDGE: u32 = {TOPO_EDGE}u;\n\
+         const TOPO_INTERIOR: u32 = {TOPO_INTERIOR}u;\n\
+         const FLAG_WRITE: u32 = {FLAG_WRITE}u;\n\
+         const FLAG_REVERSED: u32 = {FLAG_REVERSED}u;\n\
+         const FLAG_COPY: u32 = {FLAG_COPY}u;\n"
+    )
+}
+
+/// Complete WGSL of the tessellation module of `kind`: the evaluation module
+/// ([`shaders::module_source`]), [`tess_header`], `shaders/tessellate.wgsl`.
+pub fn tess_module_source(kind: PatchKind, precision: Precision) -> Result<String> {
+    Ok(format!(
+        "{}\n// ---- src/gpu/tessellator.rs ----\n{}\n// ---- shaders/tessellate.wgsl ----\n{}",
+        shaders::module_source(kind, precision)?,
+        tess_header(),
+        TESS_WGSL
+    ))
+}
+
+/// The level-independent numbering of the stitched output (module documentation).
+#[derive(Clone, Debug)]
+pub struct Topology {
+    /// [`TOPO_STRIDE`] u32 per patch.
+    pub table: Vec<u32>,
+    /// Corner records (distinct (vertex, corner normal) pairs).
+    pub corner_records: u32,
+    /// Edge record blocks (one per edge, one more per extra side of a split edge).
+    pub edge_blocks: u32,
+    /// Blocks whose positions are copied from the owner's (split normals).
+    pub copied_blocks: u32,
+    pub patches: usize,
+}
+
+/// The record of one grid point: its id, the table's flags, and the record its position
+/// comes from (the owner's where [`FLAG_COPY`], else itself).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rec {
+    pub id: u32,
+    pub flags: u32,
+    pub source: u32,
+}
+
+impl Topology {
+    /// The table of `mesh` (whose adjacency is `adjacency`), numbered as
+    /// [`crate::tess::stitch::StitchPlan::new`] numbers the output.
+    pub fn new(mesh: &Mesh, adjacency: &Adjacency) -> Result<Topology> {
+        let nf = mesh.triangles.len();
+        if nf as u64 >= u32::MAX as u64 / 4 {
+            return Err(Error::Invalid(format!(
+                "{}: {nf} triangles are too many for 32-bit indices",
+                mesh.name
+            )));
+        }
+        let split: Vec<bool> = split_ends(mesh, adjacency)
+            .iter()
+            .map(|s| s[0] || s[1])
+            .collect();
+        const NONE: u32 = u32::MAX;
+        let mut use_edge = vec![NONE; 3 * nf];
+        let mut use_rev = vec![false; 3 * nf];
+        for (e, edge) in adjacency.edges.iter().enumerate() {
+            for u in &edge.uses {
+                let i = 3 * u.triangle as usize + u.local as usize;
+                use_edge[i] = e as u32;
+                use_rev[i] = mesh.triangles[u.triangle as usize][u.local as usize] != edge.v[0];
+            }
+        }
+        if let Some(u) = use_edge.iter().position(|&e| e == NONE) {
+            return Err(Error::Invalid(format!(
+                "{}: edge {} of triangle {} is missing from the adjacency",
+                mesh.name,
+                u % 3,
+                u / 3
+            )));
+        }
+        let mut table = vec![0u32; TOPO_STRIDE * nf];
+        let mut groups: HashMap<(u32, [u64; 3]), [u32; 3]> = HashMap::new();
+        let mut edge_block: Vec<Option<[u32; 3]>> = vec![None; adjacency.edges.len()];
+        let (mut a, mut b, mut copied) = (0u32, 0u32, 0u32);
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let row = &mut table[t * TOPO_STRIDE..(t + 1) * TOPO_STRIDE];
+            let c = t as u32;
+            for (k, &v) in tri.iter().enumerate() {
+                let key = (v, normal_key(mesh.corner_normals[t][k]));
+                let (abc, flags) = match groups.get(&key) {
+                    Some(&abc) => (abc, 0),
+                    None => {
+                        let abc = [a, b, c];
+                        groups.insert(key, abc);
+                        a += 1;
+                        (abc, FLAG_WRITE)
+                    }
+                };
+                let o = TOPO_CORNER + 4 * k;
+                row[o..o + 3].copy_from_slice(&abc);
+                row[o + 3] = flags;
+            }
+            for k in 0..3 {
+                let u = 3 * t + k;
+                let e = use_edge[u] as usize;
+                let rev = if use_rev[u] { FLAG_REVERSED } else { 0 };
+                let (own, owner, flags) = match edge_block[e] {
+                    None => {
+                        let abc = [a, b, c];
+                        edge_block[e] = Some(abc);
+                        b += 1;
+                        (abc, abc, FLAG_WRITE)
+                    }
+                    Some(owner) if split[e] => {
+                        let abc = [a, b, c];
+                        b += 1;
+                        copied += 1;
+                        (abc, owner, FLAG_WRITE | FLAG_COPY)
+                    }
+                    Some(owner) => (owner, owner, 0),
+                };
+                let o = TOPO_EDGE + 7 * k;
+                row[o..o + 3].copy_from_slice(&own);
+                row[o + 3] = flags | rev;
+                row[o + 4..o + 7].copy_from_slice(&owner);
+            }
+            row[TOPO_INTERIOR] = a;
+            row[TOPO_INTERIOR + 1] = b;
+        }
+        Ok(Topology {
+            table,
+            corner_records: a,
+            edge_blocks: b,
+            copied_blocks: copied,
+            patches: nf,
+        })
+    }
+
+    /// Vertex records at `level`: `a + b (n − 1) + patches (n − 1)(n − 2)/2` with the
+    /// totals (exact, in u64).
+    pub fn records(&self, level: u32) -> u64 {
+        let n = level.max(1) as u64;
+        self.corner_records as u64
+            + self.edge_blocks as u64 * (n - 1)
+            + self.patches as u64 * ((n - 1) * n.saturating_sub(2) / 2)
+    }
+
+    /// Triangle indices at `level`: 3 n² per patch.
+    pub fn index_count(&self, level: u32) -> u64 {
+        3 * self.patches as u64 * (level as u64).pow(2)
+    }
+
+    fn topo(&self, p: u32, o: usize) -> u32 {
+        self.table[p as usize * TOPO_STRIDE + o]
+    }
+
+    fn item_base(&self, p: u32, o: usize, n: u32) -> u32 {
+        let em = n - 1;
+        let interior = em * n.saturating_sub(2) / 2;
+        self.topo(p, o) + self.topo(p, o + 1) * em + self.topo(p, o + 2) * interior
+    }
+
+    /// The triangles of every patch at `level` as record ids, in the order the GPU writes
+    /// them ([`grid_triangle_index`]); the CPU mirror of the index buffer.
+    pub fn triangles(&self, level: u32) -> Vec<[u32; 3]> {
+        let n = level.max(1);
+        let mut out = vec![[0u32; 3]; self.patches * (n * n) as usize];
+        for p in 0..self.patches as u32 {
+            let base = p as usize * (n * n) as usize;
+            for j in 0..n {
+                for i in 0..n - j {
+                    let t = base + grid_triangle_index(n, i, j) as usize;
+                    let a = record_of(self, p, n, i, j).id;
+                    let b = record_of(self, p, n, i + 1, j).id;
+                    let c = record_of(self, p, n, i, j + 1).id;
+                    out[t] = [a, b, c];
+                    if i + j + 1 < n {
+                        out[t + 1] = [b, record_of(self, p, n, i + 1, j + 1).id, c];
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Record of grid point (i, j) (b1 = i/n, b2 = j/n) of patch `p` at level `n`, from the
+/// table alone (`record_of` of `shaders/tessellate.wgsl` mirrors it).
+pub fn record_of(topology: &Topology, p: u32, n: u32, i: u32, j: u32) -> Rec {
+    let em = n - 1;
+    let corner = match (i, j) {
+        (0, 0) => Some(0),
+        (i, 0) if i == n => Some(1),
+        (0, j) if j == n => Some(2),
+        _ => None,
+    };
+    if let Some(k) = corner {
+        let o = TOPO_CORNER + 4 * k;
+        let id = topology.item_base(p, o, n);
+        return Rec {
+            id,
+            flags: topology.topo(p, o + 3),
+            source: id,
+        };
+    }
+    let edge = if j == 0 {
+        Some((0, i))
+    } else if i + j == n {
+        Some((1, j))
+    } else if i == 0 {
+        Some((2, n - j))
+    } else {
+        None
+    };
+    if let Some((k, s)) = edge {
+        let o = TOPO_EDGE + 7 * k;
+        let flags = topology.topo(p, o + 3);
+        let m = if flags & FLAG_REVERSED != 0 {
+            em - s
+        } else {
+            s - 1
+        };
+        let id = topology.item_base(p, o, n) + m;
+        let source = if flags & FLAG_COPY != 0 {
+            topology.item_base(p, o + 4, n) + m
+        } else {
+            id
+        };
+        return Rec { id, flags, source };
+    }
+    let interior = em * n.saturating_sub(2) / 2;
+    let base =
+        topology.topo(p, TOPO_INTERIOR) + topology.topo(p, TOPO_INTERIOR + 1) * em + p * interior;
+    let id = base + (j - 1) * em - (j - 1) * j / 2 + i - 1;
+    Rec {
+        id,
+        flags: FLAG_WRITE,
+        source: id,
+    }
+}
+
+/// Index of the upward triangle of grid point (i, j) among a patch's n² triangles in
+/// [`crate::eval::grid_triangles`] order (the downward one, where there is one, follows):
+/// row j starts at `2 n j − j²`.
+pub fn grid_triangle_index(n: u32, i: u32, j: u32) -> u32 {
+    2 * n * j - j * j + 2 * i
+}
+
+/// What one tessellation produced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TessCounts {
+    pub level: u32,
+    /// Vertex records written (entries of [`GpuTessellator::vertices`]).
+    pub vertices: u32,
+    /// Indices written (3 per triangle).
+    pub indices: u32,
+}
+
+impl TessCounts {
+    pub fn triangles(&self) -> u32 {
+        self.indices / 3
+    }
+}
+
+/// `Tess` of `shaders/tessellate.wgsl`, byte for byte.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TessUniform {
+    pub main_count: u32,
+    pub main_groups_x: u32,
+    pub copy_count: u32,
+    pub copy_groups_x: u32,
+    pub bounds_count: u32,
+    pub bounds_groups_x: u32,
+    pub pad: [u32; 2],
+    pub axes: [[f32; 4]; 3],
+}
+
+/// Grids whose basis table is at most this large read it (computed once per level on the
+/// CPU); finer levels compute the basis in the shader.
+pub const MAX_GRID_TABLE_BYTES: u64 = 32 << 20;
+
+/// The tessellator: pipelines, the uploaded patch data and topology, the output buffers.
+pub struct GpuTessellator {
+    kind: PatchKind,
+    precision: Precision,
+    topology: Topology,
+    max_binding: u64,
+    max_groups: u32,
+    layout0: wgpu::BindGroupLayout,
+    layout1: wgpu::BindGroupLayout,
+    main_table: wgpu::ComputePipeline,
+    main_basis: wgpu::ComputePipeline,
+    copy: wgpu::ComputePipeline,
+    bounds_pipeline: wgpu::ComputePipeline,
+    params: wgpu::Buffer,
+    patch_data: wgpu::Buffer,
+    grid_w: wgpu::Buffer,
+    tess_uniform: wgpu::Buffer,
+    topo_buffer: wgpu::Buffer,
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    indirect: wgpu::Buffer,
+    bounds: wgpu::Buffer,
+    group0: wgpu::BindGroup,
+    group1: wgpu::BindGroup,
+    uniform: TessUniform,
+    counts: Option<TessCounts>,
+}
+
+/// Bytes rounded up to a multiple of 16, at least 16.
+fn padded(bytes: u64) -> u64 {
+    bytes.max(16).div_ceil(16) * 16
+}
+
+fn entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty,
+        count: None,
+    }
+}
+
+fn uniform_ty() -> wgpu::BindingType {
+    wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Uniform,
+        has_dynamic_offset: false,
+        min_binding_size: None,
+    }
+}
+
+fn storage_ty(read_only: bool) -> wgpu::BindingType {
+    wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Storage { read_only },
+        has_dynamic_offset: false,
+        min_binding_size: None,
+    }
+}
+
+/// Appends patch `i`'s upload (`shaders/common.wgsl`: control points with the geometry
+/// relative to corner 0, the flat normal, corner 0's low part, the three corners rounded
+/// once) to `out`.
+fn push_patch_data<R: Real>(table: &PatchTable, i: usize, out: &mut Vec<R>) {
+    let push =
+        |out: &mut Vec<R>, v: DVec3| out.extend_from_slice(&[R::of(v.x), R::of(v.y), R::of(v.z)]);
+    let origin = table.corner(i, 0);
+    let geometry = table.kind.geometry();
+    for (j, p) in table.patch(i).iter().enumerate() {
+        push(out, if j < geometry { *p - origin } else { *p });
+    }
+    let rounded = |v: DVec3| DVec3::new(R::of(v.x).get(), R::of(v.y).get(), R::of(v.z).get());
+    let extra = [
+        (SLOT_FLAT_NORMAL, table.flat_normals[i]),
+        (SLOT_ORIGIN_LO, origin - rounded(origin)),
+        (SLOT_CORNERS, origin),
+        (SLOT_CORNERS + 1, table.corner(i, 1)),
+        (SLOT_CORNERS + 2, table.corner(i, 2)),
+    ];
+    for (slot, (expect, v)) in extra.into_iter().enumerate() {
+        debug_assert_eq!(slot, expect);
+        push(out, v);
+    }
+}
+
+fn patch_bytes<R: Real>(table: &PatchTable) -> Vec<u8> {
+    let mut out: Vec<R> = Vec::with_capacity(table.len() * 3 * shaders::patch_vecs(table.kind));
+    for i in 0..table.len() {
+        push_patch_data(table, i, &mut out);
+    }
+    bytemuck::cast_slice(&out).to_vec()
+}
+
+/// The basis of every grid point of `level`, laid out as `table_weights` of
+/// `shaders/tessellate.wgsl` reads it.
+fn grid_weight_bytes<R: Real>(kind: PatchKind, level: u32) -> Vec<u8> {
+    let per = grid_len(level);
+    let stride = kind.stride();
+    let mut flat: Vec<R> = vec![R::of(0.0); per * stride * 3];
+    for (local, b) in grid_barycentrics(level).into_iter().enumerate() {
+        let w = kind.weights(b);
+        for j in 0..stride {
+            flat[(j * 3) * per + local] = R::of(w.w[j]);
+            flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
+            flat[(j * 3 + 2) * per + local] = R::of(w.wt[j]);
+        }
+    }
+    bytemuck::cast_slice(&flat).to_vec()
+}
+
+/// Workgroups (x, y) for `count` threads, at most `max` per dimension.
+fn groups(count: u32, max: u32) -> Result<(u32, u32)> {
+    let g = count.div_ceil(TESS_WORKGROUP).max(1);
+    let x = g.min(max.max(1));
+    let y = g.div_ceil(x);
+    if y > max {
+        return Err(Error::Gpu(format!(
+            "{count} tessellation threads need more than {max} × {max} workgroups"
+        )));
+    }
+    Ok((x, y))
+}
+
+impl GpuTessellator {
+    /// Builds the pipelines of `table`'s patch kind in `precision` on the host's device and
+    /// uploads the patch data and the topology of `mesh` (the table's mesh). Errors when the
+    /// device lacks what the shaders need (`SHADER_F64` for f64, storage buffers in compute
+    /// shaders) or a buffer exceeds its limits.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        mesh: &Mesh,
+        table: &PatchTable,
+        precision: Precision,
+    ) -> Result<GpuTessellator> {
+        if table.len() != mesh.triangles.len() {
+            return Err(Error::Invalid(format!(
+                "{}: a patch table of {} patches for {} triangles",
+                mesh.name,
+                table.len(),
+                mesh.triangles.len()
+            )));
+        }
+        if precision == Precision::F64 && !device.features().contains(wgpu::Features::SHADER_F64) {
+            return Err(Error::Gpu(
+                "the device was opened without SHADER_F64: f64 tessellation needs it \
+                 (request the feature when the adapter offers it); f32 works"
+                    .into(),
+            ));
+        }
+        let limits = device.limits();
+        if limits.max_storage_buffers_per_shader_stage < 6 || limits.max_bind_groups < 2 {
+            return Err(Error::Gpu(format!(
+                "tessellation needs 6 storage buffers per compute shader and 2 bind groups; \
+                 the device allows {} and {}",
+                limits.max_storage_buffers_per_shader_stage, limits.max_bind_groups
+            )));
+        }
+        let max_binding = (limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
+        let max_groups = limits.max_compute_workgroups_per_dimension;
+        let topology = Topology::new(mesh, &mesh.adjacency())?;
+        let source = tess_module_source(table.kind, precision)?;
+        shaders::validate(&source, precision)
+            .map_err(|e| Error::Gpu(format!("shaders/tessellate.wgsl ({:?}): {e}", table.kind)))?;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tessellate.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let layout0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("g1tess tessellate eval"),
+            entries: &[
+                entry(0, uniform_ty()),
+                entry(1, storage_ty(true)),
+                entry(4, storage_ty(true)),
+            ],
+        });
+        let layout1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("g1tess tessellate"),
+            entries: &[
+                entry(0, uniform_ty()),
+                entry(1, storage_ty(true)),
+                entry(2, storage_ty(false)),
+                entry(3, storage_ty(false)),
+                entry(4, storage_ty(false)),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("g1tess tessellate"),
+            bind_group_layouts: &[Some(&layout0), Some(&layout1)],
+            immediate_size: 0,
+        });
+        let make = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let data = match precision {
+            Precision::F32 => patch_bytes::<f32>(table),
+            Precision::F64 => patch_bytes::<f64>(table),
+        };
+        let topo_bytes: &[u8] = bytemuck::cast_slice(&topology.table);
+        for (what, bytes) in [("patch data", data.len()), ("topology", topo_bytes.len())] {
+            if bytes as u64 > max_binding {
+                return Err(Error::Gpu(format!(
+                    "{}: the {what} of {} patches takes {bytes} bytes, over the device's \
+                     storage binding limit of {max_binding}",
+                    mesh.name,
+                    table.len()
+                )));
+            }
+        }
+        use wgpu::BufferUsages as U;
+        let buffer = |label, size: u64, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: padded(size),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let params = buffer(
+            "tess params",
+            std::mem::size_of::<Params>() as u64,
+            U::UNIFORM | U::COPY_DST,
+        );
+        let patch_data = buffer(
+            "tess patch data",
+            data.len() as u64,
+            U::STORAGE | U::COPY_DST,
+        );
+        queue.write_buffer(&patch_data, 0, &data);
+        let topo_buffer = buffer(
+            "tess topology",
+            topo_bytes.len() as u64,
+            U::STORAGE | U::COPY_DST,
+        );
+        queue.write_buffer(&topo_buffer, 0, topo_bytes);
+        let grid_w = buffer("tess grid weights", 16, U::STORAGE | U::COPY_DST);
+        let tess_uniform = buffer(
+            "tess uniform",
+            std::mem::size_of::<TessUniform>() as u64,
+            U::UNIFORM | U::COPY_DST,
+        );
+        let vertices = buffer("tess vertices", 16, Self::VERTEX_USAGE);
+        let indices = buffer("tess indices", 16, Self::INDEX_USAGE);
+        let indirect = buffer(
+            "tess indirect",
+            std::mem::size_of::<wgpu::util::DrawIndexedIndirectArgs>() as u64,
+            U::INDIRECT | U::COPY_DST | U::COPY_SRC,
+        );
+        let bounds = buffer("tess bounds", 24, U::STORAGE | U::COPY_SRC | U::COPY_DST);
+        let group0 = Self::bind0(device, &layout0, &params, &patch_data, &grid_w);
+        let group1 = Self::bind1(
+            device,
+            &layout1,
+            &tess_uniform,
+            &topo_buffer,
+            &vertices,
+            &indices,
+            &bounds,
+        );
+        Ok(GpuTessellator {
+            kind: table.kind,
+            precision,
+            topology,
+            max_binding,
+            max_groups,
+            main_table: make("tess_main"),
+            main_basis: make("tess_basis_main"),
+            copy: make("tess_copy_main"),
+            bounds_pipeline: make("tess_bounds_main"),
+            layout0,
+            layout1,
+            params,
+            patch_data,
+            grid_w,
+            tess_uniform,
+            topo_buffer,
+            vertices,
+            indices,
+            indirect,
+            bounds,
+            group0,
+            group1,
+            uniform: TessUniform::default(),
+            counts: None,
+        })
+    }
+
+    /// Usage of the vertex buffer.
+    pub const VERTEX_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::VERTEX
+        .union(wgpu::BufferUsages::STORAGE)
+        .union(wgpu::BufferUsages::COPY_SRC)
+        .union(wgpu::BufferUsages::COPY_DST);
+    /// Usage of the index buffer.
+    pub const INDEX_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::INDEX
+        .union(wgpu::BufferUsages::STORAGE)
+        .union(wgpu::BufferUsages::COPY_SRC)
+        .union(wgpu::BufferUsages::COPY_DST);
+
+    fn bind0(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        params: &wgpu::Buffer,
+        patch_data: &wgpu::Buffer,
+        grid_w: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("g1tess tessellate eval"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: patch_data.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: grid_w.as_entire_binding(),
+                },
+            ],
+        })
+    }
+
+    fn bind1(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        uniform: &wgpu::Buffer,
+        topology: &wgpu::Buffer,
+        vertices: &wgpu::Buffer,
+        indices: &wgpu::Buffer,
+        bounds: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = [uniform, topology, vertices, indices, bounds]
+            .into_iter()
+            .enumerate()
+            .map(|(b, buf)| wgpu::BindGroupEntry {
+                binding: b as u32,
+                resource: buf.as_entire_binding(),
+            })
+            .collect();
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("g1tess tessellate"),
+            layout,
+            entries: &entries,
+        })
+    }
+
+    /// Whether level `level` (≥ 1) fits: 32-bit indices and thread counts, and the vertex
+    /// and index buffers within the device's storage binding limit (the error says which).
+    pub fn check_level(&self, level: u32) -> Result<()> {
+        if level == 0 {
+            return Err(Error::Invalid(
+                "tessellation level must be at least 1".into(),
+            ));
+        }
+        let topo = &self.topology;
+        let records = topo.records(level);
+        let index_count = topo.index_count(level);
+        let per = grid_len(level) as u64;
+        let threads = topo.patches as u64 * per;
+        let copy_threads = topo.patches as u64 * 3 * (level as u64 - 1);
+        if records >= u32::MAX as u64
+            || index_count >= u32::MAX as u64
+            || threads >= u32::MAX as u64
+            || copy_threads >= u32::MAX as u64
+        {
+            return Err(Error::Invalid(format!(
+                "level {level} on {} patches exceeds 32-bit vertex indices",
+                topo.patches
+            )));
+        }
+        let vertex_bytes = records * VERTEX_BYTES;
+        let index_bytes = index_count * 4;
+        for (what, bytes) in [("vertex", vertex_bytes), ("index", index_bytes)] {
+            if bytes > self.max_binding {
+                return Err(Error::Gpu(format!(
+                    "level {level} on {} patches needs a {} MB {what} buffer, over the \
+                     device's storage binding limit of {} MB",
+                    topo.patches,
+                    bytes / 1_000_000,
+                    self.max_binding / 1_000_000
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Records the tessellation at grid level `level` (≥ 1) into `encoder`: the vertex,
+    /// index and indirect buffers hold the welded surface once the encoder's work has run.
+    /// The level's parameters (and its basis table) are written with `queue.write_buffer`,
+    /// so submit the encoder before tessellating again. Buffers are reused while large
+    /// enough; a finer level allocates larger ones (call [`GpuTessellator::vertices`] and
+    /// [`GpuTessellator::indices`] again after this).
+    pub fn tessellate(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        level: u32,
+    ) -> Result<TessCounts> {
+        self.check_level(level)?;
+        let topo = &self.topology;
+        let records = topo.records(level);
+        let index_count = topo.index_count(level);
+        let per = grid_len(level) as u64;
+        let threads = topo.patches as u64 * per;
+        let copy_threads = topo.patches as u64 * 3 * (level as u64 - 1);
+        let vertex_bytes = records * VERTEX_BYTES;
+        let index_bytes = index_count * 4;
+        let rb = self.precision.bytes() as u64;
+        let table_bytes = per * self.kind.stride() as u64 * 3 * rb;
+        let use_table = table_bytes <= MAX_GRID_TABLE_BYTES.min(self.max_binding);
+        use wgpu::BufferUsages as U;
+        let mut rebind0 = false;
+        if use_table {
+            if self.grid_w.size() < table_bytes {
+                self.grid_w = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("tess grid weights"),
+                    size: padded(table_bytes),
+                    usage: U::STORAGE | U::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                rebind0 = true;
+            }
+            let w = match self.precision {
+                Precision::F32 => grid_weight_bytes::<f32>(self.kind, level),
+                Precision::F64 => grid_weight_bytes::<f64>(self.kind, level),
+            };
+            queue.write_buffer(&self.grid_w, 0, &w);
+        }
+        if rebind0 {
+            self.group0 = Self::bind0(
+                device,
+                &self.layout0,
+                &self.params,
+                &self.patch_data,
+                &self.grid_w,
+            );
+        }
+        let mut rebind1 = false;
+        if self.vertices.size() < vertex_bytes {
+            self.vertices = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("tess vertices"),
+                size: padded(vertex_bytes),
+                usage: Self::VERTEX_USAGE,
+                mapped_at_creation: false,
+            });
+            rebind1 = true;
+        }
+        if self.indices.size() < index_bytes {
+            self.indices = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("tess indices"),
+                size: padded(index_bytes),
+                usage: Self::INDEX_USAGE,
+                mapped_at_creation: false,
+            });
+            rebind1 = true;
+        }
+        if rebind1 {
+            self.group1 = Self::bind1(
+                device,
+                &self.layout1,
+                &self.tess_uniform,
+                &self.topo_buffer,
+                &self.vertices,
+                &self.indices,
+                &self.bounds,
+            );
+        }
+        let (mx, my) = groups(threads as u32, self.max_groups)?;
+        let (cx, cy) = groups(copy_threads as u32, self.max_groups)?;
+        let params = Params {
+            count: threads as u32,
+            first_local: 0,
+            level,
+            per: per as u32,
+            groups_x: mx,
+            _pad: [0; 3],
+        };
+        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        self.uniform = TessUniform {
+            main_count: threads as u32,
+            main_groups_x: mx,
+            copy_count: copy_threads as u32,
+            copy_groups_x: cx,
+            ..TessUniform::default()
+        };
+        queue.write_buffer(&self.tess_uniform, 0, bytemuck::bytes_of(&self.uniform));
+        let args = wgpu::util::DrawIndexedIndirectArgs {
+            index_count: index_count as u32,
+            instance_count: 1,
+            first_index: 0,
+            base_vertex: 0,
+            first_instance: 0,
+        };
+        queue.write_buffer(&self.indirect, 0, args.as_bytes());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("g1tess tessellate"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(if use_table {
+                &self.main_table
+            } else {
+                &self.main_basis
+            });
+            pass.set_bind_group(0, &self.group0, &[]);
+            pass.set_bind_group(1, &self.group1, &[]);
+            pass.dispatch_workgroups(mx, my, 1);
+        }
+        if self.topology.copied_blocks > 0 && copy_threads > 0 {
+            // A pass of its own: the owners' positions are written by the one above.
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("g1tess tessellate split normals"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.copy);
+            pass.set_bind_group(0, &self.group0, &[]);
+            pass.set_bind_group(1, &self.group1, &[]);
+            pass.dispatch_workgroups(cx, cy, 1);
+        }
+        let counts = TessCounts {
+            level,
+            vertices: records as u32,
+            indices: index_count as u32,
+        };
+        self.counts = Some(counts);
+        Ok(counts)
+    }
+
+    /// Records, after [`GpuTessellator::tessellate`] in the same submission, the extent of
+    /// the surface along three directions into [`GpuTessellator::bounds`]: the largest
+    /// `p · axes[k]` and the largest `−p · axes[k]` over the vertices, as order-preserving
+    /// keys ([`decode_bounds`]). An aggregate for fitting a camera (24 bytes).
+    pub fn record_bounds(
+        &mut self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        axes: [[f32; 3]; 3],
+    ) -> Result<()> {
+        let counts = self
+            .counts
+            .ok_or_else(|| Error::Invalid("bounds of a surface not tessellated yet".into()))?;
+        let (bx, by) = groups(counts.vertices, self.max_groups)?;
+        self.uniform.bounds_count = counts.vertices;
+        self.uniform.bounds_groups_x = bx;
+        self.uniform.axes = axes.map(|a| [a[0], a[1], a[2], 0.0]);
+        queue.write_buffer(&self.tess_uniform, 0, bytemuck::bytes_of(&self.uniform));
+        encoder.clear_buffer(&self.bounds, 0, None);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("g1tess tessellate bounds"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.bounds_pipeline);
+        pass.set_bind_group(0, &self.group0, &[]);
+        pass.set_bind_group(1, &self.group1, &[]);
+        pass.dispatch_workgroups(bx, by, 1);
+        Ok(())
+    }
+
+    /// Sets the vertex buffer (slot 0) and index buffer of `pass` and draws the surface
+    /// through the indirect arguments.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed_indirect(&self.indirect, 0);
+    }
+
+    /// The vertex buffer: [`TessCounts::vertices`] entries of [`vertex_layout`].
+    pub fn vertices(&self) -> &wgpu::Buffer {
+        &self.vertices
+    }
+
+    /// The index buffer: [`TessCounts::indices`] `u32` record ids, 3 per triangle.
+    pub fn indices(&self) -> &wgpu::Buffer {
+        &self.indices
+    }
+
+    /// The `draw_indexed_indirect` arguments of the last tessellation.
+    pub fn indirect(&self) -> &wgpu::Buffer {
+        &self.indirect
+    }
+
+    /// The keys of [`GpuTessellator::record_bounds`]: 6 u32.
+    pub fn bounds(&self) -> &wgpu::Buffer {
+        &self.bounds
+    }
+
+    /// Counts of the last tessellation.
+    pub fn counts(&self) -> Option<TessCounts> {
+        self.counts
+    }
+
+    /// The topology table uploaded.
+    pub fn topology(&self) -> &Topology {
+        &self.topology
+    }
+
+    pub fn kind(&self) -> PatchKind {
+        self.kind
+    }
+
+    pub fn precision(&self) -> Precision {
+        self.precision
+    }
+}
+
+/// The f32 of an order-preserving key of `shaders/tessellate.wgsl` (`order_key`).
+pub fn key_to_f32(key: u32) -> f32 {
+    if key & 0x8000_0000 != 0 {
+        f32::from_bits(key & 0x7fff_ffff)
+    } else {
+        f32::from_bits(!key)
+    }
+}
+
+/// The extent read from [`GpuTessellator::bounds`]: (smallest, largest) projection on each
+/// axis.
+pub fn decode_bounds(keys: [u32; 6]) -> ([f32; 3], [f32; 3]) {
+    let hi = [0, 1, 2].map(|k| key_to_f32(keys[k]));
+    let lo = [0, 1, 2].map(|k| -key_to_f32(keys[3 + k]));
+    (lo, hi)
+}
