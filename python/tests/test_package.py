@@ -171,3 +171,22 @@ def test_gil_is_released():
         counter += 1
     t.join()
     assert counter > 1000, counter
+
+
+def test_docstring_example():
+    import doctest
+
+    failed, tried = doctest.testmod(g1tess, raise_on_error=False)
+    assert tried >= 3 and failed == 0
+
+
+def test_readme_example(tmp_path):
+    # The README's example, on spot: shapes, the stats keys, the summary.
+    mesh = g1tess.load(SPOT)
+    V, F, N = mesh.tessellate(scheme="g1", level=8)
+    assert F.shape == (5856 * 64, 3) and V.shape == N.shape
+    stats = mesh.stats()
+    assert stats["scheme"] == "g1" and stats["boundary_edges"] == 0
+    summary = mesh.export_msh(tmp_path / "spot.msh", order=3)
+    assert summary["nonpositive_jacobian_elements"] == 0
+    assert mesh.write_tessellation(tmp_path / "spot.ply", level=8)[1] == len(F)
