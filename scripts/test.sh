@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs the whole g1tess test suite. Installs what the tests need when it is missing:
 # Mesa's lavapipe Vulkan driver (GPU tests run on it when no other Vulkan device exists).
+# The Python tests (scripts/python_test.sh) install theirs into a cached virtual environment.
 # With CI=true a missing GPU adapter fails the GPU tests instead of skipping them.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,3 +29,6 @@ cargo test --release 2>&1
 echo "== blender add-on integration test"
 # The binary cargo test built above (the heavy crates are compiled once per run).
 G1TESS_BIN=target/release/g1tess scripts/blender_test.sh
+
+echo "== python package, gmsh and dask tests"
+G1TESS_BIN=target/release/g1tess scripts/python_test.sh

@@ -4,6 +4,7 @@
 mod bench;
 mod common;
 mod compare;
+mod export_msh;
 mod export_net;
 pub mod paper;
 mod progress;
@@ -43,6 +44,8 @@ pub enum Command {
     Stats(stats::StatsArgs),
     /// Write every patch's control points as JSON (for boundary-element solvers).
     ExportNet(export_net::ExportNetArgs),
+    /// Curved Lagrange triangles of order 1 to 5 as Gmsh MSH 4.1, with per-element quality.
+    ExportMsh(export_msh::ExportMshArgs),
     /// Pictures of the normal field: n_x, n_y, n_z of the evaluated surface (PNG, Vulkan).
     Render(render::RenderArgs),
     /// Table 1: continuity statistics of every scheme on each mesh (markdown or JSON).
@@ -59,6 +62,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Stats(a)) => stats::run(&a),
         Some(Command::Tessellate(a)) => tessellate::run(&a),
         Some(Command::ExportNet(a)) => export_net::run(&a),
+        Some(Command::ExportMsh(a)) => export_msh::run(&a),
         Some(Command::Render(a)) => render::run(&a),
         Some(Command::Compare(a)) => compare::run(&a),
         Some(Command::Sweep(a)) => sweep::run(&a),

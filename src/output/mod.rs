@@ -3,6 +3,7 @@
 
 pub mod atomic;
 pub mod distance;
+pub mod msh;
 pub mod nets;
 #[cfg(feature = "cli")]
 pub mod plot;

@@ -1,0 +1,797 @@
+//! Curved Lagrange triangles for solvers: Gmsh MSH 4.1 (ASCII or binary) of order 1 to 5,
+//! every node on the scheme's surface (`g1tess export-msh`).
+//!
+//! A triangle of order P has (P+1)(P+2)/2 nodes at the points (a/P, b/P) of its reference
+//! triangle, in Gmsh's order ([`triangle_nodes`]): the three vertices, then P − 1 nodes
+//! along each edge (corner 0→1, 1→2, 2→0), then the interior nodes, which are themselves a
+//! triangle of order P − 3 in the same order, recursively. Gmsh's reference point (u, v) is
+//! the patch's barycentric point (1 − u − v, u, v), so corner k of the input triangle is
+//! vertex k of the element. Every node is the f64 evaluation of the patch there; vertices
+//! are the input positions bit for bit. Shared nodes are written once: an edge's nodes are
+//! evaluated by its first triangle (the lowest index), at fractions j/P from its lower vertex
+//! id, and every triangle on the edge refers to them.
+//!
+//! For each element two numbers are computed and written as `$ElementData` views (and the
+//! worst of each returned in [`MshSummary`]):
+//! - the minimum scaled Jacobian: J = (x_u × x_v)·n̂, n̂ the unit normal of the straight
+//!   triangle through the element's vertices, is a polynomial of degree 2P − 2; its Bernstein
+//!   coefficients bound it (every value of J lies between the smallest and the largest
+//!   coefficient), and the reported value is min c / max |c|. It is 1 for a straight
+//!   element, at most the true min J / max |J| (a conservative lower bound: never above the
+//!   truth), and ≤ 0 where the element may fold over;
+//! - the largest distance between the element and its patch: |X(b) − S(b)| at the same
+//!   reference point b, on the barycentric grid of level 4P (three points between
+//!   neighbouring nodes, where the interpolation error lives; zero at the nodes). As a
+//!   point-to-point distance it bounds the distance from the element's points to the patch
+//!   from above at those samples.
+//!
+//! Physical groups: the surface (dimension 2, tag 1, "surface"), and, where the mesh has
+//! them, the crease edges (dimension 1, tag 1, "creases": interior edges whose triangles
+//! disagree on an end normal) and the boundary edges (dimension 1, tag 2, "boundary": edges
+//! of one triangle), each edge a line element of order P (types 1, 8, 26, 27, 28) through
+//! the nodes the triangles use. Every node is written in one block of the surface entity.
+
+use std::io::Write;
+use std::path::Path;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::atomic::write_atomic_with;
+use crate::mesh::{creases, Mesh};
+use crate::patch::basis::Weights;
+use crate::patch::PatchTable;
+use crate::progress::Progress;
+use crate::{Error, Result};
+
+/// Highest element order written (Gmsh's complete triangles go on, but solvers stop here).
+pub const MAX_ORDER: u32 = 5;
+
+/// Gmsh element type of the complete triangle of order `p` (1..=5): 2, 9, 21, 23, 25.
+pub fn triangle_type(p: u32) -> i32 {
+    [2, 9, 21, 23, 25][p as usize - 1]
+}
+
+/// Gmsh element type of the line of order `p` (1..=5): 1, 8, 26, 27, 28.
+pub fn line_type(p: u32) -> i32 {
+    [1, 8, 26, 27, 28][p as usize - 1]
+}
+
+/// Nodes of the triangle of order `p`.
+pub fn triangle_node_count(p: u32) -> usize {
+    ((p + 1) * (p + 2) / 2) as usize
+}
+
+/// The nodes of Gmsh's triangle of order `p` (0 gives the single node (0, 0)) as lattice
+/// points (a, b), the node sitting at (u, v) = (a/p, b/p): vertices, edge nodes in edge
+/// order from each edge's first vertex, then the interior as the triangle of order p − 3
+/// shifted by (1, 1) (Gmsh's `gmshGenerateMonomialsTriangle`).
+pub fn triangle_nodes(p: u32) -> Vec<[u32; 2]> {
+    if p == 0 {
+        return vec![[0, 0]];
+    }
+    let corners = [[0, 0], [p, 0], [0, p]];
+    let mut out = corners.to_vec();
+    for e in 0..3 {
+        let (a, b) = (corners[e], corners[(e + 1) % 3]);
+        for i in 1..p {
+            // The lattice point i/p of the way from a to b (coordinates stay in 0..=p).
+            let at = |s: u32, t: u32| (s * (p - i) + t * i) / p;
+            out.push([at(a[0], b[0]), at(a[1], b[1])]);
+        }
+    }
+    if p >= 3 {
+        out.extend(
+            triangle_nodes(p - 3)
+                .into_iter()
+                .map(|[a, b]| [a + 1, b + 1]),
+        );
+    }
+    out
+}
+
+/// Value and derivative at `x` of the 1-D Lagrange factor l_i(x) = Π_{m<i} (p x − m)/(m + 1)
+/// (1 at x = i/p, 0 at x = 0, 1/p, …, (i − 1)/p).
+fn lagrange_factor(i: u32, p: u32, x: f64) -> (f64, f64) {
+    let pf = p as f64;
+    let mut v = 1.0;
+    let mut d = 0.0;
+    for m in 0..i {
+        let f = (pf * x - m as f64) / (m as f64 + 1.0);
+        let df = pf / (m as f64 + 1.0);
+        d = d * f + v * df;
+        v *= f;
+    }
+    (v, d)
+}
+
+/// Lagrange shape functions at one point: values, and derivatives by u and v.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Shapes {
+    pub w: Vec<f64>,
+    pub ws: Vec<f64>,
+    pub wt: Vec<f64>,
+}
+
+/// The Lagrange shape functions of the triangle of order `p` at barycentric `b` (Gmsh's node
+/// order, [`triangle_nodes`]): values and derivatives by u = b1 and v = b2.
+pub fn lagrange_triangle(p: u32, b: [f64; 3]) -> Shapes {
+    let nodes = triangle_nodes(p);
+    let zero = vec![0.0; nodes.len()];
+    let mut w = Shapes {
+        w: zero.clone(),
+        ws: zero.clone(),
+        wt: zero,
+    };
+    for (n, &[a, bb]) in nodes.iter().enumerate() {
+        let c = p - a - bb;
+        let (l0, d0) = lagrange_factor(c, p, b[0]);
+        let (l1, d1) = lagrange_factor(a, p, b[1]);
+        let (l2, d2) = lagrange_factor(bb, p, b[2]);
+        w.w[n] = l0 * l1 * l2;
+        // b0 = 1 − u − v: ∂/∂u = ∂/∂b1 − ∂/∂b0, ∂/∂v = ∂/∂b2 − ∂/∂b0.
+        w.ws[n] = l0 * d1 * l2 - d0 * l1 * l2;
+        w.wt[n] = l0 * l1 * d2 - d0 * l1 * l2;
+    }
+    w
+}
+
+/// Barycentric points of the grid of level `n` (i along u, j along v), row by row.
+fn grid(n: u32) -> Vec<[f64; 3]> {
+    let nf = n.max(1) as f64;
+    let mut out = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n - j {
+            let (u, v) = (i as f64 / nf, j as f64 / nf);
+            out.push([1.0 - u - v, u, v]);
+        }
+    }
+    out
+}
+
+/// The inverse of the collocation matrix of the Bernstein basis of degree `q` at the
+/// lattice points of [`grid`]`(q)`: Bernstein coefficients = inverse × samples.
+fn bernstein_inverse(q: u32) -> Vec<Vec<f64>> {
+    let pts = grid(q);
+    let powers: Vec<[u32; 3]> = (0..=q)
+        .flat_map(|j| (0..=q - j).map(move |i| [q - i - j, i, j]))
+        .collect();
+    let fact = |n: u32| (1..=n).map(f64::from).product::<f64>();
+    let m = pts.len();
+    let mut a: Vec<Vec<f64>> = pts
+        .iter()
+        .map(|b| {
+            powers
+                .iter()
+                .map(|p| {
+                    fact(q) / (fact(p[0]) * fact(p[1]) * fact(p[2]))
+                        * b[0].powi(p[0] as i32)
+                        * b[1].powi(p[1] as i32)
+                        * b[2].powi(p[2] as i32)
+                })
+                .collect()
+        })
+        .collect();
+    let mut inv: Vec<Vec<f64>> = (0..m)
+        .map(|i| (0..m).map(|j| f64::from(u8::from(i == j))).collect())
+        .collect();
+    // Gauss–Jordan with partial pivoting; the matrix is regular (unisolvent lattice).
+    for col in 0..m {
+        let piv = (col..m)
+            .max_by(|&x, &y| a[x][col].abs().total_cmp(&a[y][col].abs()))
+            .unwrap_or(col);
+        a.swap(col, piv);
+        inv.swap(col, piv);
+        let d = a[col][col];
+        for j in 0..m {
+            a[col][j] /= d;
+            inv[col][j] /= d;
+        }
+        for r in 0..m {
+            if r != col && a[r][col] != 0.0 {
+                let f = a[r][col];
+                for j in 0..m {
+                    a[r][j] -= f * a[col][j];
+                    inv[r][j] -= f * inv[col][j];
+                }
+            }
+        }
+    }
+    inv
+}
+
+/// Triangles per step of progress.
+const CHUNK: usize = 1 << 14;
+
+/// `0..n` in runs of [`CHUNK`].
+fn chunks(n: usize) -> impl Iterator<Item = std::ops::Range<usize>> {
+    (0..n).step_by(CHUNK).map(move |s| s..(s + CHUNK).min(n))
+}
+
+/// Quality of one element.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ElementQuality {
+    /// min c / max |c| over the Bernstein coefficients c of the Jacobian determinant (see
+    /// the module documentation): 1 for a straight element, ≤ 0 where it may fold.
+    pub min_scaled_jacobian: f64,
+    /// Largest |element − patch| at the same reference point, sampled (module documentation).
+    pub max_distance: f64,
+}
+
+/// The curved mesh of one order, in memory.
+#[derive(Clone, Debug)]
+pub struct HighOrderMesh {
+    pub order: u32,
+    /// Node positions; node tag = index + 1. The input vertices first (same order), then the
+    /// edge nodes (P − 1 per edge, edges in the adjacency's order, from the lower vertex id),
+    /// then the interior nodes of each triangle.
+    pub nodes: Vec<DVec3>,
+    /// [`triangle_node_count`] node indices per triangle, in Gmsh's order; triangle t of the
+    /// mesh is element t.
+    pub triangles: Vec<u32>,
+    /// P + 1 node indices per crease edge (ends from the lower vertex id, then the inner
+    /// nodes in order).
+    pub creases: Vec<u32>,
+    /// P + 1 node indices per boundary edge, in the direction of its triangle.
+    pub boundary: Vec<u32>,
+    /// Per triangle.
+    pub quality: Vec<ElementQuality>,
+}
+
+impl HighOrderMesh {
+    /// Node indices of element `t`.
+    pub fn element(&self, t: usize) -> &[u32] {
+        let n = triangle_node_count(self.order);
+        &self.triangles[t * n..(t + 1) * n]
+    }
+}
+
+/// Places the nodes of the order-`order` elements of `table` (built for `mesh`) on the
+/// surface and measures every element. `progress` gets the phases "placing nodes" and
+/// "measuring elements" over the triangles.
+pub fn build(
+    mesh: &Mesh,
+    table: &PatchTable,
+    order: u32,
+    progress: &dyn Progress,
+) -> Result<HighOrderMesh> {
+    if !(1..=MAX_ORDER).contains(&order) {
+        return Err(Error::Invalid(format!(
+            "element order {order} is not supported (1 to {MAX_ORDER})"
+        )));
+    }
+    let nt = mesh.triangles.len();
+    if table.len() != nt {
+        return Err(Error::Invalid(format!(
+            "{}: a table of {} patches for {nt} triangles",
+            mesh.name,
+            table.len()
+        )));
+    }
+    let p = order;
+    let pu = p as usize;
+    let adjacency = mesh.adjacency();
+    let crease = creases::crease_edges(mesh, &adjacency);
+    let nv = mesh.positions.len();
+    let ne = adjacency.edges.len();
+    let per_edge = pu - 1;
+    let lattice = triangle_nodes(p);
+    let interior: Vec<[u32; 2]> = lattice[3 + 3 * per_edge..].to_vec();
+    let per_tri = interior.len();
+    let total = nv + ne * per_edge + nt * per_tri;
+    if total > u32::MAX as usize {
+        return Err(Error::mesh(
+            &mesh.name,
+            format!("{total} nodes at order {p} are too many for 32-bit node indices"),
+        ));
+    }
+    let non_finite = |t: usize| {
+        Error::mesh(
+            &mesh.name,
+            format!("patch {t} evaluates to a non-finite position"),
+        )
+    };
+    progress.start("placing nodes", nt as u64);
+    // Edge of each half-edge (3t + k).
+    let mut use_edge = vec![0u32; 3 * nt];
+    for (e, edge) in adjacency.edges.iter().enumerate() {
+        for u in &edge.uses {
+            use_edge[u.half_edge() as usize] = e as u32;
+        }
+    }
+    let mut nodes = Vec::with_capacity(total);
+    nodes.extend_from_slice(&mesh.positions);
+    let pf = p as f64;
+    let edge_nodes: Vec<Vec<DVec3>> = adjacency
+        .edges
+        .par_iter()
+        .map(|edge| {
+            let u = edge.uses[0];
+            let t = u.triangle as usize;
+            let k = u.local as usize;
+            let tri = mesh.triangles[t];
+            (1..p)
+                .map(|j| {
+                    let f = j as f64 / pf;
+                    // Fraction f from the lower vertex id, whichever way the triangle runs.
+                    let g = if tri[k] == edge.v[0] { f } else { 1.0 - f };
+                    let mut b = [0.0; 3];
+                    b[k] = 1.0 - g;
+                    b[(k + 1) % 3] = g;
+                    let x = table.eval(t, b).p;
+                    if x.is_finite() {
+                        Ok(x)
+                    } else {
+                        Err(non_finite(t))
+                    }
+                })
+                .collect()
+        })
+        .collect::<Result<_>>()?;
+    for e in edge_nodes {
+        nodes.extend(e);
+    }
+    let interior_b: Vec<[f64; 3]> = interior
+        .iter()
+        .map(|&[a, b]| {
+            let (u, v) = (a as f64 / pf, b as f64 / pf);
+            [1.0 - u - v, u, v]
+        })
+        .collect();
+    for chunk in chunks(nt) {
+        let interior_nodes: Vec<Vec<DVec3>> = chunk
+            .clone()
+            .into_par_iter()
+            .map(|t| {
+                interior_b
+                    .iter()
+                    .map(|&b| {
+                        let x = table.eval(t, b).p;
+                        if x.is_finite() {
+                            Ok(x)
+                        } else {
+                            Err(non_finite(t))
+                        }
+                    })
+                    .collect()
+            })
+            .collect::<Result<_>>()?;
+        for n in interior_nodes {
+            nodes.extend(n);
+        }
+        progress.inc(chunk.len() as u64);
+    }
+
+    // Connectivity.
+    let npt = triangle_node_count(p);
+    let edge_base = |e: u32| (nv + e as usize * per_edge) as u32;
+    // Node i (1..p) of the way along element edge k of triangle t.
+    let edge_node = |t: usize, k: usize, i: usize| -> u32 {
+        let tri = mesh.triangles[t];
+        let e = use_edge[3 * t + k];
+        let forward = tri[k] < tri[(k + 1) % 3];
+        let j = if forward { i - 1 } else { pu - 1 - i };
+        edge_base(e) + j as u32
+    };
+    let mut triangles = Vec::with_capacity(nt * npt);
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        triangles.extend_from_slice(tri);
+        for k in 0..3 {
+            for i in 1..pu {
+                triangles.push(edge_node(t, k, i));
+            }
+        }
+        let base = (nv + ne * per_edge + t * per_tri) as u32;
+        triangles.extend(base..base + per_tri as u32);
+    }
+    let line = |t: usize, k: usize, reverse: bool| -> Vec<u32> {
+        let tri = mesh.triangles[t];
+        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+        let mut l = vec![a, b];
+        l.extend((1..pu).map(|i| edge_node(t, k, i)));
+        if reverse {
+            l.swap(0, 1);
+            l[2..].reverse();
+        }
+        l
+    };
+    let mut crease_lines = Vec::new();
+    let mut boundary_lines = Vec::new();
+    for (e, edge) in adjacency.edges.iter().enumerate() {
+        let u = edge.uses[0];
+        let (t, k) = (u.triangle as usize, u.local as usize);
+        if crease[e] {
+            let tri = mesh.triangles[t];
+            crease_lines.extend(line(t, k, tri[k] != edge.v[0]));
+        } else if edge.uses.len() == 1 {
+            boundary_lines.extend(line(t, k, false));
+        }
+    }
+
+    // Quality.
+    progress.start("measuring elements", nt as u64);
+    let q = 2 * p - 2;
+    let jac_points = grid(q);
+    let jac_shapes: Vec<Shapes> = jac_points
+        .iter()
+        .map(|&b| lagrange_triangle(p, b))
+        .collect();
+    let inverse = bernstein_inverse(q);
+    let dist_points = grid(4 * p);
+    let dist_shapes: Vec<Shapes> = dist_points
+        .iter()
+        .map(|&b| lagrange_triangle(p, b))
+        .collect();
+    let dist_patch: Vec<Weights> = dist_points.iter().map(|&b| table.kind.weights(b)).collect();
+    let mut quality: Vec<ElementQuality> = Vec::with_capacity(nt);
+    for chunk in chunks(nt) {
+        let len = chunk.len() as u64;
+        let part: Vec<ElementQuality> = chunk
+            .into_par_iter()
+            .map(|t| {
+                let ids = &triangles[t * npt..(t + 1) * npt];
+                let x: Vec<DVec3> = ids.iter().map(|&i| nodes[i as usize]).collect();
+                let n_hat = table.flat_normals[t];
+                let j: Vec<f64> = jac_shapes
+                    .iter()
+                    .map(|w| {
+                        let (mut xu, mut xv) = (DVec3::ZERO, DVec3::ZERO);
+                        for (n, xn) in x.iter().enumerate() {
+                            xu += w.ws[n] * *xn;
+                            xv += w.wt[n] * *xn;
+                        }
+                        xu.cross(xv).dot(n_hat)
+                    })
+                    .collect();
+                let coeffs: Vec<f64> = inverse
+                    .iter()
+                    .map(|row| row.iter().zip(&j).map(|(a, b)| a * b).sum())
+                    .collect();
+                let lo = coeffs.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = coeffs.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+                let min_scaled_jacobian = if hi > 0.0 && lo.is_finite() {
+                    lo / hi
+                } else {
+                    0.0
+                };
+                let mut max_distance = 0.0f64;
+                for (w, wp) in dist_shapes.iter().zip(&dist_patch) {
+                    let mut xe = DVec3::ZERO;
+                    for (n, xn) in x.iter().enumerate() {
+                        xe += w.w[n] * *xn;
+                    }
+                    let s = table.eval_weights(t, wp).p;
+                    max_distance = max_distance.max(xe.distance(s));
+                }
+                if !max_distance.is_finite() {
+                    return Err(non_finite(t));
+                }
+                Ok(ElementQuality {
+                    min_scaled_jacobian,
+                    max_distance,
+                })
+            })
+            .collect::<Result<_>>()?;
+        quality.extend(part);
+        progress.inc(len);
+    }
+    Ok(HighOrderMesh {
+        order,
+        nodes,
+        triangles,
+        creases: crease_lines,
+        boundary: boundary_lines,
+        quality,
+    })
+}
+
+/// What [`export_msh`] wrote and measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct MshSummary {
+    pub mesh: String,
+    pub scheme: String,
+    pub order: u32,
+    pub binary: bool,
+    pub nodes: usize,
+    pub triangles: usize,
+    /// Gmsh element types of the triangles and lines.
+    pub triangle_type: i32,
+    pub line_type: i32,
+    pub crease_lines: usize,
+    pub boundary_lines: usize,
+    /// The worst element's [`ElementQuality::min_scaled_jacobian`] and its element tag.
+    pub min_scaled_jacobian: f64,
+    pub min_scaled_jacobian_element: usize,
+    /// Elements whose bound is ≤ 0 (may fold over).
+    pub nonpositive_jacobian_elements: usize,
+    /// The largest [`ElementQuality::max_distance`], its element tag, and it divided by the
+    /// mesh's bounding-box diagonal.
+    pub max_distance: f64,
+    pub max_distance_element: usize,
+    pub max_distance_relative: f64,
+}
+
+impl MshSummary {
+    /// The summary of `ho`, built from `mesh` with `table`.
+    pub fn new(mesh: &Mesh, table: &PatchTable, ho: &HighOrderMesh, binary: bool) -> MshSummary {
+        let p = ho.order;
+        let (mut sj, mut sj_at, mut d, mut d_at) = (f64::INFINITY, 0, 0.0f64, 0);
+        for (t, q) in ho.quality.iter().enumerate() {
+            if q.min_scaled_jacobian < sj {
+                (sj, sj_at) = (q.min_scaled_jacobian, t);
+            }
+            if q.max_distance > d {
+                (d, d_at) = (q.max_distance, t);
+            }
+        }
+        let diag = mesh.diagonal();
+        MshSummary {
+            mesh: mesh.name.clone(),
+            scheme: table.scheme.to_string(),
+            order: p,
+            binary,
+            nodes: ho.nodes.len(),
+            triangles: ho.quality.len(),
+            triangle_type: triangle_type(p),
+            line_type: line_type(p),
+            crease_lines: ho.creases.len() / (p as usize + 1),
+            boundary_lines: ho.boundary.len() / (p as usize + 1),
+            min_scaled_jacobian: sj,
+            min_scaled_jacobian_element: sj_at + 1,
+            nonpositive_jacobian_elements: ho
+                .quality
+                .iter()
+                .filter(|q| q.min_scaled_jacobian <= 0.0)
+                .count(),
+            max_distance: d,
+            max_distance_element: d_at + 1,
+            max_distance_relative: if diag > 0.0 { d / diag } else { 0.0 },
+        }
+    }
+}
+
+/// Builds the curved mesh of `order` ([`build`]) and writes it to `path` as MSH 4.1
+/// (binary or ASCII), atomically; returns the summary.
+pub fn export_msh(
+    mesh: &Mesh,
+    table: &PatchTable,
+    order: u32,
+    binary: bool,
+    path: &Path,
+    progress: &dyn Progress,
+) -> Result<MshSummary> {
+    let ho = build(mesh, table, order, progress)?;
+    let title = format!("{} ({}, order {order})", mesh.name, table.scheme);
+    write_atomic_with(path, |w| {
+        write_msh(w, &ho, binary, &title).map_err(|e| Error::io(path, e))
+    })?;
+    Ok(MshSummary::new(mesh, table, &ho, binary))
+}
+
+/// A physical group: (dimension, tag, name).
+pub type Group = (i32, i32, &'static str);
+
+/// The physical groups written.
+pub const SURFACE_GROUP: Group = (2, 1, "surface");
+pub const CREASE_GROUP: Group = (1, 1, "creases");
+pub const BOUNDARY_GROUP: Group = (1, 2, "boundary");
+
+/// An `$ElementData` view: its name and the value it shows.
+type View = (&'static str, fn(&ElementQuality) -> f64);
+
+/// Writes `ho` as MSH 4.1 to `w`. `title` goes into a `$Comments` section.
+pub fn write_msh<W: Write>(
+    w: &mut W,
+    ho: &HighOrderMesh,
+    binary: bool,
+    title: &str,
+) -> std::io::Result<()> {
+    let mut enc = Enc {
+        w,
+        binary,
+        fresh: true,
+    };
+    let p = ho.order;
+    let npt = triangle_node_count(p);
+    let npl = p as usize + 1;
+    let nt = ho.triangles.len() / npt;
+    let groups: Vec<(Group, &[u32])> = [
+        (CREASE_GROUP, ho.creases.as_slice()),
+        (BOUNDARY_GROUP, ho.boundary.as_slice()),
+    ]
+    .into_iter()
+    .filter(|(_, l)| !l.is_empty())
+    .collect();
+
+    writeln!(enc.w, "$MeshFormat")?;
+    writeln!(enc.w, "4.1 {} 8", u8::from(binary))?;
+    if binary {
+        enc.w.write_all(&1i32.to_le_bytes())?;
+        writeln!(enc.w)?;
+    }
+    writeln!(enc.w, "$EndMeshFormat")?;
+    // One line of free text (Gmsh ignores sections it does not know).
+    writeln!(enc.w, "$Comments")?;
+    writeln!(enc.w, "{}", title.replace(['\n', '\r'], " "))?;
+    writeln!(enc.w, "$EndComments")?;
+    writeln!(enc.w, "$PhysicalNames")?;
+    writeln!(enc.w, "{}", 1 + groups.len())?;
+    for (dim, tag, name) in std::iter::once(SURFACE_GROUP).chain(groups.iter().map(|g| g.0)) {
+        writeln!(enc.w, "{dim} {tag} \"{name}\"")?;
+    }
+    writeln!(enc.w, "$EndPhysicalNames")?;
+
+    // Entities: curve k (tag = its physical tag) and surface 1, with bounding boxes.
+    let bbox = |ids: &mut dyn Iterator<Item = u32>| {
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for i in ids {
+            lo = lo.min(ho.nodes[i as usize]);
+            hi = hi.max(ho.nodes[i as usize]);
+        }
+        [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z]
+    };
+    writeln!(enc.w, "$Entities")?;
+    enc.sizes(&[0, groups.len() as u64, 1, 0])?;
+    for ((_, tag, _), lines) in &groups {
+        enc.int(*tag)?;
+        enc.reals(&bbox(&mut lines.iter().copied()))?;
+        enc.size(1)?;
+        enc.int(*tag)?;
+        enc.size(0)?;
+        enc.end_line()?;
+    }
+    enc.int(1)?;
+    enc.reals(&bbox(&mut (0..ho.nodes.len() as u32)))?;
+    enc.size(1)?;
+    enc.int(SURFACE_GROUP.1)?;
+    enc.size(0)?;
+    enc.end_line()?;
+    enc.end_section("Entities")?;
+
+    let nn = ho.nodes.len() as u64;
+    writeln!(enc.w, "$Nodes")?;
+    enc.sizes(&[1, nn, 1, nn])?;
+    enc.ints(&[2, 1, 0])?;
+    enc.size(nn)?;
+    enc.end_line()?;
+    for tag in 1..=nn {
+        enc.size(tag)?;
+        enc.end_line()?;
+    }
+    for x in &ho.nodes {
+        enc.reals(&[x.x, x.y, x.z])?;
+        enc.end_line()?;
+    }
+    enc.end_section("Nodes")?;
+
+    let nl: usize = groups.iter().map(|(_, l)| l.len() / npl).sum();
+    let ne = (nt + nl) as u64;
+    writeln!(enc.w, "$Elements")?;
+    enc.sizes(&[1 + groups.len() as u64, ne, 1, ne])?;
+    enc.ints(&[2, 1, triangle_type(p)])?;
+    enc.size(nt as u64)?;
+    enc.end_line()?;
+    let mut tag = 0u64;
+    for el in ho.triangles.chunks(npt) {
+        tag += 1;
+        enc.size(tag)?;
+        for &n in el {
+            enc.size(n as u64 + 1)?;
+        }
+        enc.end_line()?;
+    }
+    for ((_, ctag, _), lines) in &groups {
+        enc.ints(&[1, *ctag, line_type(p)])?;
+        enc.size((lines.len() / npl) as u64)?;
+        enc.end_line()?;
+        for el in lines.chunks(npl) {
+            tag += 1;
+            enc.size(tag)?;
+            for &n in el {
+                enc.size(n as u64 + 1)?;
+            }
+            enc.end_line()?;
+        }
+    }
+    enc.end_section("Elements")?;
+
+    let views: [View; 2] = [
+        ("min scaled Jacobian", |q| q.min_scaled_jacobian),
+        ("max distance to patch", |q| q.max_distance),
+    ];
+    for (name, value) in views {
+        writeln!(enc.w, "$ElementData")?;
+        // String tags: the view's name; real tags: the time; integer tags: time step,
+        // components, number of values.
+        writeln!(enc.w, "1\n\"{name}\"\n1\n0\n3\n0\n1\n{nt}")?;
+        for (t, q) in ho.quality.iter().enumerate() {
+            if binary {
+                enc.w.write_all(&(t as i32 + 1).to_le_bytes())?;
+                enc.w.write_all(&value(q).to_le_bytes())?;
+            } else {
+                writeln!(enc.w, "{} {:?}", t + 1, value(q))?;
+            }
+        }
+        enc.end_section("ElementData")?;
+    }
+    Ok(())
+}
+
+/// Writes MSH 4.1 values: as text, numbers separated by spaces and lines ended by
+/// `end_line`; in binary, little-endian `int` (4 bytes), `size_t` (8) and `double` (8)
+/// with no separators, a newline before each `$End…`.
+struct Enc<'a, W: Write> {
+    w: &'a mut W,
+    binary: bool,
+    /// Text: nothing written on the current line yet (no separator before the next value).
+    fresh: bool,
+}
+
+impl<W: Write> Enc<'_, W> {
+    /// Text: the space before a value that is not the first of its line.
+    fn sep(&mut self) -> std::io::Result<()> {
+        let fresh = std::mem::replace(&mut self.fresh, false);
+        if self.binary || fresh {
+            Ok(())
+        } else {
+            self.w.write_all(b" ")
+        }
+    }
+
+    fn int(&mut self, v: i32) -> std::io::Result<()> {
+        if self.binary {
+            self.w.write_all(&v.to_le_bytes())
+        } else {
+            self.sep()?;
+            write!(self.w, "{v}")
+        }
+    }
+
+    fn ints(&mut self, v: &[i32]) -> std::io::Result<()> {
+        v.iter().try_for_each(|&x| self.int(x))
+    }
+
+    fn size(&mut self, v: u64) -> std::io::Result<()> {
+        if self.binary {
+            self.w.write_all(&v.to_le_bytes())
+        } else {
+            self.sep()?;
+            write!(self.w, "{v}")
+        }
+    }
+
+    fn sizes(&mut self, v: &[u64]) -> std::io::Result<()> {
+        v.iter().try_for_each(|&x| self.size(x))?;
+        self.end_line()
+    }
+
+    fn reals(&mut self, v: &[f64]) -> std::io::Result<()> {
+        for &x in v {
+            if self.binary {
+                self.w.write_all(&x.to_le_bytes())?;
+            } else {
+                // Debug: the shortest text that reads back to the same f64.
+                self.sep()?;
+                write!(self.w, "{x:?}")?;
+            }
+        }
+        Ok(())
+    }
+
+    fn end_line(&mut self) -> std::io::Result<()> {
+        self.fresh = true;
+        if self.binary {
+            Ok(())
+        } else {
+            self.w.write_all(b"\n")
+        }
+    }
+
+    fn end_section(&mut self, name: &str) -> std::io::Result<()> {
+        if self.binary {
+            writeln!(self.w)?;
+        }
+        writeln!(self.w, "$End{name}")
+    }
+}
