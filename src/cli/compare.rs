@@ -66,6 +66,7 @@ impl CompareArgs {
             &self.schemes(),
             &SchemeOptions {
                 phong_alpha: self.phong_alpha,
+                ..Default::default()
             },
             self.backend.evaluator(crate::gpu::Precision::F64)?.as_ref(),
         )?)

@@ -164,6 +164,9 @@ pub fn render_schemes(
     let mut rows = Vec::new();
     for &scheme in schemes {
         let table = PatchTable::build(mesh, scheme, scheme_opts)?;
+        if let Some(w) = crate::patch::validity::fold_warning(mesh, &table, scheme_opts)? {
+            eprintln!("{w}");
+        }
         let (surface, _, _) = stitch(mesh, &table, evaluator, level)?;
         rows.push(Row {
             label: scheme.to_string(),
