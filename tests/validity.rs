@@ -242,3 +242,71 @@ fn stats_report_counts_patches_and_prints_null_without_interior_edges() {
     assert!(json["cos"]["min"].as_f64().unwrap() > 0.9);
     assert_eq!(json["patches"]["valid"], 80);
 }
+
+/// The command line: `stats --json` counts patches, `tessellate` warns about a fold and
+/// `--repair-folds` repairs it, and leaves a mesh without folds bit for bit alone.
+#[test]
+fn command_line_counts_warns_and_repairs() {
+    use std::process::Command;
+    let bin = env!("CARGO_BIN_EXE_g1tess");
+    let dir = std::env::temp_dir().join(format!("g1tess-validity-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // One triangle whose first normal leans past the triangle's plane (as in
+    // `g1_folds_where_a_normal_faces_away_and_is_valid_when_flat`).
+    let obj = dir.join("fold.obj");
+    std::fs::write(
+        &obj,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn -0.3 -0.3 -0.2\nvn 0 0 1\nvn 0 0 1\nf 1//1 2//2 3//3\n",
+    )
+    .unwrap();
+    let run = |args: &[&str]| {
+        let out = Command::new(bin).args(args).output().unwrap();
+        assert!(out.status.success(), "{args:?}: {out:?}");
+        (
+            String::from_utf8(out.stdout).unwrap(),
+            String::from_utf8(out.stderr).unwrap(),
+        )
+    };
+    let o = obj.to_str().unwrap();
+    let (json, _) = run(&["stats", o, "--backend", "cpu", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["patches"]["folded"], 1, "{json}");
+    assert!(v["cos"].is_null());
+    let (json, _) = run(&["stats", o, "--backend", "cpu", "--json", "--repair-folds"]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["patches"]["valid"], 1, "{json}");
+    assert_eq!(v["repair"]["vertices_touched"], 1, "{json}");
+    let out = dir.join("fold.ply");
+    let (_, err) = run(&[
+        "tessellate",
+        o,
+        "-o",
+        out.to_str().unwrap(),
+        "--backend",
+        "cpu",
+    ]);
+    assert!(
+        err.contains("warning: fold.obj: 1 of 1 g1 patches are folded"),
+        "{err}"
+    );
+    let (_, err) = run(&[
+        "tessellate",
+        o,
+        "-o",
+        out.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--repair-folds",
+    ]);
+    assert!(err.contains("0 folded and 0 undecided after"), "{err}");
+    // No fold: the same bytes with and without the option.
+    let (a, b) = (dir.join("a.ply"), dir.join("b.ply"));
+    for (p, extra) in [(&a, None), (&b, Some("--repair-folds"))] {
+        let mut args = vec!["tessellate", "torus200", "-o", p.to_str().unwrap()];
+        args.extend(["--backend", "cpu", "--level", "3", "-q"]);
+        args.extend(extra);
+        run(&args);
+    }
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -9,21 +9,28 @@
 //! *normal group* (the corners of one vertex that carry bitwise the same normal) to one new
 //! value: smooth edges stay smooth, creases stay creases.
 //!
-//! Method (a local, monotone search; the certificate of [`super::validity`] is the test):
-//! 1. Every patch gets its verdict. If all are valid, nothing changes at all.
-//! 2. For each patch that is not valid, one of its corners is chosen: the one whose normal
-//!    makes the largest angle with the triangle's own normal n_f, among those not yet moved
-//!    all the way. Its group's normal moves one step (1/8) along the great circle from its
-//!    input value n_0 towards the group's *central normal* m: the direction that maximises
-//!    the smallest cosine to the face normals of the group's triangles (the axis of their
-//!    smallest enclosing cone, found by the Bădoiu–Clarkson iteration on the unit sphere).
-//!    That is the normal with the least tilt to every face around the vertex: a normal far
-//!    from one thin face (the usual cause of a fold on scanned meshes) comes back towards
-//!    it without leaving the others.
-//! 3. A group already at m moves on (second stage) towards the mean of the face normals of
-//!    the patches still invalid around it, one step at a time.
-//! 4. The patches around every group moved are rebuilt and checked again; the rounds stop
-//!    when every patch is certified or nothing can move any more.
+//! Method: a local search, one normal group at a time, under the certificate of
+//! [`super::validity`]:
+//! 1. Every patch gets its verdict. If all are certified valid, nothing changes at all (the
+//!    mesh and every patch stay bit for bit as they were).
+//! 2. For each patch that is not certified, every group of its three corners is tried at
+//!    a few new normals: its present normal moved 1/16, 1/8, 1/4, 1/2, 3/4 or all of the
+//!    way (normalised linear blend) towards (a) the group's *central normal*, the
+//!    direction with the largest smallest cosine to the face normals of the group's
+//!    triangles (the axis of their smallest enclosing cone, by the Bădoiu–Clarkson
+//!    iteration on the unit sphere), (b) the patch's own face normal, (c) the mean of the
+//!    patch's three corner normals. A trial is scored by the shortfall of the scaled
+//!    Jacobian J/(|S_s| |S_t|) (the measure of curved finite-element meshing) below 0.05
+//!    on a grid of level 6 over the patches around the group: the only patches that
+//!    group's normal changes.
+//! 3. The best trial is kept when it lowers that shortfall and the certificate finds no
+//!    more uncertified patches around the group than before; otherwise nothing moves.
+//! 4. Where no move helps and the faces around a corner's group fit in no open hemisphere
+//!    (no single normal can face them all, as at a flipped input triangle), the group is
+//!    split in two by the side its faces turn to (a new crease at that vertex), kept only
+//!    where the certificate counts fewer uncertified patches.
+//! 5. Rounds repeat while something improves (at most 96). Patches left uncertified are
+//!    reported, not hidden.
 //!
 //! The report gives the number of vertices touched, the largest angle between a new and an
 //! input normal, and the largest distance between the repaired and the unrepaired surface
@@ -42,10 +49,14 @@ use crate::mesh::creases::normal_key;
 use crate::mesh::Mesh;
 use crate::Result;
 
-/// Fraction of the way to its target a normal moves per round.
-const STEP: f64 = 1.0 / 8.0;
+/// Fractions of the way to a target a normal may move, tried smallest first.
+const WEIGHTS: [f64; 6] = [1.0 / 16.0, 1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0, 3.0 / 4.0, 1.0];
 /// Most rounds before the repair gives up on what is left.
 const MAX_ROUNDS: usize = 96;
+/// Scaled Jacobian the search aims at everywhere (a margin above 0, the fold).
+const MARGIN: f64 = 0.05;
+/// Grid level of the search's measure ([`badness`]).
+const BADNESS_LEVEL: u32 = 6;
 /// Grid level at which the repaired and unrepaired surfaces are compared.
 const DISTANCE_LEVEL: u32 = 8;
 
@@ -66,6 +77,13 @@ pub struct RepairReport {
     /// Largest distance between the repaired and the unrepaired surface at equal
     /// parameters (grid of level 8 on every changed patch).
     pub max_distance: f64,
+    /// Normal groups split in two (a new crease at their vertex) where no single normal
+    /// can serve every face around it.
+    pub groups_split: usize,
+    /// Patches left uncertified whose own triangle turns away from the triangles around
+    /// it (negative cosine between its face normal and the mean face normal of the
+    /// triangles sharing a corner with it): folds of the input mesh itself.
+    pub left_on_flipped_triangles: usize,
     /// Rounds of the search.
     pub rounds: usize,
 }
@@ -192,9 +210,8 @@ impl TriangleBuilder for Repaired<'_> {
 struct Groups {
     /// Group of corner 3t + k.
     of_corner: Vec<u32>,
-    /// Corners of group g: `corners[start[g]..start[g + 1]]`.
-    start: Vec<u32>,
-    corners: Vec<u32>,
+    /// Corners of each group.
+    list: Vec<Vec<u32>>,
     vertex: Vec<u32>,
 }
 
@@ -219,8 +236,7 @@ impl Groups {
             }
         }
         let mut of_corner = vec![0u32; by_vertex.len()];
-        let mut start = vec![0u32];
-        let mut corners = Vec::with_capacity(by_vertex.len());
+        let mut list = Vec::new();
         let mut vertex = Vec::new();
         let mut keys: Vec<[u64; 3]> = Vec::new();
         for v in 0..nv {
@@ -234,26 +250,45 @@ impl Groups {
             }
             for key in &keys {
                 let g = vertex.len() as u32;
+                let mut corners = Vec::new();
                 for &c in cs {
                     if normal_key(mesh.corner_normals[c as usize / 3][c as usize % 3]) == *key {
                         of_corner[c as usize] = g;
                         corners.push(c);
                     }
                 }
-                start.push(corners.len() as u32);
+                list.push(corners);
                 vertex.push(v as u32);
             }
         }
         Groups {
             of_corner,
-            start,
-            corners,
+            list,
             vertex,
         }
     }
 
     fn corners(&self, g: u32) -> &[u32] {
-        &self.corners[self.start[g as usize] as usize..self.start[g as usize + 1] as usize]
+        &self.list[g as usize]
+    }
+
+    /// Moves the corners `b` of group `g` into a new group (a new crease at its vertex);
+    /// returns the new group.
+    fn split(&mut self, g: u32, b: &[u32]) -> u32 {
+        let new = self.list.len() as u32;
+        self.list[g as usize].retain(|c| !b.contains(c));
+        self.list.push(b.to_vec());
+        self.vertex.push(self.vertex[g as usize]);
+        for &c in b {
+            self.of_corner[c as usize] = new;
+        }
+        new
+    }
+
+    /// The normal of group `g` in `mesh`.
+    fn normal(&self, mesh: &Mesh, g: u32) -> DVec3 {
+        let c = self.list[g as usize][0] as usize;
+        mesh.corner_normals[c / 3][c % 3]
     }
 }
 
@@ -286,17 +321,6 @@ fn towards(a: DVec3, b: DVec3, w: f64) -> DVec3 {
     ((1.0 - w) * a + w * b).try_normalize().unwrap_or(b)
 }
 
-/// State of one moved group.
-#[derive(Clone, Copy)]
-struct Move {
-    n0: DVec3,
-    /// First-stage target (central normal) and weight.
-    central: DVec3,
-    w1: f64,
-    /// Second stage: its start (the first stage's end) and weight.
-    w2: f64,
-}
-
 fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan>> {
     let table0 = PatchTable::build(mesh, scheme, opts)?;
     let mut verdicts = check_table(&table0);
@@ -307,167 +331,188 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     if bad.is_empty() {
         return Ok(None);
     }
-    let groups = Groups::new(mesh);
+    let mut groups = Groups::new(mesh);
     let faces: Vec<DVec3> = table0.flat_normals.clone();
     let mut work = mesh.clone();
-    let mut moves: HashMap<u32, Move> = HashMap::new();
+    let mut touched: HashSet<u32> = HashSet::new();
     let mut changed: HashSet<u32> = HashSet::new();
-    // Groups that cannot help: their faces' normals fit in no open hemisphere around the
-    // central normal, or a step made their surroundings worse (undone).
-    let mut frozen: HashSet<u32> = HashSet::new();
+    let mut splits = 0;
+    // G1 without creases builds a patch from its triangle alone (no shared crease curves).
+    let mut simple = scheme == Scheme::G1 && groups.vertex.len() == mesh.positions.len();
+    let grid = grid_points(BADNESS_LEVEL);
     let mut rounds = 0;
     while !bad.is_empty() && rounds < MAX_ROUNDS {
         rounds += 1;
-        // Second-stage targets: mean face normal of the invalid patches around a group.
-        let mut pull: HashMap<u32, DVec3> = HashMap::new();
-        let mut bumped: Vec<u32> = Vec::new();
-        for &t in &bad {
+        let mut improved = false;
+        for &t in &bad.clone() {
             let tri = t as usize;
-            let nf = faces[tri];
-            let corner_group = |k: usize| groups.of_corner[3 * tri + k];
-            // The corner with the largest tilt to this face, not yet at its central normal.
-            let tilt = |k: usize| work.corner_normals[tri][k].dot(nf);
-            let mut order = [0usize, 1, 2];
-            order.sort_by(|&a, &b| tilt(a).total_cmp(&tilt(b)));
-            let first = order.iter().copied().find(|&k| {
-                !frozen.contains(&corner_group(k))
-                    && moves.get(&corner_group(k)).is_none_or(|m| m.w1 < 1.0)
-            });
-            match first {
-                Some(k) => bumped.push(corner_group(k)),
-                None => {
-                    for k in order {
-                        if !frozen.contains(&corner_group(k)) {
-                            *pull.entry(corner_group(k)).or_insert(DVec3::ZERO) += nf;
-                        }
+            if verdicts[tri] == Verdict::Valid {
+                continue;
+            }
+            // The best move of one corner group of this patch: (badness of the patches
+            // around the group after it, group, new normal).
+            let mut best: Option<(f64, Vec<(u32, DVec3)>)> = None;
+            let corner_normals = work.corner_normals[tri];
+            let mean = corner_normals
+                .iter()
+                .copied()
+                .sum::<DVec3>()
+                .try_normalize();
+            let own: Vec<u32> = (0..3).map(|k| groups.of_corner[3 * tri + k]).collect();
+            // Candidate moves: one group at a time, then the patch's three groups together
+            // towards its face normal.
+            let mut candidates: Vec<Vec<(u32, DVec3)>> = Vec::new();
+            for &g in &own {
+                let cur = groups.normal(&work, g);
+                let f: Vec<DVec3> = groups
+                    .corners(g)
+                    .iter()
+                    .map(|&c| faces[c as usize / 3])
+                    .collect();
+                let mut targets = vec![central(&f, cur), faces[tri]];
+                targets.extend(mean);
+                for target in targets {
+                    for w in WEIGHTS {
+                        candidates.push(vec![(g, towards(cur, target, w))]);
                     }
                 }
             }
-        }
-        bumped.sort_unstable();
-        bumped.dedup();
-        let mut moved: Vec<u32> = Vec::new();
-        for &g in &bumped {
-            if !moves.contains_key(&g) {
-                let cs = groups.corners(g);
-                let f: Vec<DVec3> = cs.iter().map(|&c| faces[c as usize / 3]).collect();
-                let m = central(&f, DVec3::Z);
-                // No normal makes every face around this group face the same side.
-                if f.iter().any(|x| x.dot(m) <= 0.0) {
-                    frozen.insert(g);
+            for w in WEIGHTS {
+                candidates.push(
+                    own.iter()
+                        .map(|&g| (g, towards(groups.normal(&work, g), faces[tri], w)))
+                        .collect(),
+                );
+            }
+            for moves in candidates {
+                if moves
+                    .iter()
+                    .all(|&(g, n)| normal_key(n) == normal_key(groups.normal(&work, g)))
+                {
                     continue;
                 }
-            }
-            let m = moves.entry(g).or_insert_with(|| {
-                let cs = groups.corners(g);
-                let n0 = mesh.corner_normals[cs[0] as usize / 3][cs[0] as usize % 3];
-                let f: Vec<DVec3> = cs.iter().map(|&c| faces[c as usize / 3]).collect();
-                Move {
-                    n0,
-                    central: central(&f, n0),
-                    w1: 0.0,
-                    w2: 0.0,
+                let mut ring: Vec<u32> = moves
+                    .iter()
+                    .flat_map(|&(g, _)| groups.corners(g).iter().map(|&c| c / 3))
+                    .collect();
+                ring.sort_unstable();
+                ring.dedup();
+                let now = badness(&ring_table(&work, scheme, opts, &ring, simple)?, &grid);
+                let old: Vec<(u32, DVec3)> = moves
+                    .iter()
+                    .map(|&(g, _)| (g, groups.normal(&work, g)))
+                    .collect();
+                let mut sink = Vec::new();
+                for &(g, n) in &moves {
+                    set_group(&mut work, &groups, g, n, &mut sink);
                 }
-            });
-            m.w1 = (m.w1 + STEP).min(1.0);
-            moved.push(g);
-        }
-        let mut targets: HashMap<u32, DVec3> = HashMap::new();
-        for (g, p) in pull {
-            let Some(m) = moves.get_mut(&g) else { continue };
-            if m.w2 >= 1.0 {
-                continue;
+                let b = badness(&ring_table(&work, scheme, opts, &ring, simple)?, &grid);
+                for &(g, n) in old.iter().rev() {
+                    set_group(&mut work, &groups, g, n, &mut sink);
+                }
+                let gain = now - b;
+                if gain > 1e-9 * now && best.as_ref().is_none_or(|(x, _)| gain > *x) {
+                    best = Some((gain, moves));
+                }
             }
-            if let Some(p) = p.try_normalize() {
-                m.w2 = (m.w2 + STEP).min(1.0);
-                targets.insert(g, p);
-                moved.push(g);
+            if let Some((_, moves)) = best {
+                let old: Vec<(u32, DVec3)> = moves
+                    .iter()
+                    .map(|&(g, _)| (g, groups.normal(&work, g)))
+                    .collect();
+                let mut ring = Vec::new();
+                for &(g, n) in &moves {
+                    set_group(&mut work, &groups, g, n, &mut ring);
+                }
+                ring.sort_unstable();
+                ring.dedup();
+                let v = verdicts_of(&work, scheme, opts, &ring, simple)?;
+                let was = ring
+                    .iter()
+                    .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+                    .count();
+                if v.iter().filter(|x| **x != Verdict::Valid).count() > was {
+                    // The certificate disagrees with the sampled measure: undo.
+                    for &(g, n) in old.iter().rev() {
+                        set_group(&mut work, &groups, g, n, &mut ring);
+                    }
+                    continue;
+                }
+                for (i, &r) in ring.iter().enumerate() {
+                    verdicts[r as usize] = v[i];
+                    changed.insert(r);
+                }
+                touched.extend(moves.iter().map(|&(g, _)| g));
+                improved = true;
+            } else if let Some(split) = split_group(&mut work, &mut groups, tri, &faces) {
+                // No normal of one group serves every face around it: the faces that turn
+                // away from this patch get their own normal (a new crease at the vertex),
+                // kept only where the certificate says it helps.
+                let (g, h, old) = split;
+                let mut ring: Vec<u32> = groups
+                    .corners(g)
+                    .iter()
+                    .chain(groups.corners(h))
+                    .map(|&c| c / 3)
+                    .collect();
+                ring.sort_unstable();
+                ring.dedup();
+                let v = verdicts_of(&work, scheme, opts, &ring, false)?;
+                let was = ring
+                    .iter()
+                    .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+                    .count();
+                if v.iter().filter(|x| **x != Verdict::Valid).count() < was {
+                    for (i, &r) in ring.iter().enumerate() {
+                        verdicts[r as usize] = v[i];
+                        changed.insert(r);
+                    }
+                    touched.insert(g);
+                    touched.insert(h);
+                    splits += 1;
+                    simple = false;
+                    improved = true;
+                } else {
+                    let moved: Vec<u32> = groups.corners(h).to_vec();
+                    groups.list[g as usize].extend_from_slice(&moved);
+                    groups.list[h as usize].clear();
+                    for &c in &moved {
+                        groups.of_corner[c as usize] = g;
+                    }
+                    let mut sink = Vec::new();
+                    set_group(&mut work, &groups, g, old, &mut sink);
+                }
             }
         }
-        if moved.is_empty() {
+        bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
+        if !improved {
             break;
         }
-        moved.sort_unstable();
-        moved.dedup();
-        let mut previous: Vec<(u32, DVec3, Move)> = Vec::new();
-        let mut affected: Vec<u32> = Vec::new();
-        for &g in &moved {
-            let m = moves[&g];
-            let first = towards(m.n0, m.central, m.w1);
-            let c0 = groups.corners(g)[0] as usize;
-            let cur = work.corner_normals[c0 / 3][c0 % 3];
-            let n = match targets.get(&g) {
-                // The second stage moves on from where the group is.
-                Some(&p) => towards(cur, p, STEP / (1.0 - m.w2 + STEP)),
-                None if m.w2 > 0.0 => cur,
-                None => first,
-            };
-            let mut before = m;
-            if targets.contains_key(&g) {
-                before.w2 -= STEP;
-            } else {
-                before.w1 -= STEP;
-            }
-            previous.push((g, cur, before));
-            set_group(&mut work, &groups, g, n, &mut affected);
-        }
-        affected.sort_unstable();
-        affected.dedup();
-        let old: HashMap<u32, Verdict> = affected
-            .iter()
-            .map(|&t| (t, verdicts[t as usize]))
-            .collect();
-        check(&work, scheme, opts, &affected, &mut verdicts)?;
-        // Undo (and freeze) every group whose patches got worse.
-        let worse = |g: u32, verdicts: &[Verdict]| {
-            let tris = groups.corners(g).iter().map(|&c| c / 3);
-            let before = tris.clone().filter(|t| old[t] != Verdict::Valid).count();
-            let after = tris
-                .filter(|&t| verdicts[t as usize] != Verdict::Valid)
-                .count();
-            after > before
-        };
-        let undo: Vec<(u32, DVec3, Move)> = previous
-            .into_iter()
-            .filter(|(g, _, _)| worse(*g, &verdicts))
-            .collect();
-        if !undo.is_empty() {
-            let mut again = Vec::new();
-            for (g, n, m) in undo {
-                set_group(&mut work, &groups, g, n, &mut again);
-                moves.insert(g, m);
-                frozen.insert(g);
-            }
-            again.sort_unstable();
-            again.dedup();
-            check(&work, scheme, opts, &again, &mut verdicts)?;
-        }
-        changed.extend(affected.iter().copied());
-        let mut next: Vec<u32> = bad
-            .iter()
-            .chain(affected.iter())
-            .copied()
-            .filter(|&t| verdicts[t as usize] != Verdict::Valid)
-            .collect();
-        next.sort_unstable();
-        next.dedup();
-        bad = next;
     }
     let after = verdicts.iter().fold(PatchCounts::default(), add);
+    let flipped = bad
+        .iter()
+        .filter(|&&t| {
+            let tri = t as usize;
+            let around: DVec3 = (0..3)
+                .flat_map(|k| groups.corners(groups.of_corner[3 * tri + k]))
+                .map(|&c| faces[c as usize / 3])
+                .sum();
+            (around - 3.0 * faces[tri]).dot(faces[tri]) < 0.0
+        })
+        .count();
     let mut changed: Vec<u32> = changed.into_iter().collect();
     changed.sort_unstable();
     // What changed, measured on the final normals.
     let mut vertices = HashSet::new();
     let mut corners = 0;
     let mut max_angle = 0.0f64;
-    for (&g, m) in &moves {
-        let c = groups.corners(g)[0] as usize;
-        let n = work.corner_normals[c / 3][c % 3];
-        if normal_key(n) != normal_key(m.n0) {
+    for &g in &touched {
+        let (n0, n) = (groups.normal(mesh, g), groups.normal(&work, g));
+        if normal_key(n) != normal_key(n0) {
             vertices.insert(groups.vertex[g as usize]);
             corners += groups.corners(g).len();
-            // atan2 of |n0 × n| and n0 · n: accurate at small angles too.
-            max_angle = max_angle.max(m.n0.cross(n).length().atan2(m.n0.dot(n)).to_degrees());
+            max_angle = max_angle.max(angle_deg(n0, n));
         }
     }
     let builder = PatchBuilder::new(&work, scheme, opts)?;
@@ -492,6 +537,8 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         patches_changed: changed.len(),
         max_normal_change_deg: max_angle,
         max_distance,
+        groups_split: splits,
+        left_on_flipped_triangles: flipped,
         rounds,
     };
     Ok(Some(Plan {
@@ -499,6 +546,50 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         changed,
         report,
     }))
+}
+
+/// Splits the group of a corner of triangle `t` whose faces fit in no open hemisphere
+/// around their central normal: the corners whose face turns away from `t`'s face
+/// (negative cosine) form a new group; both get the central normal of their own faces.
+/// Returns (the group, the new group, the group's normal before).
+fn split_group(
+    work: &mut Mesh,
+    groups: &mut Groups,
+    t: usize,
+    faces: &[DVec3],
+) -> Option<(u32, u32, DVec3)> {
+    let nf = faces[t];
+    for k in 0..3 {
+        let g = groups.of_corner[3 * t + k];
+        let cs = groups.corners(g).to_vec();
+        let f: Vec<DVec3> = cs.iter().map(|&c| faces[c as usize / 3]).collect();
+        let m = central(&f, nf);
+        if f.iter().all(|x| x.dot(m) > 0.0) {
+            continue;
+        }
+        let away: Vec<u32> = cs
+            .iter()
+            .copied()
+            .filter(|&c| faces[c as usize / 3].dot(nf) < 0.0)
+            .collect();
+        if away.is_empty() || away.len() == cs.len() {
+            continue;
+        }
+        let old = groups.normal(work, g);
+        let h = groups.split(g, &away);
+        let mut sink = Vec::new();
+        for x in [g, h] {
+            let f: Vec<DVec3> = groups
+                .corners(x)
+                .iter()
+                .map(|&c| faces[c as usize / 3])
+                .collect();
+            let n = central(&f, nf);
+            set_group(work, groups, x, n, &mut sink);
+        }
+        return Some((g, h, old));
+    }
+    None
 }
 
 /// Sets the normal of every corner of group `g` to `n`, listing their triangles.
@@ -509,24 +600,79 @@ fn set_group(work: &mut Mesh, groups: &Groups, g: u32, n: DVec3, tris: &mut Vec<
     }
 }
 
-/// Rebuilds and checks the patches of `tris` on `work`.
-fn check(
+/// Angle between unit vectors in degrees (atan2 of |a × b| and a · b: accurate at small
+/// angles too).
+fn angle_deg(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b)).to_degrees()
+}
+
+/// The patches of `tris` on `work` (`simple`: G1 on a mesh without creases, built
+/// triangle by triangle without preparing the whole mesh).
+fn ring_table(
     work: &Mesh,
     scheme: Scheme,
     opts: &SchemeOptions,
     tris: &[u32],
-    verdicts: &mut [Verdict],
-) -> Result<()> {
-    let builder = PatchBuilder::new(work, scheme, opts)?;
-    let table = builder.table_of(tris, 0)?;
-    let v: Vec<Verdict> = (0..tris.len())
-        .into_par_iter()
-        .map(|i| check_patch(&table, i))
-        .collect();
-    for (i, &t) in tris.iter().enumerate() {
-        verdicts[t as usize] = v[i];
+    simple: bool,
+) -> Result<PatchTable> {
+    if !simple {
+        return PatchBuilder::new(work, scheme, opts)?.table_of(tris, 0);
     }
-    Ok(())
+    let mut points = Vec::with_capacity(tris.len() * 18);
+    let mut flat_normals = Vec::with_capacity(tris.len());
+    let mut fallbacks = 0;
+    for &t in tris {
+        let tri = work.triangles[t as usize];
+        let q = tri.map(|v| work.positions[v as usize]);
+        points.extend_from_slice(&super::g1::patch_points(
+            q,
+            work.corner_normals[t as usize],
+            tri,
+            &mut fallbacks,
+        ));
+        flat_normals.push(crate::mesh::normals::face_normal(q));
+    }
+    Ok(PatchTable {
+        scheme,
+        kind: scheme.kind(),
+        stride: scheme.kind().stride(),
+        points,
+        flat_normals,
+        fallbacks,
+    })
+}
+
+/// The verdicts of the patches of `tris` on `work`.
+fn verdicts_of(
+    work: &Mesh,
+    scheme: Scheme,
+    opts: &SchemeOptions,
+    tris: &[u32],
+    simple: bool,
+) -> Result<Vec<Verdict>> {
+    let table = ring_table(work, scheme, opts, tris, simple)?;
+    Ok((0..tris.len()).map(|i| check_patch(&table, i)).collect())
+}
+
+/// How far the patches of `table` are from a scaled Jacobian J/(|S_s| |S_t|) of
+/// [`MARGIN`] everywhere: the sum over the points of `grid` of its shortfall (0 for
+/// patches well inside the valid ones). The search's measure between certificates.
+fn badness(table: &PatchTable, grid: &[[f64; 3]]) -> f64 {
+    let mut sum = 0.0;
+    for i in 0..table.len() {
+        let nf = table.flat_normals[i];
+        for &b in grid {
+            let p = table.eval(i, b);
+            let scale = p.ds.length() * p.dt.length();
+            let sj = if scale > 0.0 {
+                p.ds.cross(p.dt).dot(nf) / scale
+            } else {
+                -1.0
+            };
+            sum += (MARGIN - sj).max(0.0);
+        }
+    }
+    sum
 }
 
 fn add(c: PatchCounts, v: &Verdict) -> PatchCounts {
