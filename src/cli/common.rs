@@ -26,6 +26,10 @@ pub struct InputArgs {
     /// Phong tessellation's shape factor α.
     #[arg(long, default_value_t = 0.75)]
     pub phong_alpha: f64,
+    /// Change vertex normals as little as needed so that no patch folds (every patch
+    /// certified valid); prints what changed.
+    #[arg(long)]
+    pub repair_folds: bool,
 }
 
 impl InputArgs {
@@ -38,6 +42,7 @@ impl InputArgs {
             recompute_normals: false,
             crease_angle: None,
             phong_alpha: 0.75,
+            repair_folds: false,
         }
     }
 
@@ -52,6 +57,7 @@ impl InputArgs {
     pub fn scheme_options(&self) -> SchemeOptions {
         SchemeOptions {
             phong_alpha: self.phong_alpha,
+            repair_folds: self.repair_folds,
         }
     }
 

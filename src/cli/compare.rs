@@ -74,6 +74,7 @@ impl CompareArgs {
             &self.schemes(),
             &SchemeOptions {
                 phong_alpha: self.phong_alpha,
+                ..Default::default()
             },
             self.backend.evaluator(crate::gpu::Precision::F64)?.as_ref(),
         )?)

@@ -201,6 +201,9 @@ pub fn render_schemes(
     let mut rows = Vec::new();
     for &scheme in schemes {
         let table = PatchTable::build(mesh, scheme, scheme_opts)?;
+        if let Some(w) = crate::patch::validity::fold_warning(mesh, &table, scheme_opts)? {
+            eprintln!("{w}");
+        }
         rows.push(Row {
             label: scheme.to_string(),
             panels: scheme_panels(mesh, &table, level, opts, evaluator)?,

@@ -201,6 +201,7 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         level: a.level,
         options: SchemeOptions {
             phong_alpha: a.phong_alpha,
+            ..Default::default()
         },
         ..SweepPlan::default()
     };

@@ -86,6 +86,10 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         atomic::refuse_same_file(&a.output, std::path::Path::new(&a.input.mesh))?;
     }
     let (mesh, table) = a.input.load()?;
+    if let Some(w) = crate::patch::validity::fold_warning(&mesh, &table, &a.input.scheme_options())?
+    {
+        eprintln!("{w}");
+    }
     let adjacency = mesh.adjacency();
     let (need, estimate, weights) = tessellation_need(
         &mesh,

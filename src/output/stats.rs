@@ -22,6 +22,8 @@ use crate::eval::{EdgePairs, EdgeSide, Evaluator, PatchPoint};
 use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
+use crate::patch::repair::{repair, RepairReport};
+use crate::patch::validity::{count_builder, PatchCounts};
 use crate::patch::{PatchBuilder, PatchTable, Scheme, SchemeOptions};
 use crate::{Error, Result};
 
@@ -703,26 +705,40 @@ impl<'m> EdgeStats<'m> {
     ) -> Result<StatsReport> {
         let builder = PatchBuilder::new(self.mesh, scheme, opts)?;
         let (c, fallbacks) = self.continuity(&builder, evaluator)?;
-        Ok(StatsReport::new(
+        let mut report = StatsReport::new(
             self.mesh,
             self.counts(),
             scheme,
             fallbacks,
             c,
             evaluator.describe(),
-        ))
+        );
+        report.patches = count_builder(&builder)?;
+        Ok(report)
     }
 }
 
 /// The statistics report of `scheme` on `mesh`, streamed in bounded memory: what
 /// `g1tess stats` prints. The edge index (one thread) is built while the scheme prepares
-/// its per-mesh data; patches are then built a chunk of edges at a time.
+/// its per-mesh data; patches are then built a chunk of edges at a time. With
+/// [`SchemeOptions::repair_folds`] the statistics are those of the repaired mesh
+/// ([`repair`]), and the report says what the repair changed.
 pub fn stats_report(
     mesh: &Mesh,
     scheme: Scheme,
     opts: &SchemeOptions,
     evaluator: &dyn Evaluator,
 ) -> Result<StatsReport> {
+    if opts.repair_folds {
+        let (repaired, r) = repair(mesh, scheme, opts)?;
+        let opts = SchemeOptions {
+            repair_folds: false,
+            ..*opts
+        };
+        let mut report = stats_report(&repaired, scheme, &opts, evaluator)?;
+        report.repair = Some(r);
+        return Ok(report);
+    }
     let (stats, builder) = std::thread::scope(|s| {
         let index = s.spawn(|| EdgeStats::new(mesh));
         let builder = PatchBuilder::new(mesh, scheme, opts);
@@ -733,18 +749,22 @@ pub fn stats_report(
     });
     let builder = builder?;
     let (c, fallbacks) = stats.continuity(&builder, evaluator)?;
-    Ok(StatsReport::new(
+    let mut report = StatsReport::new(
         mesh,
         stats.counts(),
         scheme,
         fallbacks,
         c,
         evaluator.describe(),
-    ))
+    );
+    report.patches = count_builder(&builder)?;
+    Ok(report)
 }
 
-/// Everything `g1tess stats --json` prints for one mesh and scheme.
+/// Everything `g1tess stats --json` prints for one mesh and scheme. In JSON, the cos and
+/// gap statistics are `null` where there is no sample (no non-crease interior edge).
 #[derive(Clone, Debug, Serialize)]
+#[serde(into = "StatsJson")]
 pub struct StatsReport {
     pub mesh: String,
     pub scheme: String,
@@ -773,6 +793,70 @@ pub struct StatsReport {
     /// Edges where the construction took a documented fallback.
     pub fallbacks: usize,
     pub load: LoadReport,
+    /// Verdicts of the patches' validity certificate ([`crate::patch::validity`]); all
+    /// zero where not computed ([`StatsReport::new`]).
+    pub patches: PatchCounts,
+    /// What the fold repair changed, where it was asked for.
+    pub repair: Option<RepairReport>,
+}
+
+/// [`StatsReport`] as JSON: the statistics of samples `null` where there are none.
+#[derive(Serialize)]
+struct StatsJson {
+    mesh: String,
+    scheme: String,
+    triangles: usize,
+    vertices: usize,
+    interior_edges: usize,
+    crease_edges: usize,
+    boundary_edges: usize,
+    nonmanifold_edges: usize,
+    misoriented_edges: usize,
+    samples: usize,
+    cos: Option<CosStats>,
+    max_one_minus_abs_cos: Option<f64>,
+    max_gap: Option<f64>,
+    max_gap_relative: Option<f64>,
+    diagonal: f64,
+    folded: usize,
+    crease_samples: usize,
+    crease_max_gap: f64,
+    backend: String,
+    fallbacks: usize,
+    load: LoadReport,
+    patches: PatchCounts,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    repair: Option<RepairReport>,
+}
+
+impl From<StatsReport> for StatsJson {
+    fn from(r: StatsReport) -> StatsJson {
+        StatsJson {
+            cos: (r.samples > 0).then_some(r.cos),
+            max_one_minus_abs_cos: (r.samples > 0).then_some(r.max_one_minus_abs_cos),
+            max_gap: (r.samples > 0).then_some(r.max_gap),
+            max_gap_relative: (r.samples > 0).then_some(r.max_gap_relative),
+            mesh: r.mesh,
+            scheme: r.scheme,
+            triangles: r.triangles,
+            vertices: r.vertices,
+            interior_edges: r.interior_edges,
+            crease_edges: r.crease_edges,
+            boundary_edges: r.boundary_edges,
+            nonmanifold_edges: r.nonmanifold_edges,
+            misoriented_edges: r.misoriented_edges,
+            samples: r.samples,
+            diagonal: r.diagonal,
+            folded: r.folded,
+            crease_samples: r.crease_samples,
+            crease_max_gap: r.crease_max_gap,
+            backend: r.backend,
+            fallbacks: r.fallbacks,
+            load: r.load,
+            patches: r.patches,
+            repair: r.repair,
+        }
+    }
 }
 
 impl StatsReport {
@@ -811,18 +895,37 @@ impl StatsReport {
             backend,
             fallbacks,
             load: mesh.load_report.clone(),
+            patches: PatchCounts::default(),
+            repair: None,
         }
     }
 
     /// Human-readable summary, several lines.
     pub fn to_text(&self) -> String {
-        format!(
+        let continuity = if self.samples == 0 {
+            "no interior edges (no cos or gap statistics)".to_string()
+        } else {
+            format!(
+                "samples {} (21 per non-crease interior edge)\n\
+                 cos  min {:.9}  max {:.9}  mean {:.9}  std {:.6e}\n\
+                 max 1-|cos| {:.3e} · folded samples (cos < 0) {}\n\
+                 max gap {:.3e} ({:.3e} × bbox diagonal)",
+                self.samples,
+                self.cos.min,
+                self.cos.max,
+                self.cos.mean,
+                self.cos.std,
+                self.max_one_minus_abs_cos,
+                self.folded,
+                self.max_gap,
+                self.max_gap_relative,
+            )
+        };
+        let mut out = format!(
             "mesh {} · scheme {} · backend {}\n\
              triangles {} · vertices {} · interior edges {} · boundary edges {} · non-manifold edges {} · misoriented edges {}\n\
-             samples {} (21 per non-crease interior edge)\n\
-             cos  min {:.9}  max {:.9}  mean {:.9}  std {:.6e}\n\
-             max 1-|cos| {:.3e} · folded samples (cos < 0) {}\n\
-             max gap {:.3e} ({:.3e} × bbox diagonal){}",
+             {continuity}{}\n\
+             patches: {} certified valid · {} folded · {} undecided",
             self.mesh,
             self.scheme,
             self.backend,
@@ -832,15 +935,6 @@ impl StatsReport {
             self.boundary_edges,
             self.nonmanifold_edges,
             self.misoriented_edges,
-            self.samples,
-            self.cos.min,
-            self.cos.max,
-            self.cos.mean,
-            self.cos.std,
-            self.max_one_minus_abs_cos,
-            self.folded,
-            self.max_gap,
-            self.max_gap_relative,
             if self.crease_edges > 0 {
                 format!(
                     "\ncrease edges {} (left out of the above) · {} samples · max gap {:.3e}",
@@ -849,6 +943,22 @@ impl StatsReport {
             } else {
                 String::new()
             },
-        )
+            self.patches.valid,
+            self.patches.folded,
+            self.patches.undecided,
+        );
+        if let Some(r) = &self.repair {
+            out.push_str(&format!(
+                "\nfold repair: {} vertices touched ({} corners), largest normal change \
+                 {:.3}°, surface moved at most {:.3e}; before {} folded, {} undecided",
+                r.vertices_touched,
+                r.corners_changed,
+                r.max_normal_change_deg,
+                r.max_distance,
+                r.before.folded,
+                r.before.undecided
+            ));
+        }
+        out
     }
 }

@@ -15,6 +15,8 @@ pub mod nlsa;
 pub mod phong;
 pub mod pn;
 pub mod quadratic;
+pub mod repair;
+pub mod validity;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -186,11 +188,17 @@ impl std::fmt::Display for Scheme {
 pub struct SchemeOptions {
     /// Phong tessellation's shape factor α (default 3/4, the paper's).
     pub phong_alpha: f64,
+    /// Change vertex normals where needed so that every patch is certified valid (see
+    /// [`repair`]); a mesh whose patches are all valid is left exactly as it is.
+    pub repair_folds: bool,
 }
 
 impl Default for SchemeOptions {
     fn default() -> Self {
-        SchemeOptions { phong_alpha: 0.75 }
+        SchemeOptions {
+            phong_alpha: 0.75,
+            repair_folds: false,
+        }
     }
 }
 
@@ -478,7 +486,11 @@ impl<'a> PatchBuilder<'a> {
             mesh,
             scheme,
             kind: info.kind,
-            inner: (info.prepare)(mesh, opts)?,
+            inner: if opts.repair_folds {
+                repair::repaired_builder(mesh, scheme, opts)?
+            } else {
+                (info.prepare)(mesh, opts)?
+            },
         })
     }
 

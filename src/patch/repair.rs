@@ -1,0 +1,699 @@
+//! Repair of folded patches by changing vertex normals as little as needed.
+//!
+//! Every patch scheme here builds each triangle's patch from its three corners and their
+//! normals only, and G1 builds each edge's boundary curve and ribbon from the edge's two
+//! end points and normals (Walton & Meek 1996), so **any** choice of vertex normals gives
+//! a patch network that is G1 across every edge whose two triangles share the normals of
+//! its ends, and watertight everywhere (crease edges get one curve built from both sides'
+//! normals). The repair therefore only changes normals, and always all the corners of one
+//! *normal group* (the corners of one vertex that carry bitwise the same normal) to one new
+//! value: smooth edges stay smooth, creases stay creases.
+//!
+//! Method: a local search, one normal group at a time, under the certificate of
+//! [`super::validity`]:
+//! 1. Every patch gets its verdict. If all are certified valid, nothing changes at all (the
+//!    mesh and every patch stay bit for bit as they were).
+//! 2. For each patch that is not certified, every group of its three corners is tried at
+//!    a few new normals: its present normal moved 1/16, 1/8, 1/4, 1/2, 3/4 or all of the
+//!    way (normalised linear blend) towards (a) the group's *central normal*, the
+//!    direction with the largest smallest cosine to the face normals of the group's
+//!    triangles (the axis of their smallest enclosing cone, by the Bădoiu–Clarkson
+//!    iteration on the unit sphere), (b) the patch's own face normal, (c) the mean of the
+//!    patch's three corner normals. A trial is scored by the shortfall of the scaled
+//!    Jacobian J/(|S_s| |S_t|) (the measure of curved finite-element meshing) below 0.05
+//!    on a grid of level 6 over the patches around the group: the only patches that
+//!    group's normal changes.
+//! 3. The best trial is kept when it lowers that shortfall and the certificate finds no
+//!    more uncertified patches around the group than before; otherwise nothing moves.
+//! 4. Where no move helps and the faces around a corner's group fit in no open hemisphere
+//!    (no single normal can face them all, as at a flipped input triangle), the group is
+//!    split in two by the side its faces turn to (a new crease at that vertex), kept only
+//!    where the certificate counts fewer uncertified patches.
+//! 5. Rounds repeat while something improves (at most 96). Patches left uncertified are
+//!    reported, not hidden.
+//!
+//! The report gives the number of vertices touched, the largest angle between a new and an
+//! input normal, and the largest distance between the repaired and the unrepaired surface
+//! at equal parameters (an upper bound of their Hausdorff distance) over a grid of level 8
+//! on every patch that changed.
+
+use std::collections::{HashMap, HashSet};
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::validity::{check_patch, check_table, PatchCounts, Verdict};
+use super::{PatchBuilder, PatchTable, Scheme, SchemeOptions, TriangleBuilder};
+use crate::mesh::creases::normal_key;
+use crate::mesh::Mesh;
+use crate::Result;
+
+/// Fractions of the way to a target a normal may move, tried smallest first.
+const WEIGHTS: [f64; 6] = [1.0 / 16.0, 1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0, 3.0 / 4.0, 1.0];
+/// Most rounds before the repair gives up on what is left.
+const MAX_ROUNDS: usize = 96;
+/// Scaled Jacobian the search aims at everywhere (a margin above 0, the fold).
+const MARGIN: f64 = 0.05;
+/// Grid level of the search's measure ([`badness`]).
+const BADNESS_LEVEL: u32 = 6;
+/// Grid level at which the repaired and unrepaired surfaces are compared.
+const DISTANCE_LEVEL: u32 = 8;
+
+/// What a repair changed.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct RepairReport {
+    /// Verdicts before and after.
+    pub before: PatchCounts,
+    pub after: PatchCounts,
+    /// Vertices with at least one changed normal.
+    pub vertices_touched: usize,
+    /// Triangle corners whose normal changed.
+    pub corners_changed: usize,
+    /// Patches that changed (the triangles around the touched vertices).
+    pub patches_changed: usize,
+    /// Largest angle between a new normal and the input one, in degrees.
+    pub max_normal_change_deg: f64,
+    /// Largest distance between the repaired and the unrepaired surface at equal
+    /// parameters (grid of level 8 on every changed patch).
+    pub max_distance: f64,
+    /// Normal groups split in two (a new crease at their vertex) where no single normal
+    /// can serve every face around it.
+    pub groups_split: usize,
+    /// Patches left uncertified whose own triangle turns away from the triangles around
+    /// it (negative cosine between its face normal and the mean face normal of the
+    /// triangles sharing a corner with it): folds of the input mesh itself.
+    pub left_on_flipped_triangles: usize,
+    /// Rounds of the search.
+    pub rounds: usize,
+}
+
+impl RepairReport {
+    /// One line for people.
+    pub fn to_text(&self, mesh: &str, scheme: Scheme) -> String {
+        format!(
+            "{mesh}: {scheme} fold repair: {} folded and {} undecided patches before, {} \
+             folded and {} undecided after; {} vertices touched ({} corners), largest \
+             normal change {:.3}°, surface moved at most {:.3e}",
+            self.before.folded,
+            self.before.undecided,
+            self.after.folded,
+            self.after.undecided,
+            self.vertices_touched,
+            self.corners_changed,
+            self.max_normal_change_deg,
+            self.max_distance
+        )
+    }
+}
+
+/// The mesh with repaired normals, the triangles whose patch changed and the report;
+/// `None` where every patch is already valid.
+struct Plan {
+    mesh: Mesh,
+    changed: Vec<u32>,
+    report: RepairReport,
+}
+
+/// `mesh` with its normals repaired for `scheme` (see the module documentation) and what
+/// changed. A mesh whose patches are all certified valid comes back unchanged.
+pub fn repair(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<(Mesh, RepairReport)> {
+    let opts = SchemeOptions {
+        repair_folds: false,
+        ..*opts
+    };
+    match plan(mesh, scheme, &opts)? {
+        Some(p) => Ok((p.mesh, p.report)),
+        None => {
+            let table = PatchTable::build(mesh, scheme, &opts)?;
+            let c = super::validity::count(&table);
+            Ok((
+                mesh.clone(),
+                RepairReport {
+                    before: c,
+                    after: c,
+                    ..Default::default()
+                },
+            ))
+        }
+    }
+}
+
+/// The builder of `scheme` on `mesh` with repaired normals (what
+/// [`SchemeOptions::repair_folds`] asks for): the unrepaired builder, with the patches that
+/// the repair changed built once here from the repaired mesh.
+pub(super) fn repaired_builder<'a>(
+    mesh: &'a Mesh,
+    scheme: Scheme,
+    opts: &SchemeOptions,
+) -> Result<Box<dyn TriangleBuilder + 'a>> {
+    let opts = SchemeOptions {
+        repair_folds: false,
+        ..*opts
+    };
+    let base = (scheme.info().prepare)(mesh, &opts)?;
+    let Some(p) = plan(mesh, scheme, &opts)? else {
+        return Ok(base);
+    };
+    let rb = PatchBuilder::new(&p.mesh, scheme, &opts)?;
+    let stride = rb.kind().stride();
+    let mut points = vec![DVec3::ZERO; p.changed.len() * stride];
+    let fallbacks: Vec<usize> = points
+        .par_chunks_mut(stride)
+        .zip(p.changed.par_iter())
+        .map(|(out, &t)| rb.inner.build(t as usize, out))
+        .collect();
+    let slots = p
+        .changed
+        .iter()
+        .enumerate()
+        .map(|(i, &t)| (t, i as u32))
+        .collect();
+    Ok(Box::new(Repaired {
+        base,
+        slots,
+        points,
+        fallbacks,
+        stride,
+        prepared: rb.prepared_fallbacks(),
+    }))
+}
+
+/// The unrepaired builder with the changed patches substituted.
+struct Repaired<'a> {
+    base: Box<dyn TriangleBuilder + 'a>,
+    slots: HashMap<u32, u32>,
+    points: Vec<DVec3>,
+    fallbacks: Vec<usize>,
+    stride: usize,
+    prepared: usize,
+}
+
+impl TriangleBuilder for Repaired<'_> {
+    fn build(&self, t: usize, out: &mut [DVec3]) -> usize {
+        match self.slots.get(&(t as u32)) {
+            Some(&s) => {
+                let s = s as usize;
+                out.copy_from_slice(&self.points[s * self.stride..(s + 1) * self.stride]);
+                self.fallbacks[s]
+            }
+            None => self.base.build(t, out),
+        }
+    }
+
+    fn prepared_fallbacks(&self) -> usize {
+        self.prepared
+    }
+}
+
+/// Normal groups: the corners of one vertex that carry bitwise the same normal.
+struct Groups {
+    /// Group of corner 3t + k.
+    of_corner: Vec<u32>,
+    /// Corners of each group.
+    list: Vec<Vec<u32>>,
+    vertex: Vec<u32>,
+}
+
+impl Groups {
+    fn new(mesh: &Mesh) -> Groups {
+        let nv = mesh.positions.len();
+        let mut count = vec![0u32; nv + 1];
+        for tri in &mesh.triangles {
+            for &v in tri {
+                count[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..nv {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        let mut by_vertex = vec![0u32; mesh.triangles.len() * 3];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for (k, &v) in tri.iter().enumerate() {
+                by_vertex[fill[v as usize] as usize] = (3 * t + k) as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        let mut of_corner = vec![0u32; by_vertex.len()];
+        let mut list = Vec::new();
+        let mut vertex = Vec::new();
+        let mut keys: Vec<[u64; 3]> = Vec::new();
+        for v in 0..nv {
+            let cs = &by_vertex[count[v] as usize..count[v + 1] as usize];
+            keys.clear();
+            for &c in cs {
+                let key = normal_key(mesh.corner_normals[c as usize / 3][c as usize % 3]);
+                if !keys.contains(&key) {
+                    keys.push(key);
+                }
+            }
+            for key in &keys {
+                let g = vertex.len() as u32;
+                let mut corners = Vec::new();
+                for &c in cs {
+                    if normal_key(mesh.corner_normals[c as usize / 3][c as usize % 3]) == *key {
+                        of_corner[c as usize] = g;
+                        corners.push(c);
+                    }
+                }
+                list.push(corners);
+                vertex.push(v as u32);
+            }
+        }
+        Groups {
+            of_corner,
+            list,
+            vertex,
+        }
+    }
+
+    fn corners(&self, g: u32) -> &[u32] {
+        &self.list[g as usize]
+    }
+
+    /// Moves the corners `b` of group `g` into a new group (a new crease at its vertex);
+    /// returns the new group.
+    fn split(&mut self, g: u32, b: &[u32]) -> u32 {
+        let new = self.list.len() as u32;
+        self.list[g as usize].retain(|c| !b.contains(c));
+        self.list.push(b.to_vec());
+        self.vertex.push(self.vertex[g as usize]);
+        for &c in b {
+            self.of_corner[c as usize] = new;
+        }
+        new
+    }
+
+    /// The normal of group `g` in `mesh`.
+    fn normal(&self, mesh: &Mesh, g: u32) -> DVec3 {
+        let c = self.list[g as usize][0] as usize;
+        mesh.corner_normals[c / 3][c % 3]
+    }
+}
+
+/// The unit vector maximising the smallest cosine to the unit vectors `f` (approximately:
+/// 200 Bădoiu–Clarkson steps from their mean), or `fallback`.
+fn central(f: &[DVec3], fallback: DVec3) -> DVec3 {
+    let mut m = match f.iter().copied().sum::<DVec3>().try_normalize() {
+        Some(m) => m,
+        None => return fallback,
+    };
+    for i in 0..200 {
+        let worst = f
+            .iter()
+            .copied()
+            .min_by(|a, b| a.dot(m).total_cmp(&b.dot(m)))
+            .unwrap_or(m);
+        m = match (m + (worst - m) / (i as f64 + 2.0)).try_normalize() {
+            Some(x) => x,
+            None => break,
+        };
+    }
+    m
+}
+
+/// `a` moved a fraction `w` of the way to `b` (normalised linear blend), unit.
+fn towards(a: DVec3, b: DVec3, w: f64) -> DVec3 {
+    if w <= 0.0 {
+        return a;
+    }
+    ((1.0 - w) * a + w * b).try_normalize().unwrap_or(b)
+}
+
+fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan>> {
+    let table0 = PatchTable::build(mesh, scheme, opts)?;
+    let mut verdicts = check_table(&table0);
+    let before = verdicts.iter().fold(PatchCounts::default(), add);
+    let mut bad: Vec<u32> = (0..verdicts.len() as u32)
+        .filter(|&t| verdicts[t as usize] != Verdict::Valid)
+        .collect();
+    if bad.is_empty() {
+        return Ok(None);
+    }
+    let mut groups = Groups::new(mesh);
+    let faces: Vec<DVec3> = table0.flat_normals.clone();
+    let mut work = mesh.clone();
+    let mut touched: HashSet<u32> = HashSet::new();
+    let mut changed: HashSet<u32> = HashSet::new();
+    let mut splits = 0;
+    // G1 without creases builds a patch from its triangle alone (no shared crease curves).
+    let mut simple = scheme == Scheme::G1 && groups.vertex.len() == mesh.positions.len();
+    let grid = grid_points(BADNESS_LEVEL);
+    let mut rounds = 0;
+    while !bad.is_empty() && rounds < MAX_ROUNDS {
+        rounds += 1;
+        let mut improved = false;
+        for &t in &bad.clone() {
+            let tri = t as usize;
+            if verdicts[tri] == Verdict::Valid {
+                continue;
+            }
+            // The best move of one corner group of this patch: (badness of the patches
+            // around the group after it, group, new normal).
+            let mut best: Option<(f64, Vec<(u32, DVec3)>)> = None;
+            let corner_normals = work.corner_normals[tri];
+            let mean = corner_normals
+                .iter()
+                .copied()
+                .sum::<DVec3>()
+                .try_normalize();
+            let own: Vec<u32> = (0..3).map(|k| groups.of_corner[3 * tri + k]).collect();
+            // Candidate moves: one group at a time, then the patch's three groups together
+            // towards its face normal.
+            let mut candidates: Vec<Vec<(u32, DVec3)>> = Vec::new();
+            for &g in &own {
+                let cur = groups.normal(&work, g);
+                let f: Vec<DVec3> = groups
+                    .corners(g)
+                    .iter()
+                    .map(|&c| faces[c as usize / 3])
+                    .collect();
+                let mut targets = vec![central(&f, cur), faces[tri]];
+                targets.extend(mean);
+                for target in targets {
+                    for w in WEIGHTS {
+                        candidates.push(vec![(g, towards(cur, target, w))]);
+                    }
+                }
+            }
+            for w in WEIGHTS {
+                candidates.push(
+                    own.iter()
+                        .map(|&g| (g, towards(groups.normal(&work, g), faces[tri], w)))
+                        .collect(),
+                );
+            }
+            for moves in candidates {
+                if moves
+                    .iter()
+                    .all(|&(g, n)| normal_key(n) == normal_key(groups.normal(&work, g)))
+                {
+                    continue;
+                }
+                let mut ring: Vec<u32> = moves
+                    .iter()
+                    .flat_map(|&(g, _)| groups.corners(g).iter().map(|&c| c / 3))
+                    .collect();
+                ring.sort_unstable();
+                ring.dedup();
+                let now = badness(&ring_table(&work, scheme, opts, &ring, simple)?, &grid);
+                let old: Vec<(u32, DVec3)> = moves
+                    .iter()
+                    .map(|&(g, _)| (g, groups.normal(&work, g)))
+                    .collect();
+                let mut sink = Vec::new();
+                for &(g, n) in &moves {
+                    set_group(&mut work, &groups, g, n, &mut sink);
+                }
+                let b = badness(&ring_table(&work, scheme, opts, &ring, simple)?, &grid);
+                for &(g, n) in old.iter().rev() {
+                    set_group(&mut work, &groups, g, n, &mut sink);
+                }
+                let gain = now - b;
+                if gain > 1e-9 * now && best.as_ref().is_none_or(|(x, _)| gain > *x) {
+                    best = Some((gain, moves));
+                }
+            }
+            if let Some((_, moves)) = best {
+                let old: Vec<(u32, DVec3)> = moves
+                    .iter()
+                    .map(|&(g, _)| (g, groups.normal(&work, g)))
+                    .collect();
+                let mut ring = Vec::new();
+                for &(g, n) in &moves {
+                    set_group(&mut work, &groups, g, n, &mut ring);
+                }
+                ring.sort_unstable();
+                ring.dedup();
+                let v = verdicts_of(&work, scheme, opts, &ring, simple)?;
+                let was = ring
+                    .iter()
+                    .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+                    .count();
+                if v.iter().filter(|x| **x != Verdict::Valid).count() > was {
+                    // The certificate disagrees with the sampled measure: undo.
+                    for &(g, n) in old.iter().rev() {
+                        set_group(&mut work, &groups, g, n, &mut ring);
+                    }
+                    continue;
+                }
+                for (i, &r) in ring.iter().enumerate() {
+                    verdicts[r as usize] = v[i];
+                    changed.insert(r);
+                }
+                touched.extend(moves.iter().map(|&(g, _)| g));
+                improved = true;
+            } else if let Some(split) = split_group(&mut work, &mut groups, tri, &faces) {
+                // No normal of one group serves every face around it: the faces that turn
+                // away from this patch get their own normal (a new crease at the vertex),
+                // kept only where the certificate says it helps.
+                let (g, h, old) = split;
+                let mut ring: Vec<u32> = groups
+                    .corners(g)
+                    .iter()
+                    .chain(groups.corners(h))
+                    .map(|&c| c / 3)
+                    .collect();
+                ring.sort_unstable();
+                ring.dedup();
+                let v = verdicts_of(&work, scheme, opts, &ring, false)?;
+                let was = ring
+                    .iter()
+                    .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+                    .count();
+                if v.iter().filter(|x| **x != Verdict::Valid).count() < was {
+                    for (i, &r) in ring.iter().enumerate() {
+                        verdicts[r as usize] = v[i];
+                        changed.insert(r);
+                    }
+                    touched.insert(g);
+                    touched.insert(h);
+                    splits += 1;
+                    simple = false;
+                    improved = true;
+                } else {
+                    let moved: Vec<u32> = groups.corners(h).to_vec();
+                    groups.list[g as usize].extend_from_slice(&moved);
+                    groups.list[h as usize].clear();
+                    for &c in &moved {
+                        groups.of_corner[c as usize] = g;
+                    }
+                    let mut sink = Vec::new();
+                    set_group(&mut work, &groups, g, old, &mut sink);
+                }
+            }
+        }
+        bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
+        if !improved {
+            break;
+        }
+    }
+    let after = verdicts.iter().fold(PatchCounts::default(), add);
+    let flipped = bad
+        .iter()
+        .filter(|&&t| {
+            let tri = t as usize;
+            let around: DVec3 = (0..3)
+                .flat_map(|k| groups.corners(groups.of_corner[3 * tri + k]))
+                .map(|&c| faces[c as usize / 3])
+                .sum();
+            (around - 3.0 * faces[tri]).dot(faces[tri]) < 0.0
+        })
+        .count();
+    let mut changed: Vec<u32> = changed.into_iter().collect();
+    changed.sort_unstable();
+    // What changed, measured on the final normals.
+    let mut vertices = HashSet::new();
+    let mut corners = 0;
+    let mut max_angle = 0.0f64;
+    for &g in &touched {
+        let (n0, n) = (groups.normal(mesh, g), groups.normal(&work, g));
+        if normal_key(n) != normal_key(n0) {
+            vertices.insert(groups.vertex[g as usize]);
+            corners += groups.corners(g).len();
+            max_angle = max_angle.max(angle_deg(n0, n));
+        }
+    }
+    let builder = PatchBuilder::new(&work, scheme, opts)?;
+    let table = builder.table_of(&changed, 0)?;
+    let grid = grid_points(DISTANCE_LEVEL);
+    let max_distance = changed
+        .par_iter()
+        .enumerate()
+        .map(|(i, &t)| {
+            grid.iter()
+                .map(|&b| (table.eval(i, b).p - table0.eval(t as usize, b).p).length())
+                .fold(0.0, f64::max)
+        })
+        .reduce(|| 0.0, f64::max);
+    drop(table);
+    drop(builder);
+    let report = RepairReport {
+        before,
+        after,
+        vertices_touched: vertices.len(),
+        corners_changed: corners,
+        patches_changed: changed.len(),
+        max_normal_change_deg: max_angle,
+        max_distance,
+        groups_split: splits,
+        left_on_flipped_triangles: flipped,
+        rounds,
+    };
+    Ok(Some(Plan {
+        mesh: work,
+        changed,
+        report,
+    }))
+}
+
+/// Splits the group of a corner of triangle `t` whose faces fit in no open hemisphere
+/// around their central normal: the corners whose face turns away from `t`'s face
+/// (negative cosine) form a new group; both get the central normal of their own faces.
+/// Returns (the group, the new group, the group's normal before).
+fn split_group(
+    work: &mut Mesh,
+    groups: &mut Groups,
+    t: usize,
+    faces: &[DVec3],
+) -> Option<(u32, u32, DVec3)> {
+    let nf = faces[t];
+    for k in 0..3 {
+        let g = groups.of_corner[3 * t + k];
+        let cs = groups.corners(g).to_vec();
+        let f: Vec<DVec3> = cs.iter().map(|&c| faces[c as usize / 3]).collect();
+        let m = central(&f, nf);
+        if f.iter().all(|x| x.dot(m) > 0.0) {
+            continue;
+        }
+        let away: Vec<u32> = cs
+            .iter()
+            .copied()
+            .filter(|&c| faces[c as usize / 3].dot(nf) < 0.0)
+            .collect();
+        if away.is_empty() || away.len() == cs.len() {
+            continue;
+        }
+        let old = groups.normal(work, g);
+        let h = groups.split(g, &away);
+        let mut sink = Vec::new();
+        for x in [g, h] {
+            let f: Vec<DVec3> = groups
+                .corners(x)
+                .iter()
+                .map(|&c| faces[c as usize / 3])
+                .collect();
+            let n = central(&f, nf);
+            set_group(work, groups, x, n, &mut sink);
+        }
+        return Some((g, h, old));
+    }
+    None
+}
+
+/// Sets the normal of every corner of group `g` to `n`, listing their triangles.
+fn set_group(work: &mut Mesh, groups: &Groups, g: u32, n: DVec3, tris: &mut Vec<u32>) {
+    for &c in groups.corners(g) {
+        work.corner_normals[c as usize / 3][c as usize % 3] = n;
+        tris.push(c / 3);
+    }
+}
+
+/// Angle between unit vectors in degrees (atan2 of |a × b| and a · b: accurate at small
+/// angles too).
+fn angle_deg(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b)).to_degrees()
+}
+
+/// The patches of `tris` on `work` (`simple`: G1 on a mesh without creases, built
+/// triangle by triangle without preparing the whole mesh).
+fn ring_table(
+    work: &Mesh,
+    scheme: Scheme,
+    opts: &SchemeOptions,
+    tris: &[u32],
+    simple: bool,
+) -> Result<PatchTable> {
+    if !simple {
+        return PatchBuilder::new(work, scheme, opts)?.table_of(tris, 0);
+    }
+    let mut points = Vec::with_capacity(tris.len() * 18);
+    let mut flat_normals = Vec::with_capacity(tris.len());
+    let mut fallbacks = 0;
+    for &t in tris {
+        let tri = work.triangles[t as usize];
+        let q = tri.map(|v| work.positions[v as usize]);
+        points.extend_from_slice(&super::g1::patch_points(
+            q,
+            work.corner_normals[t as usize],
+            tri,
+            &mut fallbacks,
+        ));
+        flat_normals.push(crate::mesh::normals::face_normal(q));
+    }
+    Ok(PatchTable {
+        scheme,
+        kind: scheme.kind(),
+        stride: scheme.kind().stride(),
+        points,
+        flat_normals,
+        fallbacks,
+    })
+}
+
+/// The verdicts of the patches of `tris` on `work`.
+fn verdicts_of(
+    work: &Mesh,
+    scheme: Scheme,
+    opts: &SchemeOptions,
+    tris: &[u32],
+    simple: bool,
+) -> Result<Vec<Verdict>> {
+    let table = ring_table(work, scheme, opts, tris, simple)?;
+    Ok((0..tris.len()).map(|i| check_patch(&table, i)).collect())
+}
+
+/// How far the patches of `table` are from a scaled Jacobian J/(|S_s| |S_t|) of
+/// [`MARGIN`] everywhere: the sum over the points of `grid` of its shortfall (0 for
+/// patches well inside the valid ones). The search's measure between certificates.
+fn badness(table: &PatchTable, grid: &[[f64; 3]]) -> f64 {
+    let mut sum = 0.0;
+    for i in 0..table.len() {
+        let nf = table.flat_normals[i];
+        for &b in grid {
+            let p = table.eval(i, b);
+            let scale = p.ds.length() * p.dt.length();
+            let sj = if scale > 0.0 {
+                p.ds.cross(p.dt).dot(nf) / scale
+            } else {
+                -1.0
+            };
+            sum += (MARGIN - sj).max(0.0);
+        }
+    }
+    sum
+}
+
+fn add(c: PatchCounts, v: &Verdict) -> PatchCounts {
+    let mut c = c;
+    match v {
+        Verdict::Valid => c.valid += 1,
+        Verdict::Folded { .. } => c.folded += 1,
+        Verdict::Undecided => c.undecided += 1,
+    }
+    c
+}
+
+/// The barycentric points of a grid of `level` segments per edge.
+fn grid_points(level: u32) -> Vec<[f64; 3]> {
+    let n = level as f64;
+    let mut out = Vec::new();
+    for i in 0..=level {
+        for j in 0..=level - i {
+            let (s, t) = (i as f64 / n, j as f64 / n);
+            out.push([1.0 - s - t, s, t]);
+        }
+    }
+    out
+}

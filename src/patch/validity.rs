@@ -1,0 +1,570 @@
+//! Validity of every patch: does its surface normal ever turn over?
+//!
+//! A patch S(s, t) over the triangle b = (1 − s − t, s, t) is **valid** when the component
+//! J = (S_s × S_t) · n_f of its unnormalised normal along the unit normal n_f of its own
+//! flat triangle (corners in input order, counter-clockwise) is positive over the whole
+//! domain. n_f is constant over the patch, so for a Bézier triangle of degree d, J is a
+//! polynomial of degree 2d − 2 (S_s and S_t are of degree d − 1); and J > 0 says that the
+//! patch, projected onto its triangle's plane, is a local diffeomorphism with the
+//! triangle's orientation: the patch is locally a graph over its own triangle and its
+//! normal never points to the other side. That is the surface analogue of the Jacobian
+//! determinant that curved finite elements must keep positive (Johnen, Remacle & Geuzaine,
+//! "Geometrical validity of curvilinear finite elements", J. Comput. Phys. 233, 2013).
+//! The interpolated vertex normal would be a worse reference: it is what the input claims,
+//! not the element's orientation, and it raises J's degree by one.
+//!
+//! Each patch gets one of three verdicts ([`Verdict`]):
+//! - **valid**, proved: on a cell (a subtriangle of the domain) the Bernstein coefficients
+//!   of J bound it from below (convex hull property); a cell whose lower bound is positive
+//!   is certified, an undecided cell is split into four (midpoint subdivision) down to
+//!   [`MAX_DEPTH`] levels or [`MAX_CELLS`] cells per patch;
+//! - **folded**, with a witness (s, t) where the f64 evaluation of the patch itself
+//!   ([`PatchTable::eval`]) gives J < 0 by more than its rounding;
+//! - **undecided** otherwise (never a guess).
+//!
+//! **The rational Gregory blend (G1).** The interior point of corner m is the blend
+//! I_m = φ G_{m,1} + (1 − φ) G_{m−1,2} with φ = b_{m+1}/(b_{m+1} + b_{m+2}), which is not a
+//! polynomial and is singular at corner m. On each cell φ is replaced by its first-order
+//! Taylor polynomial φ̂ at the cell's centroid, which makes the patch a quintic Bézier
+//! triangle P (J_P of degree 8, bounded in Bernstein form on the cell); what that leaves
+//! out, R = Σ_m 12 b_m² b_{m+1} b_{m+2} (φ − φ̂) ΔG_m with ΔG_m = G_{m,1} − G_{m−1,2}, has
+//! derivatives bounded on the cell by interval bounds written with φ and 1 − φ (both in
+//! [0, 1]) so that nothing divides by b_{m+1} + b_{m+2}: near corner m the factor
+//! b_{m+1} b_{m+2} makes them O(h) on a cell of size h, elsewhere the Taylor remainder
+//! (second derivatives of φ, at most 2/(b_{m+1} + b_{m+2})²) makes them O(h) too. Then
+//! J ≥ min J_P − (|P_s| r_t + r_s |P_t| + r_s r_t) on the cell, with |P_s|, |P_t| bounded by
+//! their Bernstein coefficients and r_s, r_t the remainder bounds. At a corner R and its
+//! derivatives vanish, so cells at the corners certify as their size shrinks whenever J is
+//! positive there.
+//!
+//! Rounding: a cell is certified only when its lower bound exceeds a tolerance of 1e-9 of
+//! the product of the patch's tangent magnitudes (plus the rounding of the control points'
+//! differences), far above the f64 rounding of the few hundred terms each coefficient sums.
+
+use std::sync::OnceLock;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::{basis, PatchBuilder, PatchKind, PatchTable};
+use crate::Result;
+
+/// Deepest midpoint subdivision of a patch's domain tried before a cell is left undecided.
+pub const MAX_DEPTH: u32 = 12;
+/// Most cells examined per patch before it is left undecided.
+pub const MAX_CELLS: usize = 4096;
+
+/// The verdict on one patch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Verdict {
+    /// J > 0 over the whole domain, proved.
+    Valid,
+    /// J < 0 at (s, t) (b = (1 − s − t, s, t)), by direct f64 evaluation of the patch:
+    /// `jacobian` is J there.
+    Folded { s: f64, t: f64, jacobian: f64 },
+    /// Neither proved nor refuted within [`MAX_DEPTH`] and [`MAX_CELLS`].
+    Undecided,
+}
+
+/// Verdicts counted over patches.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct PatchCounts {
+    pub valid: usize,
+    pub folded: usize,
+    pub undecided: usize,
+}
+
+impl PatchCounts {
+    fn add(mut self, v: &Verdict) -> PatchCounts {
+        match v {
+            Verdict::Valid => self.valid += 1,
+            Verdict::Folded { .. } => self.folded += 1,
+            Verdict::Undecided => self.undecided += 1,
+        }
+        self
+    }
+
+    fn merge(self, o: PatchCounts) -> PatchCounts {
+        PatchCounts {
+            valid: self.valid + o.valid,
+            folded: self.folded + o.folded,
+            undecided: self.undecided + o.undecided,
+        }
+    }
+
+    /// Patches counted.
+    pub fn total(&self) -> usize {
+        self.valid + self.folded + self.undecided
+    }
+}
+
+/// J = (S_s × S_t) · n_f of patch `i` at `b` by the patch's own f64 evaluation, and the
+/// product |S_s| |S_t| (the scale of its rounding).
+pub fn jacobian(table: &PatchTable, i: usize, b: [f64; 3]) -> (f64, f64) {
+    let p = table.eval(i, b);
+    (
+        p.ds.cross(p.dt).dot(table.flat_normals[i]),
+        p.ds.length() * p.dt.length(),
+    )
+}
+
+/// The verdict on every patch of `table` (in parallel).
+pub fn check_table(table: &PatchTable) -> Vec<Verdict> {
+    (0..table.len())
+        .into_par_iter()
+        .map(|i| check_patch(table, i))
+        .collect()
+}
+
+/// The verdicts of `table` counted (in parallel).
+pub fn count(table: &PatchTable) -> PatchCounts {
+    (0..table.len())
+        .into_par_iter()
+        .map(|i| PatchCounts::default().add(&check_patch(table, i)))
+        .reduce(PatchCounts::default, PatchCounts::merge)
+}
+
+/// The verdicts of every patch `builder` builds, counted, a chunk of triangles at a time
+/// (bounded memory).
+pub fn count_builder(builder: &PatchBuilder<'_>) -> Result<PatchCounts> {
+    const CHUNK: usize = 1 << 16;
+    let n = builder.mesh().triangles.len() as u32;
+    let mut total = PatchCounts::default();
+    let mut table = builder.empty_table();
+    let mut ids = Vec::with_capacity(CHUNK);
+    for start in (0..n).step_by(CHUNK) {
+        ids.clear();
+        ids.extend(start..(start + CHUNK as u32).min(n));
+        builder.table_of_into(&ids, 0, &mut table)?;
+        total = total.merge(count(&table));
+    }
+    Ok(total)
+}
+
+/// One line about the folded patches of `table` (built for `mesh`): `None` when every
+/// patch is certified valid.
+pub fn fold_line(mesh_name: &str, table: &PatchTable) -> Option<String> {
+    let c = count(table);
+    (c.folded > 0 || c.undecided > 0).then(|| {
+        format!(
+            "warning: {mesh_name}: {} of {} {} patches are folded (their normal turns over \
+             inside the patch), {} undecided",
+            c.folded,
+            c.total(),
+            table.scheme,
+            c.undecided
+        )
+    })
+}
+
+/// The barycentric corners of a cell.
+type Cell = [[f64; 3]; 3];
+
+/// Index tables of Bézier triangles up to degree 8.
+struct Tables {
+    /// For degree d ≥ 1 and each multi-index γ of degree d − 1 (in `bezier_powers`
+    /// order): the indices of γ + e_0, γ + e_1, γ + e_2 in degree d.
+    up: Vec<Vec<[usize; 3]>>,
+    powers: Vec<Vec<[u32; 3]>>,
+    /// For m = 0..=4: (α index, β index, α + β index in degree 2m, weight
+    /// C(m; α) C(m; β) / C(2m; α + β)) over all pairs of degree m.
+    products: Vec<Vec<(usize, usize, usize, f64)>>,
+}
+
+fn multinomial(p: [u32; 3]) -> f64 {
+    let f = |n: u32| (1..=n).map(|x| x as f64).product::<f64>();
+    f(p[0] + p[1] + p[2]) / (f(p[0]) * f(p[1]) * f(p[2]))
+}
+
+fn tables() -> &'static Tables {
+    static T: OnceLock<Tables> = OnceLock::new();
+    T.get_or_init(|| {
+        let powers: Vec<Vec<[u32; 3]>> = (0..=8).map(basis::bezier_powers).collect();
+        let mut up = vec![Vec::new()];
+        for d in 1..=8u32 {
+            up.push(
+                powers[d as usize - 1]
+                    .iter()
+                    .map(|g| {
+                        std::array::from_fn(|k| {
+                            let mut p = *g;
+                            p[k] += 1;
+                            basis::bezier_index(d, p)
+                        })
+                    })
+                    .collect(),
+            );
+        }
+        let products = (0..=4u32)
+            .map(|m| {
+                let mut out = Vec::new();
+                for (ia, a) in powers[m as usize].iter().enumerate() {
+                    for (ib, b) in powers[m as usize].iter().enumerate() {
+                        let g = [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+                        let w = multinomial(*a) * multinomial(*b) / multinomial(g);
+                        out.push((ia, ib, basis::bezier_index(2 * m, g), w));
+                    }
+                }
+                out
+            })
+            .collect();
+        Tables {
+            up,
+            powers,
+            products,
+        }
+    })
+}
+
+/// Most coefficients of the polynomials handled: degree 5 (21).
+const MAXC: usize = 21;
+
+/// One de Casteljau step at `u` on coefficient pairs of degree `deg` (`src`) into degree
+/// `deg − 1` (`dst`).
+#[inline(always)]
+fn step(src: &[[DVec3; 2]; 15], deg: u32, u: [f64; 3], dst: &mut [[DVec3; 2]; 15]) {
+    let up = &tables().up[deg as usize];
+    for (j, ix) in up.iter().enumerate() {
+        let (a, b, c) = (&src[ix[0]], &src[ix[1]], &src[ix[2]]);
+        dst[j] = [
+            u[0] * a[0] + u[1] * b[0] + u[2] * c[0],
+            u[0] * a[1] + u[1] * b[1] + u[2] * c[1],
+        ];
+    }
+}
+
+/// The pairs of Bézier coefficients (degree m ≤ 4) `d` restricted to `cell` (blossoming:
+/// coefficient α of the restriction is the blossom at α_0 copies of the cell's first
+/// corner, α_1 of its second, α_2 of its third; the blossoms share their prefixes).
+fn restrict(d: &[[DVec3; 2]; 15], m: u32, cell: &Cell, out: &mut [[DVec3; 2]; 15]) {
+    // a[i]: after i steps at the first corner (degree m − i).
+    let mut a = [[[DVec3::ZERO; 2]; 15]; 5];
+    a[0] = *d;
+    for i in 1..=m as usize {
+        let (lo, hi) = a.split_at_mut(i);
+        step(&lo[i - 1], m - i as u32 + 1, cell[0], &mut hi[0]);
+    }
+    for i in 0..=m {
+        // b: then j steps at the second corner (degree m − i − j).
+        let mut b = a[i as usize];
+        for j in 0..=m - i {
+            let mut c = b;
+            let mut deg = m - i - j;
+            while deg > 0 {
+                let mut next = [[DVec3::ZERO; 2]; 15];
+                step(&c, deg, cell[2], &mut next);
+                c = next;
+                deg -= 1;
+            }
+            out[basis::bezier_index(m, [i, j, m - i - j])] = c[0];
+            if j < m - i {
+                let mut next = [[DVec3::ZERO; 2]; 15];
+                step(&b, m - i - j, cell[1], &mut next);
+                b = next;
+            }
+        }
+    }
+}
+
+/// What the bound needs of one patch.
+struct Geometry {
+    /// Degree of the polynomial part (Gregory: 5, with the linearised blend added per cell).
+    n: u32,
+    /// Its Bézier coefficients on the whole domain (Gregory: the quartic with G_{m−1,2} as
+    /// interior points, raised to degree 5).
+    base: [DVec3; MAXC],
+    /// Gregory: ΔG_m = G_{m,1} − G_{m−1,2}.
+    gregory: Option<[DVec3; 3]>,
+    nref: DVec3,
+    /// Absolute tolerance of a certified lower bound (rounding).
+    tol: f64,
+}
+
+impl Geometry {
+    fn new(table: &PatchTable, i: usize) -> Geometry {
+        let c = table.patch(i);
+        let nref = table.flat_normals[i];
+        let mut base = [DVec3::ZERO; MAXC];
+        let (n, gregory) = match table.kind {
+            PatchKind::Bezier(n) => {
+                base[..c.len()].copy_from_slice(c);
+                (n, None)
+            }
+            PatchKind::PnNormals => {
+                base[..10].copy_from_slice(&c[..10]);
+                (3, None)
+            }
+            PatchKind::Gregory => {
+                let mut q = [DVec3::ZERO; 15];
+                for (j, p) in basis::g1_boundary_powers().iter().enumerate() {
+                    q[basis::bezier_index(4, *p)] = c[j];
+                }
+                let mut dg = [DVec3::ZERO; 3];
+                for m in 0..3 {
+                    let g1 = c[12 + 2 * m];
+                    let g2 = c[13 + 2 * ((m + 2) % 3)];
+                    q[basis::bezier_index(4, interior_powers(m))] = g2;
+                    dg[m] = g1 - g2;
+                }
+                // Degree elevation: Q5_γ = Σ_k (γ_k / 5) Q_{γ − e_k}.
+                let t = tables();
+                for (gi, g) in t.powers[5].iter().enumerate() {
+                    let mut s = DVec3::ZERO;
+                    for k in 0..3 {
+                        if g[k] > 0 {
+                            let mut p = *g;
+                            p[k] -= 1;
+                            s += (g[k] as f64 / 5.0) * q[basis::bezier_index(4, p)];
+                        }
+                    }
+                    base[gi] = s;
+                }
+                (5, Some(dg))
+            }
+        };
+        let len = tables().powers[n as usize].len();
+        // Tangent scale of the whole patch: its derivative coefficients' largest lengths.
+        let (ds, dt) = derivatives(&base[..len], n);
+        let m = (n.max(1) - 1) as usize;
+        let dlen = tables().powers[m].len();
+        let gs = ds[..dlen].iter().map(|v| v.length()).fold(0.0, f64::max);
+        let gt = dt[..dlen].iter().map(|v| v.length()).fold(0.0, f64::max);
+        let cmax = c.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
+        let tol = 1e-9 * gs * gt + 64.0 * f64::EPSILON * cmax * n as f64 * (gs + gt);
+        Geometry {
+            n,
+            base,
+            gregory,
+            nref,
+            tol,
+        }
+    }
+
+    /// A lower bound of J on `cell` (certified when positive: the tolerance is taken off),
+    /// and the barycentric point where its smallest Bernstein coefficient sits (a witness
+    /// candidate).
+    fn bound(&self, cell: &Cell) -> (f64, [f64; 3]) {
+        let t = tables();
+        let n = self.n;
+        let len = t.powers[n as usize].len();
+        let mut p = self.base;
+        let mut rs = 0.0;
+        let mut rt = 0.0;
+        if let Some(dg) = self.gregory {
+            for (m, d) in dg.iter().enumerate() {
+                let (ell, bs, bt) = blend_terms(m, cell);
+                // 12 x² y z φ̂ with φ̂ = Σ_k ℓ_k b_k: B⁴_α b_k = (α_k + 1)/5 B⁵_{α + e_k}.
+                let a = interior_powers(m);
+                for k in 0..3 {
+                    let mut g = a;
+                    g[k] += 1;
+                    p[basis::bezier_index(5, g)] += (ell[k] * (a[k] as f64 + 1.0) / 5.0) * *d;
+                }
+                let dl = d.length();
+                rs += dl * bs;
+                rt += dl * bt;
+            }
+        }
+        let (ds, dt) = derivatives(&p[..len], n);
+        let m = n.max(1) - 1;
+        let dlen = t.powers[m as usize].len();
+        let mut pair = [[DVec3::ZERO; 2]; 15];
+        for j in 0..dlen {
+            pair[j] = [ds[j], dt[j]];
+        }
+        let mut r = [[DVec3::ZERO; 2]; 15];
+        restrict(&pair, m, cell, &mut r);
+        let ps = r[..dlen].iter().map(|v| v[0].length()).fold(0.0, f64::max);
+        let pt = r[..dlen].iter().map(|v| v[1].length()).fold(0.0, f64::max);
+        let mut tn = [DVec3::ZERO; 15];
+        for (j, v) in r[..dlen].iter().enumerate() {
+            tn[j] = v[1].cross(self.nref);
+        }
+        let mut jc = [0.0f64; 45];
+        for &(a, b, g, w) in &t.products[m as usize] {
+            jc[g] += w * r[a][0].dot(tn[b]);
+        }
+        let jlen = t.powers[2 * m as usize].len();
+        let (imin, jmin) =
+            jc[..jlen]
+                .iter()
+                .copied()
+                .enumerate()
+                .fold(
+                    (0, f64::INFINITY),
+                    |a, (i, v)| if v < a.1 { (i, v) } else { a },
+                );
+        let lower = jmin - (ps * rt + rs * pt + rs * rt) - self.tol;
+        // The Greville point of the smallest coefficient, mapped into the cell.
+        let g = t.powers[2 * m as usize][imin];
+        let deg = (2 * m).max(1) as f64;
+        let b =
+            std::array::from_fn(|j| (0..3).map(|k| g[k] as f64 / deg * cell[k][j]).sum::<f64>());
+        (lower, b)
+    }
+}
+
+/// Powers (2 on m, 1 on m + 1, 1 on m + 2) of corner m's interior point.
+fn interior_powers(m: usize) -> [u32; 3] {
+    let mut a = [1u32; 3];
+    a[m] = 2;
+    a
+}
+
+/// Derivative coefficients (degree n − 1) along s and t of Bézier coefficients of degree n.
+fn derivatives(c: &[DVec3], n: u32) -> ([DVec3; 15], [DVec3; 15]) {
+    let mut ds = [DVec3::ZERO; 15];
+    let mut dt = [DVec3::ZERO; 15];
+    if n == 0 {
+        return (ds, dt);
+    }
+    let nf = n as f64;
+    for (j, ix) in tables().up[n as usize].iter().enumerate() {
+        ds[j] = nf * (c[ix[1]] - c[ix[0]]);
+        dt[j] = nf * (c[ix[2]] - c[ix[0]]);
+    }
+    (ds, dt)
+}
+
+/// For corner m's blend φ = y/(y + z) (x, y, z = b_m, b_{m+1}, b_{m+2}) on `cell`: the
+/// coefficients ℓ (on b_0, b_1, b_2) of its Taylor polynomial φ̂ at the centroid, and bounds
+/// on |∂ρ/∂s| and |∂ρ/∂t| over the cell for ρ = 12 x² y z (φ − φ̂).
+fn blend_terms(m: usize, cell: &Cell) -> ([f64; 3], f64, f64) {
+    let (im, iy, iz) = (m, (m + 1) % 3, (m + 2) % 3);
+    let c: [f64; 3] = std::array::from_fn(|j| (cell[0][j] + cell[1][j] + cell[2][j]) / 3.0);
+    let (cy, cz) = (c[iy], c[iz]);
+    let cs = cy + cz;
+    let phi_c = cy / cs;
+    // Gradient of φ at the centroid along (y, z) (φ does not depend on x).
+    let (gy, gz) = (cz / (cs * cs), -cy / (cs * cs));
+    // φ̂(b) = φ(c) + g·(b − c), written as Σ_k ℓ_k b_k (Σ b_k = 1).
+    let mut ell = [0.0; 3];
+    for (k, e) in ell.iter_mut().enumerate() {
+        let mut ek = [0.0; 3];
+        ek[k] = 1.0;
+        *e = phi_c + gy * (ek[iy] - cy) + gz * (ek[iz] - cz);
+    }
+    let lin = |b: &[f64; 3]| phi_c + gy * (b[iy] - cy) + gz * (b[iz] - cz);
+    let (mut xm, mut ym, mut zm) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut dy, mut dz) = (0.0f64, 0.0f64);
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let (mut llo, mut lhi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut smin = f64::INFINITY;
+    for u in cell {
+        xm = xm.max(u[im]);
+        ym = ym.max(u[iy]);
+        zm = zm.max(u[iz]);
+        dy = dy.max((u[iy] - cy).abs());
+        dz = dz.max((u[iz] - cz).abs());
+        let s = u[iy] + u[iz];
+        smin = smin.min(s);
+        if s > 0.0 {
+            let f = u[iy] / s;
+            lo = lo.min(f);
+            hi = hi.max(f);
+        }
+        let l = lin(u);
+        llo = llo.min(l);
+        lhi = lhi.max(l);
+    }
+    // φ ranges over [lo, hi] on the cell (a linear fraction: extremes at the corners, the
+    // pole excluded), φ̂ over [llo, lhi] (affine).
+    let mut e0 = (hi - llo).max(lhi - lo).max(0.0);
+    // |y z (∂φ/∂y − ∂φ̂/∂y)| ≤ y (z/s)² + y z |g_y|; likewise for z.
+    let mut ey = ym + ym * zm * gy.abs();
+    let mut ez = zm + ym * zm * gz.abs();
+    if smin > 0.0 {
+        // Taylor: |∂²φ| ≤ 2/s² (each second derivative), s ≥ smin on the cell.
+        let s2 = smin * smin;
+        e0 = e0.min((dy * dy + dy * dz + dz * dz) / s2);
+        ey = ey.min(ym * zm * (2.0 * dy + dz) / s2);
+        ez = ez.min(ym * zm * (dy + 2.0 * dz) / s2);
+    }
+    // ∂ρ/∂x = 24 x y z (φ − φ̂); ∂ρ/∂y = 12 x² [z (φ − φ̂) + y z (∂_y φ − ∂_y φ̂)];
+    // ∂ρ/∂z = 12 x² [y (φ − φ̂) + y z (∂_z φ − ∂_z φ̂)].
+    let mut d = [0.0; 3];
+    d[im] = 24.0 * xm * ym * zm * e0;
+    d[iy] = 12.0 * xm * xm * (zm * e0 + ey);
+    d[iz] = 12.0 * xm * xm * (ym * e0 + ez);
+    // ∂/∂s = ∂/∂b1 − ∂/∂b0, ∂/∂t = ∂/∂b2 − ∂/∂b0.
+    (ell, d[1] + d[0], d[2] + d[0])
+}
+
+/// The verdict on patch `i` of `table`.
+pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
+    let witness = |b: [f64; 3]| -> Option<Verdict> {
+        let (j, scale) = jacobian(table, i, b);
+        // Below −1e-12 |S_s| |S_t|: far beyond the rounding of the evaluation.
+        (j < -1e-12 * scale).then_some(Verdict::Folded {
+            s: b[1],
+            t: b[2],
+            jacobian: j,
+        })
+    };
+    let whole: Cell = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for b in whole.iter().chain([[1.0 / 3.0; 3]].iter()) {
+        if let Some(v) = witness(*b) {
+            return v;
+        }
+    }
+    let geom = Geometry::new(table, i);
+    let mut stack = vec![(whole, 0u32)];
+    let mut cells = 0usize;
+    let mut undecided = false;
+    while let Some((cell, depth)) = stack.pop() {
+        cells += 1;
+        let (lower, b) = geom.bound(&cell);
+        if lower > 0.0 {
+            continue;
+        }
+        let centroid = std::array::from_fn(|j| (cell[0][j] + cell[1][j] + cell[2][j]) / 3.0);
+        for p in [b, centroid] {
+            if let Some(v) = witness(p) {
+                return v;
+            }
+        }
+        if depth >= MAX_DEPTH || cells + stack.len() + 4 > MAX_CELLS {
+            undecided = true;
+            continue;
+        }
+        let mid = |a: [f64; 3], b: [f64; 3]| std::array::from_fn(|j| 0.5 * (a[j] + b[j]));
+        let [u0, u1, u2] = cell;
+        let (m01, m12, m20) = (mid(u0, u1), mid(u1, u2), mid(u2, u0));
+        for child in [
+            [m12, m20, m01],
+            [u0, m01, m20],
+            [m01, u1, m12],
+            [m20, m12, u2],
+        ] {
+            stack.push((child, depth + 1));
+        }
+    }
+    if undecided {
+        Verdict::Undecided
+    } else {
+        Verdict::Valid
+    }
+}
+
+/// The line `tessellate` and `render` print about `table` (built for `mesh` with `opts`):
+/// with [`SchemeOptions::repair_folds`], what the repair changed and what is left
+/// ([`super::repair::repair`], run again on `mesh`: deterministic, so it describes
+/// `table`); otherwise the count of folded patches ([`fold_line`]), `None` where every
+/// patch is certified valid.
+pub fn fold_warning(
+    mesh: &crate::mesh::Mesh,
+    table: &PatchTable,
+    opts: &super::SchemeOptions,
+) -> Result<Option<String>> {
+    if !opts.repair_folds {
+        return Ok(fold_line(&mesh.name, table));
+    }
+    let (_, report) = super::repair::repair(mesh, table.scheme, opts)?;
+    let c = count(table);
+    let mut line = report.to_text(&mesh.name, table.scheme);
+    if c.folded > 0 || c.undecided > 0 {
+        line = format!("warning: {line}");
+    }
+    Ok(Some(line))
+}

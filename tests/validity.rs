@@ -1,0 +1,312 @@
+//! The validity certificate of `patch::validity` and the fold repair of `patch::repair`.
+
+mod common;
+
+use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::mesh::generators::icosphere;
+use g1tess::mesh::{LoadOptions, Mesh};
+use g1tess::output::stats::{continuity, stats_report};
+use g1tess::patch::repair::repair;
+use g1tess::patch::validity::{check_patch, count, jacobian, PatchCounts, Verdict};
+use g1tess::patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
+use glam::DVec3;
+
+/// A quadratic Bézier triangle in the plane z = 0 over the corners (0,0), (1,0), (0,1),
+/// with the control point of the edge from corner 0 to corner 1 at (c, 0): the edge's
+/// parametrisation x(s) = 2c s(1 − s) + s² turns back (x'(1) = 2(1 − c) < 0) when c > 1.
+fn quadratic(c: f64) -> PatchTable {
+    let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+    // bezier_powers(2) order: (2,0,0) (1,1,0) (1,0,1) (0,2,0) (0,1,1) (0,0,2).
+    PatchTable {
+        scheme: Scheme::Phong,
+        kind: PatchKind::Bezier(2),
+        stride: 6,
+        points: vec![
+            p(0.0, 0.0),
+            p(c, 0.0),
+            p(0.0, 0.5),
+            p(1.0, 0.0),
+            p(0.5, 0.5),
+            p(0.0, 1.0),
+        ],
+        flat_normals: vec![DVec3::Z],
+        fallbacks: 0,
+    }
+}
+
+/// J by central differences of the evaluated positions (independent of the evaluator's
+/// derivatives).
+fn fd_jacobian(table: &PatchTable, b: [f64; 3]) -> f64 {
+    let h = 1e-6;
+    let at = |s: f64, t: f64| table.eval(0, [1.0 - s - t, s, t]).p;
+    let (s, t) = (b[1], b[2]);
+    // One-sided where the point is on the domain's boundary.
+    let (s0, s1) = if s >= h { (s - h, s) } else { (s, s + h) };
+    let (t0, t1) = if t >= h { (t - h, t) } else { (t, t + h) };
+    let ds = (at(s1, t) - at(s0, t)) / h;
+    let dt = (at(s, t1) - at(s, t0)) / h;
+    ds.cross(dt).dot(DVec3::Z)
+}
+
+#[test]
+fn a_constructed_fold_is_found_with_its_witness() {
+    let table = quadratic(1.2);
+    let v = check_patch(&table, 0);
+    let Verdict::Folded { s, t, jacobian: j } = v else {
+        panic!("expected a fold, got {v:?}");
+    };
+    let b = [1.0 - s - t, s, t];
+    assert!(j < 0.0);
+    // The witness holds by an independent measure: finite differences of positions
+    // (error O(h) = 1e-6 on derivatives of order 1).
+    let fd = fd_jacobian(&table, b);
+    assert!(fd < 0.0 && (fd - j).abs() < 1e-5, "fd {fd} vs {j} at {b:?}");
+    assert_eq!(count(&table).folded, 1);
+    // Analytically J(s, 0) = x_s y_t with y_t = 1 on that edge and
+    // x_s = 2c(1 − 2s) + 2s: negative for s > c/(2c − 1) = 0.857.
+    let (j1, _) = jacobian(&table, 0, [0.0, 1.0, 0.0]);
+    assert!((j1 - 2.0 * (1.0 - 1.2)).abs() < 1e-12, "J at (1,0) = {j1}");
+}
+
+#[test]
+fn a_patch_close_to_folding_is_never_called_folded() {
+    for c in [0.9, 0.99, 0.999, 0.999_999] {
+        let table = quadratic(c);
+        // J at (1, 0) is 2(1 − c) > 0: valid, by a margin down to 2e-6.
+        let v = check_patch(&table, 0);
+        assert!(
+            matches!(v, Verdict::Valid | Verdict::Undecided),
+            "c = {c}: {v:?}"
+        );
+    }
+    // With a comfortable margin the certificate proves it.
+    assert_eq!(check_patch(&quadratic(0.9), 0), Verdict::Valid);
+    assert_eq!(check_patch(&quadratic(0.5), 0), Verdict::Valid);
+}
+
+/// One triangle with given corner normals (unit after loading).
+fn triangle(normals: [[f64; 3]; 3]) -> Mesh {
+    let p = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    Mesh::from_soup(
+        "one",
+        &p.map(DVec3::from),
+        &[[0, 1, 2]],
+        Some(&normals.map(DVec3::from)),
+        &LoadOptions::default(),
+    )
+    .unwrap()
+}
+
+#[test]
+fn g1_folds_where_a_normal_faces_away_and_is_valid_when_flat() {
+    let flat = triangle([[0.0, 0.0, 1.0]; 3]);
+    let t = PatchTable::build(&flat, Scheme::G1, &SchemeOptions::default()).unwrap();
+    assert_eq!(check_patch(&t, 0), Verdict::Valid);
+    // Corner 0's normal leans past the triangle's plane: its tangent plane is seen from
+    // behind, so J < 0 at that corner.
+    let bad = triangle([[-0.3, -0.3, -0.2], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]);
+    let t = PatchTable::build(&bad, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let v = check_patch(&t, 0);
+    let Verdict::Folded {
+        s,
+        t: tt,
+        jacobian: j,
+    } = v
+    else {
+        panic!("expected a fold, got {v:?}");
+    };
+    let (again, _) = jacobian(&t, 0, [1.0 - s - tt, s, tt]);
+    assert_eq!(again, j);
+    assert!(j < 0.0);
+}
+
+#[test]
+fn built_in_and_spot_patches_are_all_certified() {
+    for spec in ["sphere320", "torus200", "icosphere:2"] {
+        let mesh = common::load(spec);
+        for s in Scheme::all() {
+            let t = PatchTable::build(&mesh, s, &SchemeOptions::default()).unwrap();
+            // Every patch of these smooth meshes is valid (exact count: deterministic).
+            assert_eq!(
+                count(&t),
+                PatchCounts {
+                    valid: mesh.triangles.len(),
+                    folded: 0,
+                    undecided: 0
+                },
+                "{spec} {s}"
+            );
+        }
+    }
+    let spot = common::load("spot.obj");
+    let t = PatchTable::build(&spot, Scheme::G1, &SchemeOptions::default()).unwrap();
+    assert_eq!(count(&t).valid, 5856);
+}
+
+#[test]
+fn repair_leaves_a_valid_mesh_bit_for_bit() {
+    let mesh = common::load("torus200");
+    let plain = SchemeOptions::default();
+    let with = SchemeOptions {
+        repair_folds: true,
+        ..plain
+    };
+    for s in [Scheme::G1, Scheme::Pn, Scheme::Phong] {
+        let a = PatchTable::build(&mesh, s, &plain).unwrap();
+        let b = PatchTable::build(&mesh, s, &with).unwrap();
+        assert_eq!(a.points, b.points, "{s}");
+        let (m, r) = repair(&mesh, s, &plain).unwrap();
+        assert_eq!(m.corner_normals, mesh.corner_normals);
+        assert_eq!(r.vertices_touched, 0);
+        assert_eq!(r.max_distance, 0.0);
+    }
+}
+
+#[test]
+fn repair_fixes_a_tilted_normal_and_keeps_g1_and_watertight() {
+    let mut mesh = icosphere(2);
+    // Tilt the normal of vertex 0 by about 100° at every corner that uses it.
+    let v0 = mesh.positions[0];
+    let tilted = (-(v0.normalize()) + 0.8 * v0.any_orthonormal_vector()).normalize();
+    for (tri, normals) in mesh.triangles.iter().zip(mesh.corner_normals.iter_mut()) {
+        for (v, n) in tri.iter().zip(normals.iter_mut()) {
+            if *v == 0 {
+                *n = tilted;
+            }
+        }
+    }
+    let opts = SchemeOptions::default();
+    let before = count(&PatchTable::build(&mesh, Scheme::G1, &opts).unwrap());
+    assert!(before.folded > 0, "{before:?}");
+    let (fixed, r) = repair(&mesh, Scheme::G1, &opts).unwrap();
+    assert_eq!(r.before, before);
+    assert_eq!(r.after.folded + r.after.undecided, 0, "{r:?}");
+    assert_eq!(r.vertices_touched, 1);
+    // The input normal is 141.3° from the sphere's (180° − atan 0.8): the repair moves it
+    // part of the way back, enough for every patch to be certified.
+    let tilt = 180.0 - 0.8f64.atan().to_degrees();
+    assert!(
+        r.max_normal_change_deg > 0.0 && r.max_normal_change_deg < tilt,
+        "{r:?}"
+    );
+    assert!(
+        r.max_distance > 0.0 && r.max_distance < mesh.diagonal(),
+        "{r:?}"
+    );
+    let table = PatchTable::build(&fixed, Scheme::G1, &opts).unwrap();
+    assert_eq!(count(&table).valid, fixed.triangles.len());
+    // The library option gives the same patches as building on the repaired mesh.
+    let via_option = PatchTable::build(
+        &mesh,
+        Scheme::G1,
+        &SchemeOptions {
+            repair_folds: true,
+            ..opts
+        },
+    )
+    .unwrap();
+    assert_eq!(via_option.points, table.points);
+    let c = continuity(&fixed, &fixed.adjacency(), &table, &CpuEvaluator::default()).unwrap();
+    // G1 to rounding, and watertight (shared boundary curves), on the repaired mesh.
+    assert!(1.0 - c.cos.min <= 1e-12, "1 - min cos {}", 1.0 - c.cos.min);
+    assert_eq!(c.folded, 0);
+    assert!(c.max_gap <= 1e-12 * fixed.diagonal(), "gap {}", c.max_gap);
+}
+
+#[test]
+fn stats_report_counts_patches_and_prints_null_without_interior_edges() {
+    let mesh = triangle([[0.0, 0.0, 1.0]; 3]);
+    let r = stats_report(
+        &mesh,
+        Scheme::G1,
+        &SchemeOptions::default(),
+        &CpuEvaluator::default(),
+    )
+    .unwrap();
+    let json: serde_json::Value = serde_json::to_value(&r).unwrap();
+    assert!(json["cos"].is_null(), "{json}");
+    assert!(json["max_gap"].is_null());
+    assert!(json["max_one_minus_abs_cos"].is_null());
+    assert_eq!(json["patches"]["valid"], 1);
+    assert_eq!(json["patches"]["folded"], 0);
+    assert!(r.to_text().contains("no interior edges"), "{}", r.to_text());
+    let ico = common::load("icosphere:1");
+    let r = stats_report(
+        &ico,
+        Scheme::Pn,
+        &SchemeOptions::default(),
+        &CpuEvaluator::default(),
+    )
+    .unwrap();
+    let json: serde_json::Value = serde_json::to_value(&r).unwrap();
+    assert!(json["cos"]["min"].as_f64().unwrap() > 0.9);
+    assert_eq!(json["patches"]["valid"], 80);
+}
+
+/// The command line: `stats --json` counts patches, `tessellate` warns about a fold and
+/// `--repair-folds` repairs it, and leaves a mesh without folds bit for bit alone.
+#[test]
+fn command_line_counts_warns_and_repairs() {
+    use std::process::Command;
+    let bin = env!("CARGO_BIN_EXE_g1tess");
+    let dir = std::env::temp_dir().join(format!("g1tess-validity-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // One triangle whose first normal leans past the triangle's plane (as in
+    // `g1_folds_where_a_normal_faces_away_and_is_valid_when_flat`).
+    let obj = dir.join("fold.obj");
+    std::fs::write(
+        &obj,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn -0.3 -0.3 -0.2\nvn 0 0 1\nvn 0 0 1\nf 1//1 2//2 3//3\n",
+    )
+    .unwrap();
+    let run = |args: &[&str]| {
+        let out = Command::new(bin).args(args).output().unwrap();
+        assert!(out.status.success(), "{args:?}: {out:?}");
+        (
+            String::from_utf8(out.stdout).unwrap(),
+            String::from_utf8(out.stderr).unwrap(),
+        )
+    };
+    let o = obj.to_str().unwrap();
+    let (json, _) = run(&["stats", o, "--backend", "cpu", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["patches"]["folded"], 1, "{json}");
+    assert!(v["cos"].is_null());
+    let (json, _) = run(&["stats", o, "--backend", "cpu", "--json", "--repair-folds"]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["patches"]["valid"], 1, "{json}");
+    assert_eq!(v["repair"]["vertices_touched"], 1, "{json}");
+    let out = dir.join("fold.ply");
+    let (_, err) = run(&[
+        "tessellate",
+        o,
+        "-o",
+        out.to_str().unwrap(),
+        "--backend",
+        "cpu",
+    ]);
+    assert!(
+        err.contains("warning: fold.obj: 1 of 1 g1 patches are folded"),
+        "{err}"
+    );
+    let (_, err) = run(&[
+        "tessellate",
+        o,
+        "-o",
+        out.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--repair-folds",
+    ]);
+    assert!(err.contains("0 folded and 0 undecided after"), "{err}");
+    // No fold: the same bytes with and without the option.
+    let (a, b) = (dir.join("a.ply"), dir.join("b.ply"));
+    for (p, extra) in [(&a, None), (&b, Some("--repair-folds"))] {
+        let mut args = vec!["tessellate", "torus200", "-o", p.to_str().unwrap()];
+        args.extend(["--backend", "cpu", "--level", "3", "-q"]);
+        args.extend(extra);
+        run(&args);
+    }
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
