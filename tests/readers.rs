@@ -717,6 +717,14 @@ fn gltf_texcoords_colours_and_errors() {
         "{\"asset\": {\"version\": \"2.0\"}, \"meshes\": [",
     ));
     assert!(e.contains("broken.gltf: not valid glTF"), "{e}");
+    // An attribute naming an accessor that does not exist.
+    let e = bad("noacc.glb", &|j| {
+        j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(99)
+    });
+    assert!(
+        e.contains("mesh 0 primitive 0: attribute") && e.contains("names accessor 99"),
+        "{e}"
+    );
     // A node that is its own child.
     let e = bad("cycle.glb", &|j| j["nodes"][0]["children"] = json!([0]));
     assert!(e.contains("cycle.glb:") && e.contains("node 0"), "{e}");

@@ -37,9 +37,27 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
     } else {
         (&data[..], None)
     };
-    let doc = ::gltf::Gltf::from_slice(json)
-        .map_err(|e| err(format!("not valid glTF: {}", one_line(&e.to_string()))))?
-        .document;
+    let root: ::gltf::json::Root = serde_json::from_slice(json)
+        .map_err(|e| err(format!("not valid glTF: {}", one_line(&e.to_string()))))?;
+    // The gltf crate's validation indexes the POSITION accessor before checking it: check
+    // it first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (k, prim) in mesh.primitives.iter().enumerate() {
+            for (sem, acc) in &prim.attributes {
+                if acc.value() >= root.accessors.len() {
+                    return Err(err(format!(
+                        "mesh {m} primitive {k}: attribute {} names accessor {}, which does \
+                         not exist ({} accessors)",
+                        super::text::echo(&format!("{sem:?}")),
+                        acc.value(),
+                        root.accessors.len()
+                    )));
+                }
+            }
+        }
+    }
+    let doc = ::gltf::Document::from_json(root)
+        .map_err(|e| err(format!("not valid glTF: {}", one_line(&e.to_string()))))?;
     let mut buffers = Vec::new();
     for b in doc.buffers() {
         let i = b.index();
@@ -276,9 +294,23 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
     soup.build(super::display_name(path), opts)
 }
 
-/// Error text on one line.
+/// Error text of the gltf crate on one line, control characters escaped, cut to 300
+/// characters (a validation error lists every defect).
 fn one_line(s: &str) -> String {
-    s.split_whitespace().collect::<Vec<_>>().join(" ")
+    let s = s.split_whitespace().collect::<Vec<_>>().join(" ");
+    let mut out = String::new();
+    for (n, c) in s.chars().enumerate() {
+        if n == 300 {
+            out.push('…');
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
 }
 
 /// The JSON chunk and the binary chunk of a GLB file, every length checked.

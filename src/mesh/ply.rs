@@ -294,7 +294,7 @@ fn header(path: &Path, data: &[u8], report: &mut LoadReport) -> Result<Header> {
                 {
                     return Err(err(format!(
                         "element '{}' has property '{}' twice",
-                        el.name,
+                        echo(&el.name),
                         echo(&name)
                     )));
                 }
@@ -354,7 +354,7 @@ fn header(path: &Path, data: &[u8], report: &mut LoadReport) -> Result<Header> {
         } else if !ignored.is_empty() {
             report.notes.push(format!(
                 "{} properties ignored: {}",
-                e.name,
+                echo(&e.name),
                 echo(&ignored.join(" "))
             ));
         }
@@ -632,7 +632,7 @@ fn binary(
         let is_vertex = el.name == "vertex";
         let is_face = el.name == "face";
         for r in 0..el.count {
-            let err = |m: String| Error::mesh(&file, format!("{} {r}: {m}", el.name));
+            let err = |m: String| Error::mesh(&file, format!("{} {r}: {m}", echo(&el.name)));
             let truncated = || {
                 err(format!(
                     "truncated: the file ends inside it ({} of {} records read)",
@@ -659,7 +659,10 @@ fn binary(
                         pos += n;
                         let count = cty.decode(b, big);
                         if count < 0.0 {
-                            return Err(err(format!("list '{}' with a negative count", p.name)));
+                            return Err(err(format!(
+                                "list '{}' with a negative count",
+                                echo(&p.name)
+                            )));
                         }
                         let bytes = (count as usize)
                             .checked_mul(p.ty.size())
@@ -722,27 +725,28 @@ fn ascii(
         let is_face = el.name == "face";
         for r in 0..el.count {
             // The next non-blank line.
-            let (line, l) = loop {
-                match lines.next() {
-                    Some((n, l)) if l.trim_ascii().is_empty() => last = n,
-                    Some(x) => break x,
-                    None => {
-                        return Err(Error::parse(
-                            path,
-                            last,
-                            format!(
+            let (line, l) =
+                loop {
+                    match lines.next() {
+                        Some((n, l)) if l.trim_ascii().is_empty() => last = n,
+                        Some(x) => break x,
+                        None => {
+                            return Err(Error::parse(
+                                path,
+                                last,
+                                format!(
                                 "truncated: the file ends before {} {r} ({} of {} records read)",
-                                el.name, r, el.count
+                                echo(&el.name), r, el.count
                             ),
-                        ))
+                            ))
+                        }
                     }
-                }
-            };
+                };
             last = line;
             if l.len() > text::MAX_LINE {
                 return Err(text::too_long(path, line));
             }
-            let err = |m: String| Error::parse(path, line, format!("{} {r}: {m}", el.name));
+            let err = |m: String| Error::parse(path, line, format!("{} {r}: {m}", echo(&el.name)));
             let mut tok = l.split_ascii_whitespace();
             let mut next = |what: &str| -> Result<f64> {
                 let t = tok
@@ -758,24 +762,24 @@ fn ascii(
             for p in &el.props {
                 match p.list {
                     None => {
-                        let x = next(&p.name)?;
+                        let x = next(&echo(&p.name))?;
                         if let Role::Vertex(s) = p.role {
                             slots[s] = x;
                         }
                     }
                     Some(_) => {
-                        let c = next(&format!("count of {}", p.name))?;
+                        let c = next(&format!("count of {}", echo(&p.name)))?;
                         if c < 0.0 || c.fract() != 0.0 || c > l.len() as f64 {
                             return Err(err(format!(
                                 "list '{}' with count {c}, which the line does not hold",
-                                p.name
+                                echo(&p.name)
                             )));
                         }
                         if p.role == Role::TexcoordList {
                             has_uvlist = true;
                         }
                         for _ in 0..c as usize {
-                            let x = next(&p.name)?;
+                            let x = next(&echo(&p.name))?;
                             match p.role {
                                 Role::Indices => {
                                     if x.fract() != 0.0 {
