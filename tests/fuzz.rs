@@ -1,6 +1,6 @@
 //! Fuzzing on stable Rust: property tests that mutate the seed inputs of `tests/data/fuzz/`
-//! and feed them to every reader (OBJ, `.pn`, built-in specs, `Mesh::from_soup`) and to the
-//! command line. Whatever comes in, a reader returns a valid mesh (finite positions, indices
+//! and feed them to every reader (OBJ, `.pn`, PLY, STL, glTF, built-in specs,
+//! `Mesh::from_soup`) and to the command line. Whatever comes in, a reader returns a valid mesh (finite positions, indices
 //! in range, unit normals, patches of every scheme finite) or a one-line error; the binary
 //! exits 0 or 1 with a one-line error, never a panic or an abort.
 //!
@@ -93,6 +93,20 @@ const TOKENS: &[&str] = &[
     "f 1 2 3",
     "vn 0 0 0",
     "v 2 0 0",
+    "element",
+    "property",
+    "list",
+    "uchar",
+    "float",
+    "end_header",
+    "binary_big_endian",
+    "facet",
+    "vertex",
+    "endloop",
+    "solid",
+    "\"count\":",
+    "\"byteStride\":",
+    "4294967295",
 ];
 
 /// One edit of a byte string; positions are taken modulo its length.
@@ -196,6 +210,15 @@ fn check(result: g1tess::Result<Mesh>) -> Result<(), TestCaseError> {
         Ok(m) => m,
     };
     prop_assert!(!m.triangles.is_empty());
+    // Attributes stay in step with the triangles through the weld, finite.
+    if let Some(u) = m.corner_uvs() {
+        prop_assert_eq!(u.len(), m.triangles.len());
+        prop_assert!(u.iter().flatten().flatten().all(|x| x.is_finite()));
+    }
+    if let Some(c) = m.corner_colors() {
+        prop_assert_eq!(c.len(), m.triangles.len());
+        prop_assert!(c.iter().flatten().flatten().all(|x| x.is_finite()));
+    }
     prop_assert!(m.positions.iter().all(|p| p.is_finite()));
     prop_assert_eq!(m.corner_normals.len(), m.triangles.len());
     for (t, n) in m.triangles.iter().zip(&m.corner_normals) {
@@ -227,7 +250,7 @@ fn load(path: &Path) -> g1tess::Result<Mesh> {
 }
 
 proptest! {
-    #![proptest_config(config(4000, "PROPTEST_CASES"))]
+    #![proptest_config(config(3000, "PROPTEST_CASES"))]
     #[test]
     fn obj_mutants(seed in any::<prop::sample::Index>(), edits in prop::collection::vec(edit(), 1..8)) {
         let seeds = seeds("obj");
@@ -237,12 +260,44 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(config(3000, "PROPTEST_CASES"))]
+    #![proptest_config(config(2000, "PROPTEST_CASES"))]
     #[test]
     fn pn_mutants(seed in any::<prop::sample::Index>(), edits in prop::collection::vec(edit(), 1..8)) {
         let seeds = seeds("pn");
         let bytes = apply(seed.get(&seeds).clone(), &edits);
         check(load(&scratch("mutant.pn", &bytes)))?;
+    }
+}
+
+proptest! {
+    #![proptest_config(config(1000, "PROPTEST_CASES"))]
+    #[test]
+    fn ply_mutants(seed in any::<prop::sample::Index>(), edits in prop::collection::vec(edit(), 1..8)) {
+        let seeds = seeds("ply");
+        let bytes = apply(seed.get(&seeds).clone(), &edits);
+        check(load(&scratch("mutant.ply", &bytes)))?;
+    }
+}
+
+proptest! {
+    #![proptest_config(config(800, "PROPTEST_CASES"))]
+    #[test]
+    fn stl_mutants(seed in any::<prop::sample::Index>(), edits in prop::collection::vec(edit(), 1..8)) {
+        let seeds = seeds("stl");
+        let bytes = apply(seed.get(&seeds).clone(), &edits);
+        check(load(&scratch("mutant.stl", &bytes)))?;
+    }
+}
+
+proptest! {
+    #![proptest_config(config(700, "PROPTEST_CASES"))]
+    #[test]
+    fn gltf_mutants(seed in any::<prop::sample::Index>(), edits in prop::collection::vec(edit(), 1..8)) {
+        let all: Vec<(Vec<u8>, &str)> = seeds("glb").into_iter().map(|s| (s, "glb"))
+            .chain(seeds("gltf").into_iter().map(|s| (s, "gltf"))).collect();
+        let (bytes, ext) = seed.get(&all);
+        let bytes = apply(bytes.clone(), &edits);
+        check(load(&scratch(&format!("mutant.{ext}"), &bytes)))?;
     }
 }
 
@@ -284,7 +339,7 @@ fn spec() -> impl Strategy<Value = String> {
 }
 
 proptest! {
-    #![proptest_config(config(2000, "PROPTEST_CASES"))]
+    #![proptest_config(config(1500, "PROPTEST_CASES"))]
     #[test]
     fn spec_strings(s in spec()) {
         match g1tess::mesh::generators::from_spec(&s) {
@@ -399,8 +454,10 @@ proptest! {
     ) {
         let mesh = match input {
             (Some((seed, edits)), _) => {
-                let all: Vec<(Vec<u8>, &str)> = seeds("obj").into_iter().map(|s| (s, "obj"))
-                    .chain(seeds("pn").into_iter().map(|s| (s, "pn"))).collect();
+                let all: Vec<(Vec<u8>, &str)> = ["obj", "pn", "ply", "stl", "glb"]
+                    .into_iter()
+                    .flat_map(|ext| seeds(ext).into_iter().map(move |s| (s, ext)))
+                    .collect();
                 let (bytes, ext) = seed.get(&all);
                 let p = scratch(&format!("cli-input.{ext}"), &apply(bytes.clone(), &edits));
                 p.display().to_string()

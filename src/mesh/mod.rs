@@ -4,9 +4,12 @@
 pub mod adjacency;
 pub mod creases;
 pub mod generators;
+pub mod gltf;
 pub mod normals;
 pub mod obj;
+pub mod ply;
 pub mod pn_file;
+pub mod stl;
 pub mod weld;
 
 use glam::DVec3;
@@ -47,6 +50,144 @@ pub struct LoadReport {
     pub polygons_triangulated: usize,
     /// Corners whose normal was estimated (the file gave none for them).
     pub normals_estimated: usize,
+    /// What the reader read but does not use, or filled in (properties ignored, corners
+    /// without a texture coordinate, ...): one line each, for the user.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
+    /// Per-corner attributes besides normals (read them with [`Mesh::corner_uvs`] and
+    /// [`Mesh::corner_colors`]). Held here so that every constructor of `Mesh` carries them.
+    #[serde(skip)]
+    pub(crate) attributes: CornerAttributes,
+}
+
+/// Per-corner attributes a mesh may carry besides normals, one entry per triangle of
+/// [`Mesh::triangles`], kept in step with them through the weld (which drops collapsed
+/// triangles and their attributes together).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CornerAttributes {
+    /// Texture coordinates (u, v) of each corner.
+    pub uvs: Option<Vec<[[f32; 2]; 3]>>,
+    /// Colour (red, green, blue, alpha) of each corner, each in [0, 1] as the file gives
+    /// it (bytes divided by 255); alpha 1 where the file has none.
+    pub colors: Option<Vec<[[f32; 4]; 3]>>,
+    /// Whether the file gave an alpha channel.
+    pub alpha: bool,
+}
+
+/// The file formats [`Mesh::load`] reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputFormat {
+    /// Wavefront OBJ (text).
+    Obj,
+    /// The point-normal format `.pn`.
+    Pn,
+    /// Stanford PLY: ASCII, binary little- or big-endian.
+    Ply,
+    /// STL: ASCII or binary.
+    Stl,
+    /// glTF 2.0: `.gltf` (JSON, with `.bin` files or data URIs) or `.glb` (binary).
+    Gltf,
+}
+
+/// Formats recognised by extension but not read, with the name an error gives them.
+const UNSUPPORTED: &[(&str, &str)] = &[
+    ("off", "OFF"),
+    ("fbx", "FBX"),
+    ("dae", "COLLADA"),
+    ("3ds", "3DS"),
+    ("blend", "Blender"),
+    ("usd", "USD"),
+    ("usda", "USD"),
+    ("usdc", "USD"),
+    ("usdz", "USD"),
+    ("abc", "Alembic"),
+    ("3mf", "3MF"),
+    ("amf", "AMF"),
+    ("x3d", "X3D"),
+    ("wrl", "VRML"),
+    ("vtk", "VTK"),
+    ("step", "STEP"),
+    ("stp", "STEP"),
+    ("iges", "IGES"),
+    ("igs", "IGES"),
+];
+
+/// What [`Mesh::load`] reads.
+const SUPPORTED: &str = "OBJ, PLY, STL, glTF (.gltf, .glb), .pn";
+
+impl InputFormat {
+    /// The format of the file at `path`: by extension, and by content when the extension is
+    /// not one of the formats read (`ply`, `glTF` or `{`, a binary STL's size, `solid`,
+    /// `g1tess-pn`; anything else is read as OBJ text). A known format that is not read is
+    /// an error naming it.
+    pub fn detect(path: &Path) -> Result<InputFormat> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("obj") => return Ok(InputFormat::Obj),
+            Some("pn") => return Ok(InputFormat::Pn),
+            Some("ply") => return Ok(InputFormat::Ply),
+            Some("stl") => return Ok(InputFormat::Stl),
+            Some("gltf") | Some("glb") => return Ok(InputFormat::Gltf),
+            Some(e) => {
+                if let Some((_, name)) = UNSUPPORTED.iter().find(|(x, _)| *x == e) {
+                    return Err(Error::Invalid(format!(
+                        "{}: {name} files are not supported (supported: {SUPPORTED})",
+                        path.display()
+                    )));
+                }
+            }
+            None => {}
+        }
+        Self::sniff(path)
+    }
+
+    /// The format by content.
+    fn sniff(path: &Path) -> Result<InputFormat> {
+        use std::io::Read;
+        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+        let mut head = Vec::with_capacity(256);
+        file.take(256)
+            .read_to_end(&mut head)
+            .map_err(|e| Error::io(path, e))?;
+        let head = head
+            .strip_prefix(b"\xef\xbb\xbf".as_slice())
+            .unwrap_or(&head);
+        let text_start = head
+            .iter()
+            .position(|b| !b.is_ascii_whitespace())
+            .map_or(&head[..0], |i| &head[i..]);
+        if head.starts_with(b"ply") {
+            return Ok(InputFormat::Ply);
+        }
+        if head.starts_with(b"glTF") || text_start.starts_with(b"{") {
+            return Ok(InputFormat::Gltf);
+        }
+        if stl::is_binary_size(head, len) {
+            return Ok(InputFormat::Stl);
+        }
+        if text_start.starts_with(b"solid") {
+            return Ok(InputFormat::Stl);
+        }
+        if head.starts_with(pn_file::HEADER.as_bytes()) {
+            return Ok(InputFormat::Pn);
+        }
+        if head.starts_with(b"OFF") || head.starts_with(b"COFF") || head.starts_with(b"NOFF") {
+            return Err(Error::Invalid(format!(
+                "{}: OFF files are not supported (supported: {SUPPORTED})",
+                path.display()
+            )));
+        }
+        if head.starts_with(b"Kaydara FBX Binary") {
+            return Err(Error::Invalid(format!(
+                "{}: FBX files are not supported (supported: {SUPPORTED})",
+                path.display()
+            )));
+        }
+        Ok(InputFormat::Obj)
+    }
 }
 
 /// How to obtain a mesh: options shared by every command that reads one.
@@ -79,8 +220,11 @@ pub(crate) fn display_name(path: &Path) -> String {
 }
 
 impl Mesh {
-    /// Loads a mesh from a built-in spec (see [`generators::from_spec`]) or a file (OBJ, or
-    /// the point-normal format `.pn`).
+    /// Loads a mesh from a built-in spec (see [`generators::from_spec`]) or a file: OBJ,
+    /// PLY, STL, glTF (`.gltf`, `.glb`) or the point-normal format `.pn`, chosen by
+    /// extension and by content when the extension is none of these
+    /// ([`InputFormat::detect`]). What a reader ignored is listed in
+    /// [`LoadReport::notes`].
     pub fn load(spec: &str, opts: &LoadOptions) -> Result<Mesh> {
         let mut mesh = if let Some(m) = generators::from_spec(spec)? {
             m
@@ -92,11 +236,12 @@ impl Mesh {
                     generators::BUILTIN_HELP
                 )));
             }
-            let ext = path.extension().map(|e| e.to_ascii_lowercase());
-            if ext.as_deref() == Some(std::ffi::OsStr::new("pn")) {
-                pn_file::load_pn(path)?
-            } else {
-                obj::load_obj(path, opts)?
+            match InputFormat::detect(path)? {
+                InputFormat::Obj => obj::load_obj(path, opts)?,
+                InputFormat::Pn => pn_file::load_pn(path)?,
+                InputFormat::Ply => ply::load_ply(path, opts)?,
+                InputFormat::Stl => stl::load_stl(path, opts)?,
+                InputFormat::Gltf => gltf::load_gltf(path, opts)?,
             }
         };
         mesh.apply_options(opts)?;
@@ -160,39 +305,13 @@ impl Mesh {
         opts: &LoadOptions,
     ) -> Result<Mesh> {
         let name = name.into();
-        let positions: Vec<DVec3> = positions.iter().map(|&p| p.into()).collect();
-        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(Error::mesh(
-                &name,
-                format!("vertex {i} has a non-finite coordinate"),
-            ));
-        }
-        if let Some(i) = positions
-            .iter()
-            .position(|p| p.abs().max_element() > normals::MAX_COORD)
-        {
-            return Err(Error::mesh(
-                &name,
-                format!(
-                    "vertex {i} has a coordinate above {:e} in magnitude (products of such \
-                     coordinates overflow)",
-                    normals::MAX_COORD
-                ),
-            ));
-        }
-        let nv = positions.len();
-        if let Some((t, v)) = triangles
-            .iter()
-            .enumerate()
-            .find_map(|(t, tri)| tri.iter().find(|&&v| v as usize >= nv).map(|&v| (t, v)))
-        {
-            return Err(Error::mesh(
-                &name,
-                format!(
-                    "triangle {t} has vertex index {v}, out of range (the soup has {nv} vertices)"
-                ),
-            ));
-        }
+        let mut soup = Soup {
+            positions: positions.iter().map(|&p| p.into()).collect(),
+            triangles: triangles.to_vec(),
+            ..Soup::default()
+        };
+        soup.check(&name)?;
+        let nv = soup.positions.len();
         let unit: Option<Vec<DVec3>> = match normals {
             None => None,
             Some(n) if n.len() != nv => {
@@ -215,43 +334,77 @@ impl Mesh {
                     .collect::<Result<_>>()?,
             ),
         };
-        let mut corner_normals: Vec<[DVec3; 3]> = match &unit {
-            Some(n) => triangles.iter().map(|t| t.map(|v| n[v as usize])).collect(),
-            None => Vec::new(),
-        };
-        let mut triangles = triangles.to_vec();
-        let mut report = LoadReport::default();
-        let positions = weld::weld(
-            &positions,
-            &mut triangles,
-            &mut corner_normals,
-            weld::Order::Input,
-            &mut report,
-        )?;
-        if triangles.is_empty() {
+        soup.normals = unit;
+        soup.build(name, opts)
+    }
+
+    /// Texture coordinates (u, v) of each corner of each triangle, in step with
+    /// [`Mesh::triangles`], when the input gave them.
+    pub fn corner_uvs(&self) -> Option<&[[[f32; 2]; 3]]> {
+        self.load_report.attributes.uvs.as_deref()
+    }
+
+    /// Colour (red, green, blue, alpha in [0, 1]) of each corner of each triangle, in step
+    /// with [`Mesh::triangles`], when the input gave colours (alpha 1 where it gave none;
+    /// see [`Mesh::colors_have_alpha`]).
+    pub fn corner_colors(&self) -> Option<&[[[f32; 4]; 3]]> {
+        self.load_report.attributes.colors.as_deref()
+    }
+
+    /// Whether the input's colours had an alpha channel.
+    pub fn colors_have_alpha(&self) -> bool {
+        self.load_report.attributes.alpha
+    }
+
+    /// All per-corner attributes besides normals.
+    pub fn attributes(&self) -> &CornerAttributes {
+        &self.load_report.attributes
+    }
+
+    /// Sets (or, with `None`, removes) the per-corner texture coordinates: one entry per
+    /// triangle, finite.
+    pub fn set_corner_uvs(&mut self, uvs: Option<Vec<[[f32; 2]; 3]>>) -> Result<()> {
+        if let Some(u) = &uvs {
+            self.check_corner_data(u.len(), u.iter().flatten().flatten(), "texture coordinate")?;
+        }
+        self.load_report.attributes.uvs = uvs;
+        Ok(())
+    }
+
+    /// Sets (or, with `None`, removes) the per-corner colours: one entry per triangle,
+    /// finite; `alpha` says whether the fourth channel is meaningful.
+    pub fn set_corner_colors(
+        &mut self,
+        colors: Option<Vec<[[f32; 4]; 3]>>,
+        alpha: bool,
+    ) -> Result<()> {
+        if let Some(c) = &colors {
+            self.check_corner_data(c.len(), c.iter().flatten().flatten(), "colour")?;
+        }
+        self.load_report.attributes.alpha = alpha && colors.is_some();
+        self.load_report.attributes.colors = colors;
+        Ok(())
+    }
+
+    fn check_corner_data<'a>(
+        &self,
+        len: usize,
+        mut values: impl Iterator<Item = &'a f32>,
+        what: &str,
+    ) -> Result<()> {
+        if len != self.triangles.len() {
             return Err(Error::mesh(
-                &name,
-                if report.degenerate_triangles_dropped > 0 {
-                    "empty mesh: every triangle is degenerate"
-                } else {
-                    "empty mesh: no triangles"
-                },
+                &self.name,
+                format!(
+                    "{len} triangles of {what}s for {} triangles",
+                    self.triangles.len()
+                ),
             ));
         }
-        if unit.is_none() {
-            report.normals_estimated = 3 * triangles.len();
-            let n = normals::vertex_normals(&positions, &triangles, opts.weighting);
-            corner_normals = triangles.iter().map(|t| t.map(|v| n[v as usize])).collect();
+        if values.any(|x| !x.is_finite()) {
+            return Err(Error::mesh(&self.name, format!("a non-finite {what}")));
         }
-        let mut mesh = Mesh {
-            name,
-            positions,
-            triangles,
-            corner_normals,
-            load_report: report,
-        };
-        mesh.apply_options(opts)?;
-        Ok(mesh)
+        Ok(())
     }
 
     /// Checks the invariants every later stage relies on: at least one triangle, indices in
@@ -308,6 +461,156 @@ impl Mesh {
     /// Edge adjacency of the triangles.
     pub fn adjacency(&self) -> Adjacency {
         Adjacency::new(&self.triangles)
+    }
+}
+
+/// A triangle soup as the readers and [`Mesh::from_soup`] hand it over: per-vertex data
+/// (normals unit when given), triangles indexing it, what reading already counted.
+#[derive(Default)]
+pub(crate) struct Soup {
+    pub positions: Vec<DVec3>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Unit normals, or zero for a vertex without one (estimated).
+    pub normals: Option<Vec<DVec3>>,
+    pub uvs: Option<Vec<[f32; 2]>>,
+    /// Per-corner UVs (one entry per triangle), used instead of `uvs` when given.
+    pub corner_uvs: Option<Vec<[[f32; 2]; 3]>>,
+    pub colors: Option<Vec<[f32; 4]>>,
+    pub alpha: bool,
+    pub report: LoadReport,
+}
+
+impl Soup {
+    /// Checks positions (finite, below [`normals::MAX_COORD`]) and indices, naming the
+    /// vertex or triangle; per-vertex attributes are checked by the callers.
+    pub fn check(&self, name: &str) -> Result<()> {
+        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(Error::mesh(
+                name,
+                format!("vertex {i} has a non-finite coordinate"),
+            ));
+        }
+        if let Some(i) = self
+            .positions
+            .iter()
+            .position(|p| p.abs().max_element() > normals::MAX_COORD)
+        {
+            return Err(Error::mesh(
+                name,
+                format!(
+                    "vertex {i} has a coordinate above {:e} in magnitude (products of such \
+                     coordinates overflow)",
+                    normals::MAX_COORD
+                ),
+            ));
+        }
+        let nv = self.positions.len();
+        if let Some((t, v)) = self
+            .triangles
+            .iter()
+            .enumerate()
+            .find_map(|(t, tri)| tri.iter().find(|&&v| v as usize >= nv).map(|&v| (t, v)))
+        {
+            return Err(Error::mesh(
+                name,
+                format!(
+                    "triangle {t} has vertex index {v}, out of range (the soup has {nv} vertices)"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Welds (input order), drops, estimates missing normals, applies the options. The
+    /// per-vertex normals, UVs and colours become per-corner data kept in step with the
+    /// triangles.
+    pub fn build(self, name: String, opts: &LoadOptions) -> Result<Mesh> {
+        let Soup {
+            positions,
+            mut triangles,
+            normals: unit,
+            uvs,
+            corner_uvs,
+            colors,
+            alpha,
+            mut report,
+        } = self;
+        if corner_uvs
+            .as_ref()
+            .is_some_and(|u| u.len() != triangles.len())
+        {
+            return Err(Error::mesh(
+                &name,
+                "texture coordinates not one per triangle",
+            ));
+        }
+        fn per_corner<T: Copy>(triangles: &[[u32; 3]], data: &Option<Vec<T>>) -> Vec<[T; 3]> {
+            match data {
+                Some(d) => triangles.iter().map(|t| t.map(|v| d[v as usize])).collect(),
+                None => Vec::new(),
+            }
+        }
+        let mut corner_normals: Vec<[DVec3; 3]> = per_corner(&triangles, &unit);
+        let has_uvs = uvs.is_some() || corner_uvs.is_some();
+        let mut corner_uvs: Vec<[[f32; 2]; 3]> = match corner_uvs {
+            Some(c) => c,
+            None => per_corner(&triangles, &uvs),
+        };
+        let mut corner_colors: Vec<[[f32; 4]; 3]> = per_corner(&triangles, &colors);
+        let positions = weld::weld_with(
+            &positions,
+            &mut triangles,
+            &mut (&mut corner_normals, &mut corner_uvs, &mut corner_colors),
+            weld::Order::Input,
+            &mut report,
+        )?;
+        if triangles.is_empty() {
+            return Err(Error::mesh(
+                &name,
+                if report.degenerate_triangles_dropped > 0 {
+                    "empty mesh: every triangle is degenerate"
+                } else {
+                    "empty mesh: no triangles"
+                },
+            ));
+        }
+        if unit.is_none() {
+            report.normals_estimated = 3 * triangles.len();
+            let n = normals::vertex_normals(&positions, &triangles, opts.weighting);
+            corner_normals = triangles.iter().map(|t| t.map(|v| n[v as usize])).collect();
+        } else {
+            // Zero marks a vertex without a normal (glTF primitives without NORMAL).
+            let missing = corner_normals
+                .iter()
+                .flatten()
+                .filter(|n| **n == DVec3::ZERO)
+                .count();
+            if missing > 0 {
+                report.normals_estimated = missing;
+                let n = normals::vertex_normals(&positions, &triangles, opts.weighting);
+                for (t, c) in triangles.iter().zip(corner_normals.iter_mut()) {
+                    for k in 0..3 {
+                        if c[k] == DVec3::ZERO {
+                            c[k] = n[t[k] as usize];
+                        }
+                    }
+                }
+            }
+        }
+        report.attributes = CornerAttributes {
+            uvs: has_uvs.then_some(corner_uvs),
+            alpha: alpha && colors.is_some(),
+            colors: colors.is_some().then_some(corner_colors),
+        };
+        let mut mesh = Mesh {
+            name,
+            positions,
+            triangles,
+            corner_normals,
+            load_report: report,
+        };
+        mesh.apply_options(opts)?;
+        Ok(mesh)
     }
 }
 

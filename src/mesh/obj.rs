@@ -39,11 +39,14 @@ const PLURAL: [&str; 3] = ["vertices", "texture coordinates", "normals"];
 struct Block {
     positions: Vec<DVec3>,
     normals: Vec<DVec3>,
-    texcoords: usize,
+    texcoords: Vec<[f32; 2]>,
     /// Position and normal index of each triangle corner: absolute (>= 0), relative to the
     /// block (`r - REL`) or [`NONE`].
     tris: Vec<[i64; 3]>,
     tri_normals: Vec<[i64; 3]>,
+    /// Texture coordinate index of each corner, as `tris`; empty until a face gives one
+    /// (files without `vt` indices pay nothing), then one entry per triangle.
+    tri_uvs: Vec<[i64; 3]>,
     polygons: usize,
     /// Largest absolute index of each kind (-1 if none).
     max_abs: [i64; 3],
@@ -83,7 +86,7 @@ impl Block {
     fn count(&self, kind: usize) -> usize {
         match kind {
             V => self.positions.len(),
-            VT => self.texcoords,
+            VT => self.texcoords.len(),
             _ => self.normals.len(),
         }
     }
@@ -115,8 +118,24 @@ impl Block {
                 self.normals.push(n);
             }
             b"vt" => {
-                numbers::<1>(tok, "texture coordinate", &err)?;
-                self.texcoords += 1;
+                let [u] = numbers::<1>(tok.clone(), "texture coordinate", &err)?;
+                let v = match tok.nth(1) {
+                    None => 0.0,
+                    Some(t) => match text::parse_f64(t) {
+                        Some(v) if v.is_finite() => v,
+                        _ => {
+                            return Err(err(format!(
+                                "texture coordinate: '{}' is not a finite number",
+                                echo(t)
+                            )))
+                        }
+                    },
+                };
+                let uv = [u as f32, v as f32];
+                if !uv.iter().all(|x| x.is_finite()) {
+                    return Err(err("texture coordinate beyond the f32 range".into()));
+                }
+                self.texcoords.push(uv);
             }
             b"f" => self.face(mode, tok, &err)?,
             _ => {}
@@ -126,8 +145,8 @@ impl Block {
 
     fn face(&mut self, mode: Mode, tok: Tokens, err: &dyn Fn(String) -> Error) -> Result<()> {
         let mut n = 0usize;
-        let mut first = [NONE; 2];
-        let mut prev = [NONE; 2];
+        let mut first = [NONE; 3];
+        let mut prev = [NONE; 3];
         for c in tok {
             let malformed = || err(format!("malformed face corner '{}'", echo(c)));
             let mut parts = [""; 3];
@@ -152,13 +171,18 @@ impl Block {
                     idx[slot] = self.index(mode, c, s, slot, err)?;
                 }
             }
-            let cur = [idx[V], idx[VN]];
+            let cur = [idx[V], idx[VN], idx[VT]];
             match n {
                 0 => first = cur,
                 1 => {}
                 _ => {
                     self.tris.push([first[0], prev[0], cur[0]]);
                     self.tri_normals.push([first[1], prev[1], cur[1]]);
+                    let uv = [first[2], prev[2], cur[2]];
+                    if !self.tri_uvs.is_empty() || uv != [NONE; 3] {
+                        self.tri_uvs.resize(self.tris.len() - 1, [NONE; 3]);
+                        self.tri_uvs.push(uv);
+                    }
                 }
             }
             prev = cur;
@@ -260,17 +284,24 @@ fn numbers<const N: usize>(
 struct Raw {
     positions: Vec<DVec3>,
     normals: Vec<DVec3>,
-    texcoords: usize,
+    texcoords: Vec<[f32; 2]>,
     tris: Vec<[u32; 3]>,
     /// Normal index of each corner, `u32::MAX` for none.
     tri_normals: Vec<[u32; 3]>,
+    /// Texture coordinate index of each corner (`u32::MAX` for none), empty when no face
+    /// gives one.
+    tri_uvs: Vec<[u32; 3]>,
     polygons: usize,
     max_abs: [i64; 3],
 }
 
 impl Raw {
     fn counts(&self) -> Counts {
-        [self.positions.len(), self.texcoords, self.normals.len()]
+        [
+            self.positions.len(),
+            self.texcoords.len(),
+            self.normals.len(),
+        ]
     }
 
     /// Appends a block parsed after everything so far; `Retry` when one of its relative
@@ -289,6 +320,13 @@ impl Raw {
                 e as u32
             }
         };
+        if !b.tri_uvs.is_empty() || !self.tri_uvs.is_empty() {
+            self.tri_uvs.resize(self.tris.len(), [u32::MAX; 3]);
+            self.tri_uvs
+                .extend(b.tri_uvs.iter().map(|t| t.map(|e| resolve(e, base[VT]))));
+            self.tri_uvs
+                .resize(self.tris.len() + b.tris.len(), [u32::MAX; 3]);
+        }
         self.tris
             .extend(b.tris.iter().map(|t| t.map(|e| resolve(e, base[V]))));
         self.tri_normals.extend(
@@ -298,7 +336,7 @@ impl Raw {
         );
         self.positions.extend_from_slice(&b.positions);
         self.normals.extend_from_slice(&b.normals);
-        self.texcoords += b.texcoords;
+        self.texcoords.extend_from_slice(&b.texcoords);
         self.polygons += b.polygons;
         self.max_abs = [0, 1, 2].map(|a| self.max_abs[a].max(b.max_abs[a]));
         Ok(())
@@ -325,9 +363,10 @@ fn pass(path: &Path, parallel: bool, totals: Option<Counts>) -> std::result::Res
     let mut raw = Raw {
         positions: Vec::new(),
         normals: Vec::new(),
-        texcoords: 0,
+        texcoords: Vec::new(),
         tris: Vec::new(),
         tri_normals: Vec::new(),
+        tri_uvs: Vec::new(),
         polygons: 0,
         max_abs: [-1; 3],
     };
@@ -457,8 +496,10 @@ fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
     let Raw {
         positions,
         normals: normals_in,
+        texcoords,
         mut tris,
         mut tri_normals,
+        mut tri_uvs,
         polygons,
         ..
     } = raw;
@@ -472,10 +513,10 @@ fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
         polygons_triangulated: polygons,
         ..Default::default()
     };
-    let positions = weld::weld(
+    let positions = weld::weld_with(
         &positions,
         &mut tris,
-        &mut tri_normals,
+        &mut (&mut tri_normals, &mut tri_uvs),
         weld::Order::FirstUse,
         &mut report,
     )?;
@@ -508,6 +549,20 @@ fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
             })
         })
         .collect();
+    if !tri_uvs.is_empty() {
+        let missing = tri_uvs.iter().flatten().filter(|&&i| i == u32::MAX).count();
+        if missing > 0 {
+            report.notes.push(format!(
+                "{missing} face corners without a texture coordinate: (0, 0) given"
+            ));
+        }
+        report.attributes.uvs = Some(
+            tri_uvs
+                .iter()
+                .map(|t| t.map(|i| texcoords.get(i as usize).copied().unwrap_or([0.0; 2])))
+                .collect(),
+        );
+    }
     Ok(Mesh {
         name: super::display_name(path),
         positions,

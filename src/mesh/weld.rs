@@ -94,16 +94,95 @@ pub fn weld<P>(
     order: Order,
     report: &mut LoadReport,
 ) -> Result<Vec<DVec3>> {
+    weld_with(positions, triangles, payload, order, report)
+}
+
+/// Per-triangle data the weld filters alongside the triangles: a vector with one entry per
+/// input triangle, or an empty one for none; a pair or triple of payloads carries several
+/// (corner normals, UVs and colours kept in step).
+pub trait Payload {
+    /// Whether every part holds `n` entries or none.
+    fn fits(&self, n: usize) -> bool;
+    /// Moves entry `from` to `to` (`to <= from`).
+    fn take(&mut self, to: usize, from: usize);
+    /// Keeps the first `n` entries.
+    fn keep(&mut self, n: usize);
+}
+
+impl<T> Payload for Vec<T> {
+    fn fits(&self, n: usize) -> bool {
+        self.is_empty() || self.len() == n
+    }
+    fn take(&mut self, to: usize, from: usize) {
+        if !self.is_empty() {
+            self.swap(to, from);
+        }
+    }
+    fn keep(&mut self, n: usize) {
+        self.truncate(n.min(self.len()));
+    }
+}
+
+impl<P: Payload + ?Sized> Payload for &mut P {
+    fn fits(&self, n: usize) -> bool {
+        (**self).fits(n)
+    }
+    fn take(&mut self, to: usize, from: usize) {
+        (**self).take(to, from);
+    }
+    fn keep(&mut self, n: usize) {
+        (**self).keep(n);
+    }
+}
+
+impl<A: Payload, B: Payload> Payload for (A, B) {
+    fn fits(&self, n: usize) -> bool {
+        self.0.fits(n) && self.1.fits(n)
+    }
+    fn take(&mut self, to: usize, from: usize) {
+        self.0.take(to, from);
+        self.1.take(to, from);
+    }
+    fn keep(&mut self, n: usize) {
+        self.0.keep(n);
+        self.1.keep(n);
+    }
+}
+
+impl<A: Payload, B: Payload, C: Payload> Payload for (A, B, C) {
+    fn fits(&self, n: usize) -> bool {
+        self.0.fits(n) && self.1.fits(n) && self.2.fits(n)
+    }
+    fn take(&mut self, to: usize, from: usize) {
+        self.0.take(to, from);
+        self.1.take(to, from);
+        self.2.take(to, from);
+    }
+    fn keep(&mut self, n: usize) {
+        self.0.keep(n);
+        self.1.keep(n);
+        self.2.keep(n);
+    }
+}
+
+/// [`weld`] with any [`Payload`]: each of its parts holds one entry per input triangle or
+/// none.
+pub fn weld_with<P: Payload>(
+    positions: &[DVec3],
+    triangles: &mut Vec<[u32; 3]>,
+    payload: &mut P,
+    order: Order,
+    report: &mut LoadReport,
+) -> Result<Vec<DVec3>> {
     let n = positions.len();
     if u32::try_from(n).is_err() {
         return Err(Error::Invalid(format!(
             "{n} vertices: more than a mesh can index (u32)"
         )));
     }
-    if !payload.is_empty() && payload.len() != triangles.len() {
+    if !payload.fits(triangles.len()) {
         return Err(Error::Invalid(format!(
-            "weld: {} per-triangle entries for {} triangles",
-            payload.len(),
+            "weld: per-triangle entries that are not one per triangle ({} triangles)",
             triangles.len()
         )));
     }
@@ -142,13 +221,11 @@ pub fn weld<P>(
             state[v as usize] |= KEEP;
         }
         triangles[kept] = w;
-        if !payload.is_empty() {
-            payload.swap(kept, i);
-        }
+        payload.take(kept, i);
         kept += 1;
     }
     triangles.truncate(kept);
-    payload.truncate(if payload.is_empty() { 0 } else { kept });
+    payload.keep(kept);
 
     let welded = (0..n)
         .filter(|&v| state[v] & REF != 0 && rep[v] != v as u32)

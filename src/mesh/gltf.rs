@@ -1,0 +1,537 @@
+//! glTF 2.0 input: `.gltf` (JSON with external `.bin` files or base64 data URIs) and `.glb`.
+//!
+//! The JSON is parsed and validated by the `gltf` crate (without its `import` feature, so
+//! no image decoder comes in); the GLB container, the buffers and the accessors are read
+//! here, every offset and length checked against the data present, so a malformed file is
+//! an error naming the buffer, accessor or primitive, never a panic.
+//!
+//! Every triangle primitive of the default scene (scene 0 when none is named) is read,
+//! with its node's transform applied: positions by the world matrix, normals by the
+//! inverse transpose of its linear part, renormalised; a transform that mirrors (negative
+//! determinant) reverses the triangles' winding, as glTF specifies. Indexed and
+//! non-indexed primitives, triangle strips and fans; `NORMAL`, `TEXCOORD_0` and `COLOR_0`
+//! (float, or normalised unsigned bytes and shorts). Points and lines are skipped with a
+//! note; sparse accessors are refused. Primitives are joined and welded by exact position.
+
+use std::path::Path;
+
+use ::gltf::accessor::{DataType, Dimensions};
+use ::gltf::mesh::Mode;
+use ::gltf::Semantic;
+use glam::{DMat3, DMat4, DVec3};
+
+use super::{normals, LoadOptions, LoadReport, Mesh, Soup};
+use crate::{Error, Result};
+
+/// Deepest node nesting followed (a cycle is refused rather than followed forever).
+const MAX_DEPTH: usize = 256;
+
+/// Reads a glTF 2.0 file (`.gltf` or `.glb`); see the module documentation.
+pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
+    let file = path.display().to_string();
+    let err = |m: String| Error::mesh(&file, m);
+    let data = super::stl::read_regular(path)?;
+    let (json, blob) = if data.starts_with(b"glTF") {
+        let (j, b) = glb(&data).map_err(err)?;
+        (j, b)
+    } else {
+        (&data[..], None)
+    };
+    let root: ::gltf::json::Root = serde_json::from_slice(json)
+        .map_err(|e| err(format!("not valid glTF: {}", one_line(&e.to_string()))))?;
+    // The gltf crate's validation indexes the POSITION accessor before checking it: check
+    // it first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (k, prim) in mesh.primitives.iter().enumerate() {
+            for (sem, acc) in &prim.attributes {
+                if acc.value() >= root.accessors.len() {
+                    return Err(err(format!(
+                        "mesh {m} primitive {k}: attribute {} names accessor {}, which does \
+                         not exist ({} accessors)",
+                        super::text::echo(&format!("{sem:?}")),
+                        acc.value(),
+                        root.accessors.len()
+                    )));
+                }
+            }
+        }
+    }
+    let doc = ::gltf::Document::from_json(root)
+        .map_err(|e| err(format!("not valid glTF: {}", one_line(&e.to_string()))))?;
+    let mut buffers = Vec::new();
+    for b in doc.buffers() {
+        let i = b.index();
+        let bytes = match b.source() {
+            ::gltf::buffer::Source::Bin => blob.map(|b| b.to_vec()).ok_or_else(|| {
+                err(format!(
+                    "buffer {i} refers to a GLB binary chunk the file does not have"
+                ))
+            })?,
+            ::gltf::buffer::Source::Uri(uri) => {
+                load_uri(path, uri).map_err(|m| err(format!("buffer {i}: {m}")))?
+            }
+        };
+        if bytes.len() < b.length() {
+            return Err(err(format!(
+                "buffer {i}: {} bytes declared, {} present (truncated)",
+                b.length(),
+                bytes.len()
+            )));
+        }
+        buffers.push(bytes);
+    }
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| err("no scene to read".into()))?;
+    let mut soup = Soup::default();
+    let mut uvs: Vec<[f32; 2]> = Vec::new();
+    let mut colors: Vec<[f32; 4]> = Vec::new();
+    let mut normals_v: Vec<Option<DVec3>> = Vec::new();
+    let (mut any_uv, mut any_color, mut any_alpha) = (false, false, false);
+    let mut lacking = [0usize; 3];
+    let mut stack: Vec<(::gltf::Node, DMat4, usize)> =
+        scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
+    stack.reverse();
+    // glTF nodes form a forest: a node reached twice (a cycle, or two parents) is refused,
+    // which also bounds the walk by the number of nodes.
+    let mut seen = vec![false; doc.nodes().count()];
+    while let Some((node, parent, depth)) = stack.pop() {
+        if depth > MAX_DEPTH {
+            return Err(err(format!(
+                "node {}: nested more than {MAX_DEPTH} deep",
+                node.index()
+            )));
+        }
+        if std::mem::replace(&mut seen[node.index()], true) {
+            return Err(err(format!(
+                "node {} is reached twice in the scene (nodes must form a tree)",
+                node.index()
+            )));
+        }
+        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(err(format!("node {}: non-finite transform", node.index())));
+        }
+        for c in node.children().collect::<Vec<_>>().into_iter().rev() {
+            stack.push((c, world, depth + 1));
+        }
+        let Some(mesh) = node.mesh() else { continue };
+        let lin = DMat3::from_mat4(world);
+        let normal_m = lin.inverse().transpose();
+        let mirror = lin.determinant() < 0.0;
+        let identity = world == DMat4::IDENTITY;
+        for prim in mesh.primitives() {
+            let what = format!("mesh {} primitive {}", mesh.index(), prim.index());
+            let perr = |m: String| err(format!("{what}: {m}"));
+            let mode = prim.mode();
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                soup.report.notes.push(format!(
+                    "{what}: {mode:?} primitive ignored (not triangles)"
+                ));
+                continue;
+            }
+            let pos_acc = prim
+                .get(&Semantic::Positions)
+                .ok_or_else(|| perr("no POSITION attribute".into()))?;
+            let pos = read(&buffers, &pos_acc, &[Dimensions::Vec3], false).map_err(&perr)?;
+            let n = pos.len();
+            let base = soup.positions.len();
+            for (i, p) in pos.iter().enumerate() {
+                let p = DVec3::new(p[0], p[1], p[2]);
+                let q = if identity {
+                    p
+                } else {
+                    world.transform_point3(p)
+                };
+                if !q.is_finite() || q.abs().max_element() > normals::MAX_COORD {
+                    return Err(perr(format!(
+                        "vertex {i}: non-finite coordinate or one above {:e} in magnitude",
+                        normals::MAX_COORD
+                    )));
+                }
+                soup.positions.push(q);
+            }
+            let same = |acc: &::gltf::Accessor, name: &str| -> Result<()> {
+                if acc.count() != n {
+                    return Err(perr(format!(
+                        "{name} has {} entries for {n} positions",
+                        acc.count()
+                    )));
+                }
+                Ok(())
+            };
+            match prim.get(&Semantic::Normals) {
+                Some(acc) => {
+                    same(&acc, "NORMAL")?;
+                    let v = read(&buffers, &acc, &[Dimensions::Vec3], false).map_err(&perr)?;
+                    for (i, x) in v.iter().enumerate() {
+                        let m = DVec3::new(x[0], x[1], x[2]);
+                        let m = if identity { m } else { normal_m * m };
+                        let u = normals::unit(m).ok_or_else(|| {
+                            perr(format!("vertex {i}: zero or non-finite normal"))
+                        })?;
+                        normals_v.push(Some(u));
+                    }
+                }
+                None => {
+                    lacking[0] += n;
+                    normals_v.extend(std::iter::repeat_n(None, n));
+                }
+            }
+            match prim.get(&Semantic::TexCoords(0)) {
+                Some(acc) => {
+                    same(&acc, "TEXCOORD_0")?;
+                    any_uv = true;
+                    let v = read(&buffers, &acc, &[Dimensions::Vec2], true).map_err(&perr)?;
+                    uvs.resize(base, [0.0; 2]);
+                    uvs.extend(v.iter().map(|x| [x[0] as f32, x[1] as f32]));
+                }
+                None => lacking[1] += n,
+            }
+            match prim.get(&Semantic::Colors(0)) {
+                Some(acc) => {
+                    same(&acc, "COLOR_0")?;
+                    any_color = true;
+                    any_alpha |= acc.dimensions() == Dimensions::Vec4;
+                    let v = read(&buffers, &acc, &[Dimensions::Vec3, Dimensions::Vec4], true)
+                        .map_err(&perr)?;
+                    colors.resize(base, [1.0; 4]);
+                    colors.extend(
+                        v.iter()
+                            .map(|x| [x[0] as f32, x[1] as f32, x[2] as f32, x[3] as f32]),
+                    );
+                }
+                None => lacking[2] += n,
+            }
+            // Corner lists: the indices, or the vertices in order.
+            let idx: Vec<u32> = match prim.indices() {
+                Some(acc) => {
+                    let v = read(&buffers, &acc, &[Dimensions::Scalar], false).map_err(&perr)?;
+                    let mut out = Vec::with_capacity(v.len());
+                    for (k, x) in v.iter().enumerate() {
+                        if x[0] >= n as f64 {
+                            return Err(perr(format!(
+                                "index {k} is {}, out of range ({n} vertices)",
+                                x[0]
+                            )));
+                        }
+                        out.push(x[0] as u32);
+                    }
+                    out
+                }
+                None => (0..n as u32).collect(),
+            };
+            let mut tri = |a: u32, b: u32, c: u32| {
+                let t = [a, b, c].map(|v| v + base as u32);
+                soup.triangles
+                    .push(if mirror { [t[0], t[2], t[1]] } else { t });
+            };
+            match mode {
+                Mode::Triangles => idx.chunks_exact(3).for_each(|t| tri(t[0], t[1], t[2])),
+                Mode::TriangleStrip => {
+                    for k in 2..idx.len() {
+                        if k % 2 == 0 {
+                            tri(idx[k - 2], idx[k - 1], idx[k]);
+                        } else {
+                            tri(idx[k - 1], idx[k - 2], idx[k]);
+                        }
+                    }
+                }
+                _ => {
+                    for k in 2..idx.len() {
+                        tri(idx[0], idx[k - 1], idx[k]);
+                    }
+                }
+            }
+            if u32::try_from(soup.positions.len()).is_err() {
+                return Err(perr("more vertices than a mesh can index (u32)".into()));
+            }
+        }
+    }
+    if soup.triangles.is_empty() {
+        return Err(err("empty mesh: no triangles in the scene".into()));
+    }
+    let total = soup.positions.len();
+    if lacking[0] < total {
+        // Zero marks the vertices of primitives without NORMAL: estimated after the weld.
+        soup.normals = Some(
+            normals_v
+                .into_iter()
+                .map(|n| n.unwrap_or(DVec3::ZERO))
+                .collect(),
+        );
+    }
+    if any_uv {
+        uvs.resize(total, [0.0; 2]);
+        if lacking[1] > 0 {
+            soup.report.notes.push(format!(
+                "{} of {total} vertices have no TEXCOORD_0: (0, 0) given",
+                lacking[1]
+            ));
+        }
+        soup.uvs = Some(uvs);
+    }
+    if any_color {
+        colors.resize(total, [1.0; 4]);
+        if lacking[2] > 0 {
+            soup.report.notes.push(format!(
+                "{} of {total} vertices have no COLOR_0: white given",
+                lacking[2]
+            ));
+        }
+        soup.colors = Some(colors);
+        soup.alpha = any_alpha;
+    }
+    soup.report = LoadReport {
+        notes: std::mem::take(&mut soup.report.notes),
+        ..LoadReport::default()
+    };
+    soup.build(super::display_name(path), opts)
+}
+
+/// Error text of the gltf crate on one line, control characters escaped, cut to 300
+/// characters (a validation error lists every defect).
+fn one_line(s: &str) -> String {
+    let s = s.split_whitespace().collect::<Vec<_>>().join(" ");
+    let mut out = String::new();
+    for (n, c) in s.chars().enumerate() {
+        if n == 300 {
+            out.push('…');
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// The JSON chunk and the binary chunk of a GLB file, every length checked.
+fn glb(data: &[u8]) -> std::result::Result<(&[u8], Option<&[u8]>), String> {
+    let u32_at = |o: usize| -> Option<u32> {
+        data.get(o..o + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    let len = data.len();
+    let (Some(version), Some(total)) = (u32_at(4), u32_at(8)) else {
+        return Err(format!(
+            "truncated GLB: {len} bytes, the header alone is 12"
+        ));
+    };
+    if version != 2 {
+        return Err(format!("GLB version {version} (2 expected)"));
+    }
+    if total as usize > len {
+        return Err(format!(
+            "GLB header says {total} bytes but the file has {len} (truncated)"
+        ));
+    }
+    let data = &data[..total as usize];
+    let mut chunks = Vec::new();
+    let mut o = 12usize;
+    while o < data.len() {
+        let (Some(clen), Some(ty)) = (u32_at(o), u32_at(o + 4)) else {
+            return Err(format!("GLB chunk at byte {o}: truncated chunk header"));
+        };
+        let start = o + 8;
+        let end = start
+            .checked_add(clen as usize)
+            .filter(|&e| e <= data.len())
+            .ok_or_else(|| {
+                format!(
+                    "GLB chunk at byte {o}: {clen} bytes declared, {} present (truncated)",
+                    data.len() - start.min(data.len())
+                )
+            })?;
+        chunks.push((ty, &data[start..end]));
+        o = end;
+    }
+    const JSON: u32 = 0x4E4F_534A;
+    const BIN: u32 = 0x004E_4942;
+    match chunks.first() {
+        Some(&(JSON, j)) => Ok((j, chunks.get(1).filter(|c| c.0 == BIN).map(|c| c.1))),
+        _ => Err("GLB without a JSON chunk first".into()),
+    }
+}
+
+/// The bytes of a buffer URI: a base64 data URI, or a file relative to the glTF file.
+fn load_uri(path: &Path, uri: &str) -> std::result::Result<Vec<u8>, String> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (meta, payload) = rest
+            .split_once(',')
+            .ok_or_else(|| "data URI without a comma".to_string())?;
+        if !meta.ends_with(";base64") {
+            return Err("data URI that is not base64".into());
+        }
+        return base64(payload).ok_or_else(|| "data URI: invalid base64".to_string());
+    }
+    if uri.contains("://") {
+        return Err(format!(
+            "URI '{}' is not a relative file (only files next to the glTF and data URIs are read)",
+            super::text::echo(uri)
+        ));
+    }
+    let rel = percent_decode(uri)
+        .ok_or_else(|| format!("URI '{}' is malformed", super::text::echo(uri)))?;
+    let file = path.parent().unwrap_or(Path::new("")).join(rel);
+    std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))
+}
+
+fn percent_decode(s: &str) -> Option<String> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' {
+            let h = std::str::from_utf8(b.get(i + 1..i + 3)?).ok()?;
+            out.push(u8::from_str_radix(h, 16).ok()?);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok()
+}
+
+/// Standard base64 (padding optional, no whitespace).
+fn base64(s: &str) -> Option<Vec<u8>> {
+    let s = s.trim_end_matches('=');
+    let mut out = Vec::with_capacity(s.len() * 3 / 4);
+    let (mut acc, mut bits) = (0u32, 0u32);
+    for c in s.bytes() {
+        let v = match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' | b'-' => 62,
+            b'/' | b'_' => 63,
+            _ => return None,
+        } as u32;
+        acc = (acc << 6) | v;
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+            acc &= (1 << bits) - 1;
+        }
+    }
+    Some(out)
+}
+
+/// The elements of an accessor as up to four f64 components (the rest 1.0, which only
+/// alpha uses), integers normalised when the accessor says so and `normalised_ok`.
+fn read(
+    buffers: &[Vec<u8>],
+    acc: &::gltf::Accessor,
+    dims: &[Dimensions],
+    normalised_ok: bool,
+) -> std::result::Result<Vec<[f64; 4]>, String> {
+    let i = acc.index();
+    if acc.sparse().is_some() {
+        return Err(format!("accessor {i}: sparse accessors are not supported"));
+    }
+    if !dims.contains(&acc.dimensions()) {
+        return Err(format!(
+            "accessor {i}: type {:?} where {dims:?} was expected",
+            acc.dimensions()
+        ));
+    }
+    let ct = acc.data_type();
+    let scalar = acc.dimensions() == Dimensions::Scalar;
+    let ok = match ct {
+        DataType::F32 => !scalar,
+        DataType::U8 | DataType::U16 => scalar || (normalised_ok && acc.normalized()),
+        DataType::U32 => scalar,
+        DataType::I8 | DataType::I16 => false,
+    };
+    if !ok {
+        return Err(format!(
+            "accessor {i}: component type {ct:?}{} is not allowed here",
+            if acc.normalized() {
+                " (normalised)"
+            } else {
+                ""
+            }
+        ));
+    }
+    let comps = acc.dimensions().multiplicity();
+    let csize = ct.size();
+    let esize = comps * csize;
+    let count = acc.count();
+    let Some(view) = acc.view() else {
+        // No view: all zeros (glTF), but a mesh needs data.
+        return Err(format!("accessor {i}: no buffer view"));
+    };
+    let stride = view.stride().unwrap_or(esize);
+    if stride < esize {
+        return Err(format!(
+            "accessor {i}: byte stride {stride} below its element size {esize}"
+        ));
+    }
+    let buf = &buffers[view.buffer().index()];
+    let view_end = view
+        .offset()
+        .checked_add(view.length())
+        .filter(|&e| e <= buf.len())
+        .ok_or_else(|| {
+            format!(
+                "buffer view {}: bytes {}..+{} beyond its buffer ({} bytes)",
+                view.index(),
+                view.offset(),
+                view.length(),
+                buf.len()
+            )
+        })?;
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    let start = view.offset().checked_add(acc.offset());
+    let end = start
+        .and_then(|s| stride.checked_mul(count - 1).and_then(|x| x.checked_add(s)))
+        .and_then(|x| x.checked_add(esize))
+        .filter(|&e| e <= view_end)
+        .ok_or_else(|| {
+            format!(
+                "accessor {i}: {count} elements of {esize} bytes (stride {stride}) at offset {} \
+                 reach beyond buffer view {} ({} bytes)",
+                acc.offset(),
+                view.index(),
+                view.length()
+            )
+        })?;
+    let start = start.unwrap_or(0);
+    let data = &buf[start..end];
+    let norm = acc.normalized() && !scalar;
+    let mut out = Vec::with_capacity(count);
+    for e in 0..count {
+        let rec = &data[e * stride..e * stride + esize];
+        let mut v = [1.0f64; 4];
+        for (c, x) in v.iter_mut().enumerate().take(comps) {
+            let b = &rec[c * csize..(c + 1) * csize];
+            *x = match ct {
+                DataType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                DataType::U8 => b[0] as f64 / if norm { 255.0 } else { 1.0 },
+                DataType::U16 => {
+                    u16::from_le_bytes([b[0], b[1]]) as f64 / if norm { 65535.0 } else { 1.0 }
+                }
+                DataType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                // Refused above; decoded as the format defines them all the same.
+                DataType::I8 => (b[0] as i8) as f64,
+                DataType::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
+            };
+            if !x.is_finite() {
+                return Err(format!("accessor {i}: element {e} is not finite"));
+            }
+        }
+        out.push(v);
+    }
+    Ok(out)
+}
