@@ -20,6 +20,9 @@ pub struct StatsArgs {
 pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
     // No whole patch table: the statistics build the patches a chunk of edges at a time.
     let mesh = Mesh::load(&a.input.mesh, &a.input.load_options())?;
+    if a.backend.backend == super::common::Backend::Gpu {
+        return run_gpu(a, &mesh);
+    }
     let evaluator = a.backend.evaluator(crate::gpu::Precision::F64)?;
     let report = stats_report(
         &mesh,
@@ -27,6 +30,39 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
         &a.input.scheme_options(),
         evaluator.as_ref(),
     )?;
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!("{}\n", report.to_text());
+    }
+    Ok(())
+}
+
+/// `stats --backend gpu`: the edge samples evaluated and reduced on the device
+/// ([`crate::gpu::stats`]), only the aggregates read back; the whole patch table is built.
+fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
+    use crate::eval::gpu::GpuEvaluator;
+    use crate::eval::Evaluator;
+    use crate::gpu::GpuContext;
+    use crate::output::stats::{EdgeStats, StatsReport};
+    use crate::patch::PatchTable;
+    let precision = a.backend.precision.unwrap_or(crate::gpu::Precision::F64);
+    let ctx = GpuContext::shared()?;
+    let gpu = GpuEvaluator::new(ctx.clone(), precision)?;
+    if !a.backend.quiet {
+        eprintln!("gpu: {} ({precision})", ctx.describe());
+    }
+    let table = PatchTable::build(mesh, a.input.scheme, &a.input.scheme_options())?;
+    let adjacency = mesh.adjacency();
+    let c = crate::gpu::stats::gpu_continuity(&gpu, mesh, &adjacency, &table)?;
+    let report = StatsReport::new(
+        mesh,
+        EdgeStats::new(mesh).counts(),
+        a.input.scheme,
+        table.fallbacks,
+        c,
+        gpu.describe(),
+    );
     if a.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {
