@@ -70,6 +70,11 @@ struct Point {
 // computed once on the CPU by src/patch/basis.rs (src/eval/cpu.rs: grid_weights).
 @group(0) @binding(4) var<storage, read> grid_w: array<real>;
 
+// The grid's basis for grid_patch_main: entry l * STRIDE + j holds (w, ∂w/∂s, ∂w/∂t, 0)
+// of control point j at grid point l (src/eval/gpu.rs: uniform_table). A uniform buffer:
+// lavapipe reads uniform buffers with vector gathers, storage buffers one lane at a time.
+@group(0) @binding(5) var<uniform> grid_u: array<vec4<real>, GRID_U_VECS>;
+
 struct Sample {
     p: vec3<real>,
     n: vec3<real>,
@@ -349,4 +354,57 @@ fn points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let pt = points[t];
     let b = vec3<real>(pt.b0, pt.b1, pt.b2);
     store(t, absolute(pt.patch_index, eval_weights(pt.patch_index, kind_weights(b)), corner_of_b(b)));
+}
+
+// The grid with one thread per patch: thread t evaluates every grid point of patch upload
+// first_local / per + t, its control points read once, the basis of each point from
+// grid_u (the same for every thread, so the driver's SIMD lanes share it). For drivers
+// that run invocations as SIMD lanes of a CPU (lavapipe), where each storage-buffer read
+// costs a loop over the lanes; GPUs run grid_table_main, one thread per sample. The
+// dispatch's samples are whole patches (count a multiple of per).
+@compute @workgroup_size(WORKGROUP)
+fn grid_patch_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let t = thread_index(gid);
+    let per = params.per;
+    let patches = params.count / per;
+    // Threads past the last patch evaluate it again and store nothing.
+    let valid = t < patches;
+    let i = params.first_local / per + min(t, patches - 1u);
+    var cp: array<vec3<real>, STRIDE>;
+    for (var j = 0u; j < STRIDE; j++) {
+        cp[j] = control_point(i, j);
+    }
+    let fallback = flat_normal(i);
+    let hi = patch_vec(i, SLOT_CORNERS);
+    let lo = patch_vec(i, SLOT_ORIGIN_LO);
+    let c1 = patch_vec(i, SLOT_CORNERS + 1u);
+    let c2 = patch_vec(i, SLOT_CORNERS + 2u);
+    let n = params.level;
+    for (var l = 0u; l < per; l++) {
+        var p = vec3<real>(0.0);
+        var ds = vec3<real>(0.0);
+        var dt = vec3<real>(0.0);
+        for (var j = 0u; j < GEOMETRY; j++) {
+            let w = grid_u[l * STRIDE + j];
+            p += w.x * cp[j];
+            ds += w.y * cp[j];
+            dt += w.z * cp[j];
+        }
+        var field = vec3<real>(0.0);
+        for (var j = GEOMETRY; j < STRIDE; j++) {
+            field += grid_u[l * STRIDE + j].x * cp[j];
+        }
+        // patch_normal without branches: the flat normal where the vector is unusable.
+        let v = select(cross(ds, dt), field, GEOMETRY < STRIDE);
+        let len = length(v);
+        let normal = select(fallback, v / len, usable(len));
+        // absolute(): the uploaded corner exactly at a corner (corner_of_local).
+        var pos = hi + (lo + p);
+        pos = select(pos, hi, l == 0u);
+        pos = select(pos, c1, l == n);
+        pos = select(pos, c2, l == per - 1u);
+        if (valid) {
+            store(t * per + l, Sample(pos, normal));
+        }
+    }
 }

@@ -77,14 +77,111 @@ fn bench_json_rows_and_rates_are_consistent() {
         ] {
             check_rate(&r[k], samples, roofline);
         }
-        for k in ["gpu_dispatch_only", "gpu_with_readback"] {
+        for k in [
+            "gpu_dispatch_only",
+            "gpu_with_readback",
+            "gpu_to_f32_sink",
+            "gpu_to_f32_sink_single_buffer",
+            "gpu_ceiling",
+        ] {
             if gpu {
                 check_rate(&r[k], samples, roofline);
             } else {
                 assert!(r[k].is_null(), "{r}");
             }
         }
+        // The two fractions are quotients of the rates of the same row.
+        let rate = |k: &str| r[k]["samples_per_s"].as_f64().unwrap();
+        if gpu {
+            let d = rate("gpu_dispatch_only");
+            let c = r["gpu_ceiling_fraction"].as_f64().unwrap();
+            assert!((c * rate("gpu_ceiling") / d - 1.0).abs() < QUOTIENT, "{r}");
+            let f = r["gpu_cpu_f32_fraction"].as_f64().unwrap();
+            assert!(
+                (f * rate("cpu_f32_all_threads") / d - 1.0).abs() < QUOTIENT,
+                "{r}"
+            );
+        } else {
+            assert!(r["gpu_ceiling_fraction"].is_null(), "{r}");
+            assert!(r["gpu_cpu_f32_fraction"].is_null(), "{r}");
+        }
     }
+}
+
+/// `bench --gpu-check --json` (what scripts/gpu-check.sh runs) on a small mesh: the
+/// adapter named, the copy bandwidth positive, the three rows with their sample counts,
+/// and every rate and bandwidth fraction consistent with the reported numbers. Without an
+/// adapter it fails with one line (with CI=true an adapter must exist).
+#[test]
+fn bench_gpu_check_rows_are_consistent() {
+    let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
+    let args = [
+        "bench",
+        "sphere320",
+        "--gpu-check",
+        "--levels",
+        "2,3",
+        "--bandwidth-mib",
+        "16",
+        "--json",
+        "--quiet",
+    ];
+    if let Err(e) = g1tess::gpu::GpuContext::shared() {
+        assert!(!ci, "CI=true and no GPU adapter: {e}");
+        let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        return;
+    }
+    let v = bench(&args[1..]);
+    assert!(v["gpu"].as_str().unwrap().contains("Vulkan"), "{v}");
+    let bw = v["copy_bandwidth_gbs"].as_f64().unwrap();
+    assert!(bw > 0.0 && bw.is_finite(), "{v}");
+    assert_eq!(v["copy_mib"].as_u64(), Some(16));
+    assert_eq!(v["triangles"].as_u64(), Some(320));
+    let rows = v["rows"].as_array().unwrap();
+    let keys: Vec<_> = rows
+        .iter()
+        .map(|r| (r["step"].as_str().unwrap(), r["level"].as_u64()))
+        .collect();
+    assert_eq!(
+        keys,
+        [
+            ("device_resident", Some(2)),
+            ("readback_f32", Some(2)),
+            ("device_resident", Some(3)),
+            ("readback_f32", Some(3)),
+            ("statistics", None)
+        ]
+    );
+    for r in rows {
+        let samples = r["samples"].as_f64().unwrap();
+        let expect = match r["level"].as_u64() {
+            Some(l) => 320 * grid_len(l as u32),
+            // 21 samples on each of sphere320's 480 interior edges.
+            None => 21 * 480,
+        };
+        assert_eq!(samples as usize, expect, "{r}");
+        let (s, rate) = (
+            r["seconds"].as_f64().unwrap(),
+            r["samples_per_s"].as_f64().unwrap(),
+        );
+        assert!(
+            s > 0.0 && (rate * s / samples - 1.0).abs() < QUOTIENT,
+            "{r}"
+        );
+        let bytes = r["bytes_per_sample"].as_f64().unwrap();
+        let gb = r["gb_per_s"].as_f64().unwrap();
+        assert!((gb * 1e9 / (rate * bytes) - 1.0).abs() < QUOTIENT, "{r}");
+        let f = r["bandwidth_fraction"].as_f64().unwrap();
+        assert!((f * bw / gb - 1.0).abs() < QUOTIENT, "{r}");
+    }
+    // f32 grid samples write 24 bytes.
+    assert_eq!(rows[0]["bytes_per_sample"].as_u64(), Some(24));
 }
 
 #[test]

@@ -464,6 +464,154 @@ fn tiny_chunks_split_dispatches_and_2d_grids_give_identical_results() {
     }
 }
 
+/// The grid's two thread layouts (one thread per sample, one per patch with the basis in a
+/// uniform table: lavapipe's default) and single- or double-buffered readback give bitwise
+/// the same samples, in f64 and f32 output, in both precisions; every layout is forced
+/// here, so each runs on any adapter.
+#[test]
+fn patch_loop_and_double_buffering_give_identical_results() {
+    for precision in [Precision::F32, Precision::F64] {
+        let Some(shared) = evaluator(precision) else {
+            continue;
+        };
+        let ctx = shared.context().clone();
+        let make = |patch_loop: bool, double_buffer: bool| {
+            let mut g = GpuEvaluator::new(ctx.clone(), precision).unwrap();
+            g.patch_loop = patch_loop;
+            g.double_buffer = double_buffer;
+            // 48 patches of level 16 per chunk: 7 chunks on sphere320, so readback is
+            // double-buffered.
+            g.chunk_samples = 48 * grid_len(16);
+            g
+        };
+        let per_sample = make(false, true);
+        let patch_loop = make(true, true);
+        let single = make(true, false);
+        let mesh = load("sphere320");
+        for scheme in [Scheme::G1, Scheme::Flat, Scheme::PnNormals] {
+            let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
+            // Level 16: G1's uniform table (153 points × 15 × 4 reals) fits 64 KiB in f32;
+            // in f64 only the smaller kinds' do (then both run one thread per sample).
+            let pattern = Pattern::Grid { level: 16 };
+            let a = run_all(&per_sample, &table, &pattern);
+            assert_eq!(a.0.len(), 320 * grid_len(16));
+            let b = run_all(&patch_loop, &table, &pattern);
+            assert!(a == b, "{precision} {scheme}: patch loop differs");
+            let c = run_all(&single, &table, &pattern);
+            assert!(b == c, "{precision} {scheme}: single buffer differs");
+            let a32 = run_all_f32(&per_sample, &table, &pattern);
+            let b32 = run_all_f32(&patch_loop, &table, &pattern);
+            assert!(a32 == b32, "{precision} {scheme}: f32 patch loop differs");
+            let c32 = run_all_f32(&single, &table, &pattern);
+            assert!(
+                b32 == c32,
+                "{precision} {scheme}: f32 single buffer differs"
+            );
+        }
+    }
+}
+
+/// Table 1's statistics reduced on the device (`stats --backend gpu`) against the CPU's f64
+/// statistics (`stats_report` with the CPU evaluator) on meshes with and without creases,
+/// for a G1, a quadratic and a cubic scheme.
+///
+/// Bounds. Counts (samples, crease edges and samples) are exact. Let δ be the largest
+/// error of one GPU unit normal against the f64 reference. Then each cos = n_a · n_b is
+/// within 2δ of the CPU's, and so are min, max, 1 − |cos| and the mean (a mean of values
+/// each within 2δ); the std of values each moved by at most 2δ moves by at most
+/// 2δ·sqrt(n/(n − 1)) < 2.1δ (triangle inequality on the deviation vectors). A unit normal
+/// is S_s × S_t over its length: each derivative is a sum of 15 terms, each component
+/// carrying at most ~20 roundings of the unit roundoff u relative to |S_s|, |S_t|, so the
+/// cross product is off by ~40u·|S_s||S_t| and the normal by 40u·κ with κ =
+/// |S_s||S_t| / |S_s × S_t| (about 1 to 3 on these meshes, whose triangles are not
+/// slivers); δ ≤ 40u·κ ≤ 160u leaves κ up to 4. So: 2.1δ ≤ 340u, i.e. 2e-5 in f32 (u =
+/// 6e-8) and 4e-14 in f64 (u = 1.1e-16). Gaps: each absolute position is hi + (lo + p) in
+/// the working precision: its rounding, u·|p| ≤ u·R with R the largest vertex norm, plus
+/// the evaluation's error, 1e-5·diagonal in f32 and 1e-12·diagonal in f64 (the position
+/// bounds of the comparisons above); a gap moves by at most twice that. Folded counts are
+/// exact where no cos lies within the cos bound of 0 (checked: the CPU's |cos| stays above
+/// it on these meshes, min cos > bound).
+#[test]
+fn gpu_statistics_agree_with_the_cpu_f64_statistics() {
+    use g1tess::output::stats::stats_report;
+    for precision in [Precision::F32, Precision::F64] {
+        let Some(gpu) = evaluator(precision) else {
+            continue;
+        };
+        let u = match precision {
+            Precision::F32 => EPS32,
+            Precision::F64 => EPS64,
+        };
+        let cos_bound = 340.0 * u;
+        let eval_bound = match precision {
+            Precision::F32 => 1e-5,
+            Precision::F64 => 1e-12,
+        };
+        let cpu = CpuEvaluator::default();
+        for name in ["sphere320", "torus200", "spot.obj", "fandisk.obj"] {
+            let mut mesh = load(name);
+            if name == "fandisk.obj" {
+                // Creases: 30° splits the normals along fandisk's sharp edges.
+                mesh = g1tess::mesh::Mesh::load(
+                    &common::shared_spec(name),
+                    &g1tess::mesh::LoadOptions {
+                        crease_angle: Some(30.0),
+                        ..Default::default()
+                    },
+                )
+                .unwrap();
+            }
+            let radius = mesh
+                .positions
+                .iter()
+                .map(|p| p.length())
+                .fold(0.0, f64::max);
+            let gap_bound = 2.0 * (u * radius + eval_bound * mesh.diagonal());
+            let adjacency = mesh.adjacency();
+            for scheme in [Scheme::G1, Scheme::Phong, Scheme::PnNormals] {
+                let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
+                let c = g1tess::gpu::stats::gpu_continuity(gpu, &mesh, &adjacency, &table).unwrap();
+                let r = stats_report(&mesh, scheme, &Default::default(), &cpu).unwrap();
+                let what = format!("{precision} {name} {scheme}");
+                assert_eq!(c.samples, r.samples, "{what}");
+                assert_eq!(c.crease_edges, r.crease_edges, "{what}");
+                assert_eq!(c.crease_samples, r.crease_samples, "{what}");
+                if name == "fandisk.obj" {
+                    assert!(c.crease_edges > 0, "{what}: the crease case has no crease");
+                }
+                assert!(r.cos.min.abs() > cos_bound, "{what}: a cos near 0");
+                assert_eq!(c.folded, r.folded, "{what}");
+                for (x, y, label) in [
+                    (c.cos.min, r.cos.min, "min"),
+                    (c.cos.max, r.cos.max, "max"),
+                    (c.cos.mean, r.cos.mean, "mean"),
+                    (c.max_one_minus_abs_cos, r.max_one_minus_abs_cos, "1-|cos|"),
+                ] {
+                    assert!((x - y).abs() <= cos_bound, "{what} {label}: {x} vs {y}");
+                }
+                assert!(
+                    (c.cos.std - r.cos.std).abs() <= cos_bound,
+                    "{what} std: {} vs {}",
+                    c.cos.std,
+                    r.cos.std
+                );
+                for (x, y, label) in [
+                    (c.max_gap, r.max_gap, "gap"),
+                    (c.crease_max_gap, r.crease_max_gap, "crease gap"),
+                ] {
+                    assert!((x - y).abs() <= gap_bound, "{what} {label}: {x} vs {y}");
+                }
+                eprintln!(
+                    "{what}: |Δmean| {:.1e} |Δstd| {:.1e} |Δgap| {:.1e} (bounds {cos_bound:.1e}, {gap_bound:.1e})",
+                    (c.cos.mean - r.cos.mean).abs(),
+                    (c.cos.std - r.cos.std).abs(),
+                    (c.max_gap - r.max_gap).abs()
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn g1_continuity_from_gpu_output() {
     for precision in [Precision::F32, Precision::F64] {

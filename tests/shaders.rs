@@ -6,8 +6,9 @@
 use std::collections::BTreeSet;
 
 use g1tess::gpu::shaders::{
-    file_for, header, module_source, patch_vecs, validate, variants, BEZIER, COMMON, EXTRA_VECS,
-    FILES, GREGORY, SLOT_CORNERS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO, WORKGROUP,
+    ceiling_source, file_for, header, module_source, patch_vecs, stats_source, validate, variants,
+    BEZIER, CEILING, COMMON, EXTRA_VECS, FILES, GREGORY, SLOT_CORNERS, SLOT_FLAT_NORMAL,
+    SLOT_ORIGIN_LO, STATS, STATS_REALS, UNIFORM_TABLE_BYTES, WORKGROUP,
 };
 use g1tess::gpu::Precision;
 use g1tess::patch::basis::MAX_POINTS;
@@ -73,7 +74,12 @@ fn every_kind_validates_in_f32_and_f64() {
                 .collect();
             assert_eq!(
                 entries,
-                ["grid_main", "grid_table_main", "points_main"],
+                [
+                    "grid_main",
+                    "grid_table_main",
+                    "points_main",
+                    "grid_patch_main"
+                ],
                 "{}",
                 file.name
             );
@@ -319,4 +325,69 @@ fn broken_shader_is_reported_with_naga_text() {
         .replace("return bezier(DEGREE, b);", "return bezier(DEGREE, b, b);");
     let err = validate(&src, Precision::F32).expect_err("broken shader accepted");
     assert!(err.to_string().contains("WGSL"), "{err}");
+}
+
+/// The uniform basis table of `grid_patch_main` is declared exactly UNIFORM_TABLE_BYTES
+/// long in both precisions (4 reals per entry), and the ceiling shader of `bench` validates,
+/// has its one entry point, takes WORKGROUP from the generated line and copies no number.
+#[test]
+fn uniform_table_size_and_ceiling_shader() {
+    for kind in PatchKind::all() {
+        for precision in PRECISIONS {
+            let module = validate(&module_source(kind, precision).unwrap(), precision).unwrap();
+            assert_eq!(
+                constant_u32(&module, "GRID_U_VECS") * 4 * precision.bytes(),
+                UNIFORM_TABLE_BYTES,
+                "{kind:?} {precision}"
+            );
+        }
+    }
+    let module = validate(&ceiling_source(), Precision::F32).unwrap();
+    let entries: Vec<_> = module
+        .entry_points
+        .iter()
+        .map(|e| e.name.as_str())
+        .collect();
+    assert_eq!(entries, ["ceiling_main"]);
+    assert_eq!(constant_u32(&module, "WORKGROUP"), WORKGROUP as usize);
+    for (tok, _) in literals(CEILING.source) {
+        assert!(value(&tok) <= 3.0, "shaders/ceiling.wgsl: literal {tok}");
+    }
+}
+
+/// The statistics module (a kind's evaluation module + shaders/stats.wgsl) validates for
+/// every kind in both precisions with `stats_main` among its entry points, takes its record
+/// size from the generated line, and names Rust functions it mirrors that exist.
+#[test]
+fn statistics_module_validates_for_every_kind() {
+    for kind in PatchKind::all() {
+        for precision in PRECISIONS {
+            let src = stats_source(kind, precision).unwrap();
+            let module = validate(&src, precision)
+                .unwrap_or_else(|e| panic!("stats {kind:?} {precision}: {e}"));
+            assert!(module.entry_points.iter().any(|e| e.name == "stats_main"));
+            assert_eq!(constant_u32(&module, "STATS_REALS"), STATS_REALS);
+        }
+    }
+    let src = rust_file(&["output", "stats"]).unwrap();
+    let names: Vec<&str> = STATS
+        .source
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("// mirrors "))
+        .flat_map(|l| l.split(','))
+        .map(str::trim)
+        .collect();
+    assert!(!names.is_empty());
+    for name in names {
+        let func = name.rsplit("::").next().unwrap();
+        assert!(src.contains(&format!("fn {func}(")), "{name}");
+    }
+    // The record offsets 0..=10 are written out; the record size and the crease bit are not.
+    for (tok, _) in literals(STATS.source) {
+        let v = value(&tok);
+        assert!(
+            v < STATS_REALS as f64,
+            "shaders/stats.wgsl: literal {tok} copies a generated number"
+        );
+    }
 }

@@ -62,6 +62,14 @@ pub struct BenchArgs {
     /// cache for a memory figure).
     #[arg(long, default_value_t = 1024)]
     pub bandwidth_mib: usize,
+    /// Keep wgpu's runtime checks (bounds checks, loop bounding) in the GPU shaders, to
+    /// measure what they cost (by default the crate's own shaders are created trusted).
+    #[arg(long)]
+    pub gpu_runtime_checks: bool,
+    /// Run GPU grids with one thread per sample even on a software adapter (whose default
+    /// is one thread per patch, see `GpuEvaluator::patch_loop`), to measure the difference.
+    #[arg(long)]
+    pub gpu_thread_per_sample: bool,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -74,6 +82,13 @@ pub struct BenchArgs {
     /// a binary PLY file), stats and OBJ loading, beside a plain write and a word count.
     #[arg(long)]
     pub end_to_end: bool,
+    /// For a machine with a real GPU: the adapter, its memory bandwidth (a device-side
+    /// buffer copy), then device-resident evaluation (no readback), evaluation read back
+    /// as f32, and the GPU statistics path, each as a fraction of that bandwidth, on the
+    /// first mesh and scheme (default the bunny, G1) at each of `--levels`
+    /// (scripts/gpu-check.sh).
+    #[arg(long)]
+    pub gpu_check: bool,
     /// End to end: grid level of the tessellation.
     #[arg(long, default_value_t = 32)]
     pub tess_level: u32,
@@ -112,6 +127,19 @@ pub struct Row {
     pub cpu_f64_reference_all_threads: Option<Rate>,
     pub gpu_dispatch_only: Option<Rate>,
     pub gpu_with_readback: Option<Rate>,
+    /// The full `Evaluator::evaluate_f32` into a sink that encodes each sample as a writer
+    /// does (24 bytes interleaved into a reused buffer), double-buffered readback: the
+    /// device computes the next dispatch while the host encodes.
+    pub gpu_to_f32_sink: Option<Rate>,
+    /// The same with one output buffer (device and host take turns).
+    pub gpu_to_f32_sink_single_buffer: Option<Rate>,
+    /// The minimal shader (24 bytes written per invocation, nothing read) over the same
+    /// number of samples: the most any evaluation shader can do on this device.
+    pub gpu_ceiling: Option<Rate>,
+    /// gpu_dispatch_only ÷ gpu_ceiling (samples per second).
+    pub gpu_ceiling_fraction: Option<f64>,
+    /// gpu_dispatch_only ÷ cpu_f32_all_threads (samples per second), the same run.
+    pub gpu_cpu_f32_fraction: Option<f64>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -229,6 +257,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     if a.end_to_end {
         return run_end_to_end(a);
     }
+    if a.gpu_check {
+        return run_gpu_check(a);
+    }
     anyhow::ensure!(
         a.levels.iter().all(|&l| l >= 1),
         "--levels must be at least 1"
@@ -264,11 +295,15 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     let (bw, bw1) = write_bandwidth(a.bandwidth_mib)?;
     let roofline = bw * 1e9 / SAMPLE_BYTES;
 
-    let (gpu, gpu_note) = if a.no_gpu {
+    let (mut gpu, gpu_note) = if a.no_gpu {
         (None, Some("--no-gpu".to_string()))
     } else {
         match GpuContext::shared().and_then(|c| GpuEvaluator::new(c, a.precision)) {
-            Ok(g) => (Some(g), None),
+            Ok(mut g) => {
+                g.shader_runtime_checks = a.gpu_runtime_checks;
+                g.patch_loop &= !a.gpu_thread_per_sample;
+                (Some(g), None)
+            }
             Err(e) => (None, Some(e.to_string())),
         }
     };
@@ -371,12 +406,17 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                         Ok(())
                     })?))
                 };
-                let (dispatch, readback) = match &gpu {
+                let (dispatch, readback, ceiling, sink2, sink1) = match &mut gpu {
                     Some(g) => {
                         // The first run builds the pipelines and warms the driver.
                         g.time_grid(&table, 1)?;
-                        let d = best_time(Duration::ZERO, || {
+                        let d = best_time(min, || {
                             g.time_grid(&table, level)?;
+                            Ok(())
+                        })?;
+                        g.time_ceiling(1)?;
+                        let c = best_time(min, || {
+                            g.time_ceiling(samples)?;
                             Ok(())
                         })?;
                         let r = best_time(Duration::ZERO, || {
@@ -386,10 +426,32 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                             })?;
                             Ok(())
                         })?;
-                        (Some(rate(d)), Some(rate(r)))
+                        let mut encoded: Vec<u8> = Vec::new();
+                        let mut to_sink = |g: &GpuEvaluator| {
+                            best_time(Duration::ZERO, || {
+                                g.evaluate_f32(&table, &Pattern::Grid { level }, &mut |c| {
+                                    encode_samples(c.positions, c.normals, &mut encoded);
+                                    std::io::Write::write_all(&mut std::io::sink(), &encoded)
+                                        .map_err(|e| crate::Error::Invalid(e.to_string()))
+                                })?;
+                                Ok(())
+                            })
+                        };
+                        g.double_buffer = false;
+                        let s1 = to_sink(g)?;
+                        g.double_buffer = true;
+                        let s2 = to_sink(g)?;
+                        (
+                            Some(rate(d)),
+                            Some(rate(r)),
+                            Some(rate(c)),
+                            Some(rate(s2)),
+                            Some(rate(s1)),
+                        )
                     }
-                    None => (None, None),
+                    None => (None, None, None, None, None),
                 };
+                let cpu_all_rate = rate(cpu_all);
                 rows.push(Row {
                     mesh: mesh.name.clone(),
                     scheme: scheme.to_string(),
@@ -398,11 +460,19 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                     samples,
                     build_s,
                     cpu_f32_1_thread: rate(cpu1),
-                    cpu_f32_all_threads: rate(cpu_all),
+                    cpu_f32_all_threads: cpu_all_rate,
                     cpu_f32_all_threads_whole_output: rate(whole),
                     cpu_f64_reference_all_threads: reference,
                     gpu_dispatch_only: dispatch,
                     gpu_with_readback: readback,
+                    gpu_to_f32_sink: sink2,
+                    gpu_to_f32_sink_single_buffer: sink1,
+                    gpu_ceiling: ceiling,
+                    gpu_ceiling_fraction: dispatch
+                        .zip(ceiling)
+                        .map(|(d, c)| d.samples_per_s / c.samples_per_s),
+                    gpu_cpu_f32_fraction: dispatch
+                        .map(|d| d.samples_per_s / cpu_all_rate.samples_per_s),
                 });
                 bar.inc(1);
             }
@@ -418,6 +488,17 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// What a binary writer does with a chunk: each sample's f32 position and normal
+/// interleaved into `out` (24 bytes a sample, the buffer reused).
+fn encode_samples(positions: &[[f32; 3]], normals: &[[f32; 3]], out: &mut Vec<u8>) {
+    out.clear();
+    out.reserve(positions.len() * 24);
+    for (p, n) in positions.iter().zip(normals) {
+        out.extend_from_slice(bytemuck::cast_slice(p));
+        out.extend_from_slice(bytemuck::cast_slice(n));
+    }
+}
+
 /// The report as a Markdown table (what BENCHMARKS.md records).
 pub fn to_text(r: &BenchReport) -> String {
     let m = &r.machine;
@@ -425,8 +506,8 @@ pub fn to_text(r: &BenchReport) -> String {
         "machine: {} · {} threads · {} · CPU kernel {}, {} samples per chunk\n\
          gpu: {}{}\n\
          memory write bandwidth ({} MiB buffer): {:.2} GB/s all threads, {:.2} GB/s 1 thread → roofline {:.1} M samples/s at 24 B/sample\n\n\
-         | mesh | scheme | level | samples | build ms | CPU f32 1 thr M/s (roof) | CPU f32 all M/s (roof) | CPU f32 all, whole output M/s (roof) | CPU f64 ref all M/s | GPU dispatch M/s (roof) | GPU +readback M/s (roof) |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
+         | mesh | scheme | level | samples | build ms | CPU f32 1 thr M/s (roof) | CPU f32 all M/s (roof) | CPU f32 all, whole output M/s (roof) | CPU f64 ref all M/s | GPU dispatch M/s (roof) | GPU +readback M/s (roof) | GPU → f32 sink M/s (1 buffer) | GPU ceiling M/s | dispatch ÷ ceiling | dispatch ÷ CPU f32 all |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         m.cpu,
         m.threads,
         m.os,
@@ -443,6 +524,7 @@ pub fn to_text(r: &BenchReport) -> String {
         m.write_bandwidth_1_thread_gbs,
         m.roofline_samples_per_s / 1e6,
     );
+    let percent = |x: Option<f64>| x.map_or("–".to_string(), |f| format!("{:.0}%", 100.0 * f));
     let cell = |r: Option<&Rate>| match r {
         Some(r) => format!(
             "{:.1} ({:.0}%)",
@@ -453,7 +535,7 @@ pub fn to_text(r: &BenchReport) -> String {
     };
     for row in &r.rows {
         s += &format!(
-            "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             row.mesh,
             row.scheme,
             row.level,
@@ -467,6 +549,19 @@ pub fn to_text(r: &BenchReport) -> String {
                 .unwrap_or_else(|| "–".into()),
             cell(row.gpu_dispatch_only.as_ref()),
             cell(row.gpu_with_readback.as_ref()),
+            match (row.gpu_to_f32_sink, row.gpu_to_f32_sink_single_buffer) {
+                (Some(d), Some(o)) => format!(
+                    "{:.1} ({:.1})",
+                    d.samples_per_s / 1e6,
+                    o.samples_per_s / 1e6
+                ),
+                _ => "–".into(),
+            },
+            row.gpu_ceiling
+                .map(|r| format!("{:.1}", r.samples_per_s / 1e6))
+                .unwrap_or_else(|| "–".into()),
+            percent(row.gpu_ceiling_fraction),
+            percent(row.gpu_cpu_f32_fraction),
         );
     }
     s
@@ -885,6 +980,233 @@ pub fn end_to_end_text(r: &EndToEndReport) -> String {
             opt(row.samples_per_s, 1e6, 1),
             opt(row.mb_per_s, 1.0, 0),
             opt(row.ratio_to_baseline, 1.0, 2),
+            row.what
+        );
+    }
+    s
+}
+
+// ---- GPU check ----
+
+/// One row of `bench --gpu-check`.
+#[derive(Clone, Debug, Serialize)]
+pub struct GpuCheckRow {
+    /// "device_resident", "readback_f32", "statistics".
+    pub step: String,
+    pub what: String,
+    pub level: Option<u32>,
+    pub samples: u64,
+    pub seconds: f64,
+    pub samples_per_s: f64,
+    /// Bytes the device moves per sample: the output it writes (evaluation rows), the two
+    /// evaluation points it reads (statistics).
+    pub bytes_per_sample: u64,
+    /// samples_per_s × bytes_per_sample / 10^9.
+    pub gb_per_s: f64,
+    /// gb_per_s ÷ the device's copy bandwidth (bytes read + written per second).
+    pub bandwidth_fraction: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct GpuCheckReport {
+    pub gpu: String,
+    pub gpu_limits: String,
+    pub precision: String,
+    /// Device memory bandwidth: a buffer copy on the device, bytes read + written per
+    /// second, 10^9 bytes (best of 5 copies of `copy_mib`).
+    pub copy_bandwidth_gbs: f64,
+    pub copy_mib: u64,
+    pub mesh: String,
+    pub triangles: usize,
+    pub scheme: String,
+    pub rows: Vec<GpuCheckRow>,
+}
+
+/// Bytes read + written per second (10^9) of a device-side copy between two buffers of
+/// `bytes` (best of 5, the first copy untimed), and the size used.
+fn copy_bandwidth(ctx: &GpuContext, bytes: u64) -> anyhow::Result<(f64, u64)> {
+    let bytes = bytes.min(ctx.max_binding_bytes()).max(1 << 20) / 4 * 4;
+    let make = |label, usage| {
+        ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    use wgpu::BufferUsages as U;
+    let src = make("copy source", U::COPY_SRC | U::COPY_DST);
+    let dst = make("copy destination", U::COPY_DST);
+    // Touch both buffers first (drivers may allocate on first use).
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    enc.clear_buffer(&src, 0, None);
+    enc.clear_buffer(&dst, 0, None);
+    ctx.queue.submit([enc.finish()]);
+    ctx.wait()?;
+    let mut best = f64::INFINITY;
+    for rep in 0..6 {
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(&src, 0, &dst, 0, bytes);
+        let t = Instant::now();
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait()?;
+        if rep > 0 {
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+    }
+    ctx.check()?;
+    Ok((2.0 * bytes as f64 / best / 1e9, bytes))
+}
+
+/// `bench --gpu-check`: see [`BenchArgs::gpu_check`].
+pub fn run_gpu_check(a: &BenchArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        a.levels.iter().all(|&l| l >= 1),
+        "--levels must be at least 1"
+    );
+    let ctx = GpuContext::shared()?;
+    let mut gpu = GpuEvaluator::new(ctx.clone(), a.precision)?;
+    gpu.shader_runtime_checks = a.gpu_runtime_checks;
+    gpu.patch_loop &= !a.gpu_thread_per_sample;
+    if !a.quiet {
+        eprintln!("gpu: {}", ctx.describe());
+    }
+    let spec = a.meshes.first().map_or(DEFAULT_MESH, |m| m.as_str());
+    let scheme = a.schemes.first().copied().unwrap_or(Scheme::G1);
+    let mesh = load_mesh(spec)?;
+    let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default())?;
+    let copy_bytes = (a.bandwidth_mib.max(1) as u64) << 20;
+    let (bw, copy_used) = copy_bandwidth(&ctx, copy_bytes)?;
+    let out_bytes = (OUT_BYTES_PER_SAMPLE * a.precision.bytes()) as u64;
+    let mut rows = Vec::new();
+    let mut row = |step: &str, what: String, level, samples: u64, seconds: f64, bps: u64| {
+        let rate = samples as f64 / seconds;
+        let gb = rate * bps as f64 / 1e9;
+        rows.push(GpuCheckRow {
+            step: step.into(),
+            what,
+            level,
+            samples,
+            seconds,
+            samples_per_s: rate,
+            bytes_per_sample: bps,
+            gb_per_s: gb,
+            bandwidth_fraction: gb / bw,
+        });
+    };
+    let min = Duration::from_millis(500);
+    gpu.time_grid(&table, 1)?; // pipelines built, driver warm
+    for &level in &a.levels {
+        let samples = (grid_len(level) * table.len()) as u64;
+        if !a.quiet {
+            eprintln!("bench: level {level}, {samples} samples");
+        }
+        let d = best_time(min, || {
+            gpu.time_grid(&table, level)?;
+            Ok(())
+        })?;
+        row(
+            "device_resident",
+            "uploads + dispatches into a device buffer, no readback".into(),
+            Some(level),
+            samples,
+            d,
+            out_bytes,
+        );
+        let r = best_time(Duration::ZERO, || {
+            gpu.evaluate_f32(&table, &Pattern::Grid { level }, &mut |c| {
+                std::hint::black_box(c.positions.last());
+                Ok(())
+            })?;
+            Ok(())
+        })?;
+        row(
+            "readback_f32",
+            "evaluate_f32: double-buffered readback, samples handed to a sink".into(),
+            Some(level),
+            samples,
+            r,
+            out_bytes,
+        );
+    }
+    let f64_stats = ctx.supports_f64();
+    let stats_gpu = GpuEvaluator::new(
+        ctx.clone(),
+        if f64_stats {
+            Precision::F64
+        } else {
+            Precision::F32
+        },
+    )?;
+    let mut pairs = 0u64;
+    let adjacency = mesh.adjacency();
+    let s = best_time(Duration::ZERO, || {
+        let c = crate::gpu::stats::gpu_continuity(&stats_gpu, &mesh, &adjacency, &table)?;
+        pairs = (c.samples + c.crease_samples) as u64;
+        Ok(())
+    })?;
+    // Each edge sample reads its two evaluation points (barycentrics and patch index).
+    let point_bytes = 4 * stats_gpu.precision().bytes() as u64;
+    row(
+        "statistics",
+        format!(
+            "stats --backend gpu ({}): edge samples evaluated and reduced on the device, one record per 64 samples read back; samples are edge sample pairs, bytes the two points read",
+            stats_gpu.precision()
+        ),
+        None,
+        pairs,
+        s,
+        2 * point_bytes,
+    );
+    let report = GpuCheckReport {
+        gpu: ctx.describe(),
+        gpu_limits: ctx.limits_summary(),
+        precision: a.precision.to_string(),
+        copy_bandwidth_gbs: bw,
+        copy_mib: copy_used >> 20,
+        mesh: mesh.name.clone(),
+        triangles: table.len(),
+        scheme: scheme.to_string(),
+        rows,
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!("{}", gpu_check_text(&report));
+    }
+    Ok(())
+}
+
+/// Reals a sample writes: position and normal.
+const OUT_BYTES_PER_SAMPLE: usize = 6;
+
+/// The GPU check as text (what BENCHMARKS.md records).
+pub fn gpu_check_text(r: &GpuCheckReport) -> String {
+    let mut s = format!(
+        "gpu: {} ({}; {})\n\
+         device copy bandwidth ({} MiB buffer): {:.1} GB/s (read + write)\n\
+         mesh: {} ({} triangles), scheme {}\n\n\
+         | step | level | samples | seconds | M samples/s | GB/s | × copy bandwidth | what |\n\
+         |---|---|---|---|---|---|---|---|\n",
+        r.gpu,
+        r.precision,
+        r.gpu_limits,
+        r.copy_mib,
+        r.copy_bandwidth_gbs,
+        r.mesh,
+        r.triangles,
+        r.scheme
+    );
+    for row in &r.rows {
+        s += &format!(
+            "| {} | {} | {} | {:.4} | {:.1} | {:.2} | {:.1}% | {} |\n",
+            row.step,
+            row.level.map_or("–".into(), |l| l.to_string()),
+            row.samples,
+            row.seconds,
+            row.samples_per_s / 1e6,
+            row.gb_per_s,
+            100.0 * row.bandwidth_fraction,
             row.what
         );
     }

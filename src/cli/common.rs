@@ -76,7 +76,9 @@ pub enum Backend {
     Cpu,
     /// WGSL compute shaders on a Vulkan adapter; fails when there is none.
     Gpu,
-    /// The GPU, falling back to the CPU (with a message on stderr) when it cannot run.
+    /// The GPU, unless the only Vulkan adapters are software ones (lavapipe: the CPU
+    /// backend is faster on the same cores) or none can run; then the CPU, with one line
+    /// on stderr saying why.
     Auto,
 }
 
@@ -148,16 +150,38 @@ impl LazyGpu {
             }
             Ok(ev)
         };
+        if self.backend == Backend::Auto {
+            let adapters = crate::gpu::vulkan_adapters();
+            if !adapters.is_empty()
+                && adapters
+                    .iter()
+                    .all(|a| a.device_type == wgpu::DeviceType::Cpu)
+            {
+                let names: Vec<&str> = adapters.iter().map(|a| a.name.as_str()).collect();
+                self.note(&format!(
+                    "the only Vulkan adapter is a software one ({}), slower than the CPU                      backend on the same cores: using the CPU backend (f64); --backend gpu                      runs on it",
+                    names.join(", ")
+                ));
+                return Ok(Box::new(CpuEvaluator::default()));
+            }
+        }
         Ok(match (self.backend, gpu()) {
             (_, Ok(ev)) => Box::new(ev),
             (Backend::Auto, Err(e)) => {
-                if !self.quiet {
-                    eprintln!("note: {e}; falling back to the CPU backend (f64)");
-                }
+                self.note(&format!("{e}; falling back to the CPU backend (f64)"));
                 Box::new(CpuEvaluator::default())
             }
             (_, Err(e)) => return Err(e),
         })
+    }
+
+    /// "note: MESSAGE" on stderr, once per process (a command may open several evaluators)
+    /// and never with `--quiet`.
+    fn note(&self, message: &str) {
+        static SAID: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+        if !self.quiet && !SAID.swap(true, std::sync::atomic::Ordering::Relaxed) {
+            eprintln!("note: {message}");
+        }
     }
 
     fn get(&self) -> crate::Result<&dyn crate::eval::Evaluator> {

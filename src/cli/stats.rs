@@ -25,6 +25,9 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
     budget.check_load("stats", &a.input.mesh)?;
     let mesh = Mesh::load(&a.input.mesh, &a.input.load_options())?;
     budget.check_stats("stats", &mesh)?;
+    if a.backend.backend == super::common::Backend::Gpu {
+        return run_gpu(a, &mesh);
+    }
     let evaluator = a.backend.evaluator(crate::gpu::Precision::F64)?;
     let report = stats_report(
         &mesh,
@@ -32,6 +35,59 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
         &a.input.scheme_options(),
         evaluator.as_ref(),
     )?;
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!("{}\n", report.to_text());
+    }
+    Ok(())
+}
+
+/// `stats --backend gpu`: the edge samples evaluated and reduced on the device
+/// ([`crate::gpu::stats`]), only the aggregates read back; the whole patch table is built.
+fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
+    use crate::eval::gpu::GpuEvaluator;
+    use crate::eval::Evaluator;
+    use crate::gpu::GpuContext;
+    use crate::output::stats::{EdgeStats, StatsReport};
+    use crate::patch::PatchTable;
+    let precision = a.backend.precision.unwrap_or(crate::gpu::Precision::F64);
+    let ctx = GpuContext::shared()?;
+    let gpu = GpuEvaluator::new(ctx.clone(), precision)?;
+    if !a.backend.quiet {
+        eprintln!("gpu: {} ({precision})", ctx.describe());
+    }
+    let stride = a.input.scheme.kind().layout().stride as u64;
+    let patches = mesh.triangles.len() as u64;
+    a.memory.budget().check(
+        "stats",
+        &format!("the GPU statistics' table of {patches} patches"),
+        patches.saturating_mul(stride * 24),
+        &format!("{stride} control points each, beside the mesh"),
+    )?;
+    // With --repair-folds the statistics are those of the repaired mesh, as on the CPU.
+    let mut opts = a.input.scheme_options();
+    let repaired = if opts.repair_folds {
+        let (m, r) = crate::patch::repair::repair(mesh, a.input.scheme, &opts)?;
+        opts.repair_folds = false;
+        Some((m, r))
+    } else {
+        None
+    };
+    let mesh = repaired.as_ref().map_or(mesh, |(m, _)| m);
+    let table = PatchTable::build(mesh, a.input.scheme, &opts)?;
+    let adjacency = mesh.adjacency();
+    let c = crate::gpu::stats::gpu_continuity(&gpu, mesh, &adjacency, &table)?;
+    let mut report = StatsReport::new(
+        mesh,
+        EdgeStats::new(mesh).counts(),
+        a.input.scheme,
+        table.fallbacks,
+        c,
+        gpu.describe(),
+    );
+    report.patches = crate::patch::validity::count(&table);
+    report.repair = repaired.map(|(_, r)| r);
     if a.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {

@@ -25,8 +25,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{grid_barycentrics, grid_len, Chunk, ChunkF32, Evaluator, PatchPoint, Pattern};
+use crate::gpu::readback::read_buffer_after;
 use crate::gpu::shaders::{self, SLOT_CORNERS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO};
-use crate::gpu::{read_buffer, GpuContext, Precision};
+use crate::gpu::{GpuContext, Precision};
 use crate::patch::{PatchKind, PatchTable};
 use crate::{Error, Result};
 
@@ -93,6 +94,12 @@ pub struct Params {
 pub struct Pipelines {
     pub kind: PatchKind,
     pub precision: Precision,
+    /// Whether wgpu's runtime checks were kept ([`shader_module`]).
+    pub runtime_checks: bool,
+    /// Grid, one thread per patch, basis from a uniform table (`grid_patch_main`), with
+    /// its bind group layout ([`patch_loop_bind_group_layout`]); none where the device's
+    /// uniform bindings are smaller than [`shaders::UNIFORM_TABLE_BYTES`].
+    pub grid_patch: Option<(wgpu::BindGroupLayout, wgpu::ComputePipeline)>,
     /// Grid, basis computed in the shader.
     pub grid: wgpu::ComputePipeline,
     /// Grid, basis read from the precomputed table.
@@ -134,6 +141,31 @@ pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
+/// The bind group layout of `grid_patch_main`: 0 params (uniform), 1 patch data, 3 output
+/// (storage), 5 the grid's basis ([`shaders::UNIFORM_TABLE_BYTES`], uniform).
+pub fn patch_loop_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    use wgpu::BufferBindingType as T;
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("g1tess eval, patch loop"),
+        entries: &[
+            entry(0, T::Uniform),
+            entry(1, T::Storage { read_only: true }),
+            entry(3, T::Storage { read_only: false }),
+            entry(5, T::Uniform),
+        ],
+    })
+}
+
 /// Builds the grid and points pipelines of `kind`'s module. The source is validated with
 /// naga first, so a shader error comes back as naga's report.
 pub fn create_pipelines(
@@ -142,14 +174,52 @@ pub fn create_pipelines(
     kind: PatchKind,
     precision: Precision,
 ) -> Result<Pipelines> {
+    create_pipelines_with(device, layout, kind, precision, false)
+}
+
+/// A module of this crate's own WGSL. With `runtime_checks` false it is created *trusted*:
+/// wgpu asks naga for no bounds checks and no loop bounding (`force_loop_bounding` adds a
+/// counter to every loop, and index clamps are added to every dynamic index of a local
+/// array; on lavapipe both cost far more than the arithmetic). Buffer accesses are still
+/// guarded by the driver's robust buffer access where it has it.
+///
+/// The shaders satisfy what that asks: every loop ends (constant bounds, and `grid_ij`'s
+/// search moves one way towards the one row holding its index), every index into a local
+/// array is below its length by construction, and the host sizes each binding for the
+/// threads it dispatches (threads past `count` return at once).
+pub fn shader_module(
+    device: &wgpu::Device,
+    label: &str,
+    source: String,
+    runtime_checks: bool,
+) -> wgpu::ShaderModule {
+    let desc = wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    };
+    if runtime_checks {
+        device.create_shader_module(desc)
+    } else {
+        // SAFETY: the crate's own shaders, which meet the conditions of
+        // `ShaderRuntimeChecks::unchecked` as the doc comment above explains; validated with
+        // naga before (`shaders::validate`).
+        unsafe { device.create_shader_module_trusted(desc, wgpu::ShaderRuntimeChecks::unchecked()) }
+    }
+}
+
+/// [`create_pipelines`], choosing whether wgpu adds its runtime checks ([`shader_module`]).
+pub fn create_pipelines_with(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    kind: PatchKind,
+    precision: Precision,
+    runtime_checks: bool,
+) -> Result<Pipelines> {
     let file = shaders::file_for(kind);
     let source = shaders::module_source(kind, precision)?;
     shaders::validate(&source, precision)
         .map_err(|e| Error::Gpu(format!("shaders/{} ({kind:?}): {e}", file.name)))?;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(file.name),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
+    let module = shader_module(device, file.name, source, runtime_checks);
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("g1tess eval"),
         bind_group_layouts: &[Some(layout)],
@@ -165,9 +235,31 @@ pub fn create_pipelines(
             cache: None,
         })
     };
+    // One thread per patch, where the device's uniform bindings hold the basis table.
+    let grid_patch = (device.limits().max_uniform_buffer_binding_size
+        >= shaders::UNIFORM_TABLE_BYTES as u64)
+        .then(|| {
+            let layout = patch_loop_bind_group_layout(device);
+            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("g1tess eval, patch loop"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(file.name),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some("grid_patch_main"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            (layout, pipeline)
+        });
     Ok(Pipelines {
         kind,
         precision,
+        runtime_checks,
+        grid_patch,
         grid: make("grid_main"),
         grid_table: make("grid_table_main"),
         points: make("points_main"),
@@ -262,11 +354,42 @@ pub fn dispatch(
     queue: &wgpu::Queue,
     pipeline: &wgpu::ComputePipeline,
     buffers: &Buffers,
-    mut params: Params,
+    params: Params,
     max_workgroups_per_dim: u32,
     copy_bytes: u64,
 ) {
-    let (gx, gy) = workgroups(params.count, max_workgroups_per_dim);
+    dispatch_threads(
+        device,
+        queue,
+        pipeline,
+        buffers,
+        &buffers.out,
+        &buffers.staging,
+        &buffers.bind_group,
+        params,
+        params.count,
+        max_workgroups_per_dim,
+        copy_bytes,
+    );
+}
+
+/// [`dispatch`] of `threads` threads with `bind_group` (threads ≠ samples: one thread per
+/// patch), copying from `out` to `staging`; returns the submission.
+#[allow(clippy::too_many_arguments)]
+fn dispatch_threads(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: &Buffers,
+    out: &wgpu::Buffer,
+    staging: &wgpu::Buffer,
+    bind_group: &wgpu::BindGroup,
+    mut params: Params,
+    threads: u32,
+    max_workgroups_per_dim: u32,
+    copy_bytes: u64,
+) -> wgpu::SubmissionIndex {
+    let (gx, gy) = workgroups(threads, max_workgroups_per_dim);
     params.groups_x = gx;
     queue.write_buffer(&buffers.params, 0, bytemuck::bytes_of(&params));
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -278,20 +401,20 @@ pub fn dispatch(
             timestamp_writes: None,
         });
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &buffers.bind_group, &[]);
+        pass.set_bind_group(0, bind_group, &[]);
         pass.dispatch_workgroups(gx, gy, 1);
     }
     if copy_bytes > 0 {
-        encoder.copy_buffer_to_buffer(&buffers.out, 0, &buffers.staging, 0, copy_bytes);
+        encoder.copy_buffer_to_buffer(out, 0, staging, 0, copy_bytes);
     }
-    queue.submit([encoder.finish()]);
+    queue.submit([encoder.finish()])
 }
 
 /// Appends the patch data of patch `i` to `out` (layout in `shaders/common.wgsl` and
 /// [`crate::gpu::shaders::patch_vecs`]): the control points, geometry relative to corner 0;
 /// the flat normal; corner 0's low part (corner 0 − its rounding to `R`); the three corners
 /// rounded once to `R`.
-fn push_patch_data<R: Real>(table: &PatchTable, i: usize, out: &mut Vec<R>) {
+pub(crate) fn push_patch_data<R: Real>(table: &PatchTable, i: usize, out: &mut Vec<R>) {
     let push =
         |out: &mut Vec<R>, v: DVec3| out.extend_from_slice(&[R::of(v.x), R::of(v.y), R::of(v.z)]);
     let start = out.len();
@@ -313,6 +436,108 @@ fn push_patch_data<R: Real>(table: &PatchTable, i: usize, out: &mut Vec<R>) {
         push(out, v);
     }
     debug_assert_eq!(out.len() - start, 3 * shaders::patch_vecs(table.kind));
+}
+
+/// The bind group of `grid_patch_main` ([`patch_loop_bind_group_layout`]) writing to `out`.
+fn patch_loop_bind_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &Buffers,
+    out: &wgpu::Buffer,
+    table: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+        wgpu::BindGroupEntry {
+            binding,
+            resource: buffer.as_entire_binding(),
+        }
+    }
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("g1tess eval, patch loop"),
+        layout,
+        entries: &[
+            entry(0, &buffers.params),
+            entry(1, &buffers.patch_data),
+            entry(3, out),
+            entry(5, table),
+        ],
+    })
+}
+
+/// One output buffer of a grid evaluation with its staging buffer and bind groups.
+struct Slot {
+    out: wgpu::Buffer,
+    staging: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    patch_bind_group: Option<wgpu::BindGroup>,
+}
+
+impl Slot {
+    /// A second output and staging buffer beside `buffers`' (the same sizes), sharing its
+    /// inputs.
+    fn second(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        buffers: &Buffers,
+        patch_loop: Option<(&wgpu::BindGroupLayout, &wgpu::Buffer)>,
+    ) -> Slot {
+        use wgpu::BufferUsages as U;
+        let buffer = |label, like: &wgpu::Buffer, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: like.size(),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let out = buffer("out (second)", &buffers.out, U::STORAGE | U::COPY_SRC);
+        let staging = buffer(
+            "staging (second)",
+            &buffers.staging,
+            U::MAP_READ | U::COPY_DST,
+        );
+        fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+            wgpu::BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            }
+        }
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("g1tess eval (second)"),
+            layout,
+            entries: &[
+                entry(0, &buffers.params),
+                entry(1, &buffers.patch_data),
+                entry(2, &buffers.points),
+                entry(3, &out),
+                entry(4, &buffers.grid_weights),
+            ],
+        });
+        let patch_bind_group = patch_loop
+            .map(|(layout, table)| patch_loop_bind_group(device, layout, buffers, &out, table));
+        Slot {
+            out,
+            staging,
+            bind_group,
+            patch_bind_group,
+        }
+    }
+}
+
+/// The basis of every grid point of `level` as `grid_u` of `shaders/common.wgsl` holds it:
+/// entry `local * stride + j` is (w, ∂w/∂s, ∂w/∂t, 0) of control point j, 4 reals each.
+/// `out` must hold them all.
+fn uniform_table<R: Real>(kind: PatchKind, level: u32, out: &mut [R]) {
+    let stride = kind.stride();
+    for (local, b) in grid_barycentrics(level).into_iter().enumerate() {
+        let w = kind.weights(b);
+        for j in 0..stride {
+            let o = (local * stride + j) * 4;
+            out[o] = R::of(w.w[j]);
+            out[o + 1] = R::of(w.ws[j]);
+            out[o + 2] = R::of(w.wt[j]);
+        }
+    }
 }
 
 /// Which corner `b` is (exactly the unit vector e_k), as the shaders decide it.
@@ -371,12 +596,13 @@ impl<R: Real> Samples<R> {
         &mut self,
         device: &wgpu::Device,
         staging: &wgpu::Buffer,
+        after: Option<wgpu::SubmissionIndex>,
         s0: usize,
         n: usize,
     ) -> Result<()> {
         let bytes = (n * OUT_REALS * std::mem::size_of::<R>()) as u64;
         let (pos, nrm) = (&mut self.pos[s0..s0 + n], &mut self.nrm[s0..s0 + n]);
-        read_buffer(device, staging, bytes, |b| {
+        read_buffer_after(device, staging, bytes, after, |b| {
             let v: &[[R; 3]] = bytemuck::try_cast_slice(b)
                 .map_err(|e| Error::Gpu(format!("result buffer: {e}")))?;
             pos.copy_from_slice(&v[..n]);
@@ -456,6 +682,17 @@ pub struct GpuEvaluator {
     /// backend does) when it is at most this many bytes; larger tables (very fine levels),
     /// or 0 here, compute the basis in the shader.
     pub max_grid_table_bytes: u64,
+    /// Keep wgpu's runtime checks (bounds checks, loop bounding) in the shaders; off by
+    /// default: the shaders are the crate's own ([`shader_module`]).
+    pub shader_runtime_checks: bool,
+    /// Grids that fit the uniform basis table run one thread per patch
+    /// (`grid_patch_main`) instead of one per sample: the default on software adapters
+    /// (`DeviceType::Cpu`, e.g. lavapipe), whose SIMD lanes then share each basis read.
+    pub patch_loop: bool,
+    /// Grids read back through two output buffers, so the device computes dispatch k + 1
+    /// while the results of dispatch k are handed to the consumer (default; off: one
+    /// buffer, device and host take turns).
+    pub double_buffer: bool,
     layout: wgpu::BindGroupLayout,
     pipelines: Mutex<Vec<Arc<Pipelines>>>,
 }
@@ -476,6 +713,9 @@ impl GpuEvaluator {
             max_binding_bytes: ctx.max_binding_bytes(),
             max_workgroups_per_dim: ctx.max_workgroups_per_dim(),
             max_grid_table_bytes: 32 << 20,
+            shader_runtime_checks: false,
+            patch_loop: ctx.info.device_type == wgpu::DeviceType::Cpu,
+            double_buffer: true,
             layout,
             pipelines: Mutex::new(Vec::new()),
             ctx,
@@ -497,17 +737,19 @@ impl GpuEvaluator {
             .pipelines
             .lock()
             .map_err(|_| Error::Gpu("pipeline cache poisoned".into()))?;
-        if let Some(p) = cache
-            .iter()
-            .find(|p| p.kind == kind && p.precision == self.precision)
-        {
+        if let Some(p) = cache.iter().find(|p| {
+            p.kind == kind
+                && p.precision == self.precision
+                && p.runtime_checks == self.shader_runtime_checks
+        }) {
             return Ok(p.clone());
         }
-        let p = Arc::new(create_pipelines(
+        let p = Arc::new(create_pipelines_with(
             &self.ctx.device,
             &self.layout,
             kind,
             self.precision,
+            self.shader_runtime_checks,
         )?);
         self.ctx.check()?;
         cache.push(p.clone());
@@ -586,9 +828,22 @@ impl GpuEvaluator {
             .min(by_uploads)
             .min((per_dispatch / per).max(1))
             .min(table.len());
-        let out_samples = (patches_per_chunk * per).min(per_dispatch);
+        let mut out_samples = (patches_per_chunk * per).min(per_dispatch);
         let table_bytes = (per * table.stride * 3 * rb) as u64;
         let use_table = table_bytes <= self.max_grid_table_bytes.min(self.max_binding_bytes);
+        // One thread per patch: whole patches per dispatch, the basis in a uniform table.
+        let patch_loop = match &pipes.grid_patch {
+            Some((layout, pipeline))
+                if self.patch_loop
+                    && use_table
+                    && per * table.stride * 4 * rb <= shaders::UNIFORM_TABLE_BYTES
+                    && out_samples >= per =>
+            {
+                out_samples -= out_samples % per;
+                Some((layout, pipeline))
+            }
+            _ => None,
+        };
         let buffers = Buffers::new(
             device,
             &self.layout,
@@ -597,7 +852,25 @@ impl GpuEvaluator {
             (out_samples * sample_bytes) as u64,
             if use_table { table_bytes } else { 32 },
         );
-        let pipeline = if use_table {
+        let patch_uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("grid basis (uniform)"),
+            size: if patch_loop.is_some() {
+                shaders::UNIFORM_TABLE_BYTES as u64
+            } else {
+                16
+            },
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let patch_bind_group = patch_loop.map(|(layout, _)| {
+            let mut flat: Vec<R> = vec![R::of(0.0); shaders::UNIFORM_TABLE_BYTES / rb];
+            uniform_table(table.kind, level, &mut flat);
+            queue.write_buffer(&patch_uniform, 0, bytemuck::cast_slice(&flat));
+            patch_loop_bind_group(device, layout, &buffers, &buffers.out, &patch_uniform)
+        });
+        let pipeline = if let Some((_, p)) = patch_loop {
+            p
+        } else if use_table {
             // The basis at every grid point, the same for every patch (computed once, as
             // the CPU backend does), laid out as `grid_w` of shaders/common.wgsl.
             let mut flat: Vec<R> = vec![R::of(0.0); per * table.stride * 3];
@@ -614,63 +887,171 @@ impl GpuEvaluator {
         } else {
             &pipes.grid
         };
-        let mut patch_data: Vec<R> = Vec::with_capacity(patches_per_chunk * upload_reals);
-        let mut samples = Samples::<R>::new();
+        // Every dispatch: (first patch of its chunk, patches of the chunk, first sample of
+        // the dispatch in the chunk, samples).
+        let mut jobs: Vec<(usize, usize, usize, usize)> = Vec::new();
         let mut first = 0;
         while first < table.len() {
             let count = patches_per_chunk.min(table.len() - first);
-            patch_data.clear();
-            for i in first..first + count {
-                push_patch_data(table, i, &mut patch_data);
-            }
-            queue.write_buffer(&buffers.patch_data, 0, bytemuck::cast_slice(&patch_data));
             let total = count * per;
-            if target.reads() {
-                samples.resize(total);
-            }
             let mut s0 = 0;
             while s0 < total {
                 let n = out_samples.min(total - s0);
-                let params = Params {
-                    count: n as u32,
-                    first_local: s0 as u32,
-                    level,
-                    per: per as u32,
-                    ..Default::default()
-                };
-                let copy = if target.reads() {
-                    (n * sample_bytes) as u64
-                } else {
-                    0
-                };
-                dispatch(
-                    device,
-                    queue,
-                    pipeline,
-                    &buffers,
-                    params,
-                    self.max_workgroups_per_dim,
-                    copy,
-                );
-                if target.reads() {
-                    samples.read(device, &buffers.staging, s0, n)?;
-                    self.ctx.check()?;
-                }
+                jobs.push((first, count, s0, n));
                 s0 += n;
             }
-            samples.deliver(target, first, |pos| {
-                // Grid index 0 is corner 0, index `level` (i = n, j = 0) corner 1, the
-                // last index (j = n) corner 2.
-                for (p, s) in pos.chunks_mut(per).enumerate() {
-                    for (k, local) in [0, level as usize, per - 1].into_iter().enumerate() {
-                        s[local] = table.corner(first + p, k);
-                    }
-                }
-            })?;
             first += count;
+        }
+        // Two output and staging buffers when results are read back and there is more than
+        // one dispatch: dispatch k + 1 is submitted before the results of dispatch k are
+        // read and handed to the target, so the device computes while the host consumes.
+        let mut slots = vec![Slot {
+            out: buffers.out.clone(),
+            staging: buffers.staging.clone(),
+            bind_group: buffers.bind_group.clone(),
+            patch_bind_group: patch_bind_group.clone(),
+        }];
+        if target.reads() && jobs.len() > 1 && self.double_buffer {
+            slots.push(Slot::second(
+                device,
+                &self.layout,
+                &buffers,
+                patch_loop.map(|(layout, _)| (layout, &patch_uniform)),
+            ));
+        }
+        let corners = |first: usize, pos: &mut [DVec3]| {
+            // Grid index 0 is corner 0, index `level` (i = n, j = 0) corner 1, the last
+            // index (j = n) corner 2.
+            for (p, s) in pos.chunks_mut(per).enumerate() {
+                for (k, local) in [0, level as usize, per - 1].into_iter().enumerate() {
+                    s[local] = table.corner(first + p, k);
+                }
+            }
+        };
+        let mut patch_data: Vec<R> = Vec::with_capacity(patches_per_chunk * upload_reals);
+        let mut samples = Samples::<R>::new();
+        let mut pending: Option<(usize, wgpu::SubmissionIndex)> = None;
+        for (k, &(first, count, s0, n)) in jobs.iter().enumerate() {
+            if s0 == 0 {
+                patch_data.clear();
+                for i in first..first + count {
+                    push_patch_data(table, i, &mut patch_data);
+                }
+                queue.write_buffer(&buffers.patch_data, 0, bytemuck::cast_slice(&patch_data));
+            }
+            let slot = &slots[k % slots.len()];
+            let params = Params {
+                count: n as u32,
+                first_local: s0 as u32,
+                level,
+                per: per as u32,
+                ..Default::default()
+            };
+            let copy = if target.reads() {
+                (n * sample_bytes) as u64
+            } else {
+                0
+            };
+            let (bind_group, threads) = match &slot.patch_bind_group {
+                Some(g) => (g, (n / per) as u32),
+                None => (&slot.bind_group, n as u32),
+            };
+            let index = dispatch_threads(
+                device,
+                queue,
+                pipeline,
+                &buffers,
+                &slot.out,
+                &slot.staging,
+                bind_group,
+                params,
+                threads,
+                self.max_workgroups_per_dim,
+                copy,
+            );
+            if !target.reads() {
+                continue;
+            }
+            // With one slot, the dispatch just submitted is the one read.
+            let ready = if slots.len() == 1 {
+                Some((k, index))
+            } else {
+                pending.replace((k, index))
+            };
+            if let Some((j, index)) = ready {
+                self.complete(
+                    &jobs,
+                    j,
+                    &slots[j % slots.len()].staging,
+                    index,
+                    per,
+                    &mut samples,
+                    target,
+                    &corners,
+                )?;
+            }
+        }
+        if let Some((j, index)) = pending {
+            self.complete(
+                &jobs,
+                j,
+                &slots[j % slots.len()].staging,
+                index,
+                per,
+                &mut samples,
+                target,
+                &corners,
+            )?;
         }
         self.ctx.wait()?;
         self.ctx.check()
+    }
+
+    /// Reads dispatch `j` of `jobs` back from `staging` (once submission `index` is done)
+    /// into its chunk's samples and, after the chunk's last dispatch, hands the chunk to
+    /// `target`. A chunk of one dispatch read as f32 by an f32 target goes from the mapped
+    /// buffer straight to the target, without a copy.
+    #[allow(clippy::too_many_arguments)]
+    fn complete<R: Real>(
+        &self,
+        jobs: &[(usize, usize, usize, usize)],
+        j: usize,
+        staging: &wgpu::Buffer,
+        index: wgpu::SubmissionIndex,
+        per: usize,
+        samples: &mut Samples<R>,
+        target: &mut Target<'_>,
+        corners: &dyn Fn(usize, &mut [DVec3]),
+    ) -> Result<()> {
+        let device = &self.ctx.device;
+        let (first, count, s0, n) = jobs[j];
+        let total = count * per;
+        if let (Target::F32(sink), true, true) = (
+            &mut *target,
+            R::PRECISION == Precision::F32,
+            s0 == 0 && n == total,
+        ) {
+            let bytes = (n * OUT_REALS * 4) as u64;
+            read_buffer_after(device, staging, bytes, Some(index), |b| {
+                let v: &[[f32; 3]] = bytemuck::try_cast_slice(b)
+                    .map_err(|e| Error::Gpu(format!("result buffer: {e}")))?;
+                sink(Chunk {
+                    first,
+                    positions: &v[..n],
+                    normals: &v[n..2 * n],
+                })
+            })??;
+            return self.ctx.check();
+        }
+        if s0 == 0 {
+            samples.resize(total);
+        }
+        samples.read(device, staging, Some(index), s0, n)?;
+        self.ctx.check()?;
+        if s0 + n == total {
+            samples.deliver(target, first, |pos| corners(first, pos))?;
+        }
+        Ok(())
     }
 
     fn points<R: Real>(
@@ -753,7 +1134,7 @@ impl GpuEvaluator {
             );
             if target.reads() {
                 samples.resize(n);
-                samples.read(device, &buffers.staging, 0, n)?;
+                samples.read(device, &buffers.staging, None, 0, n)?;
                 self.ctx.check()?;
             }
             for i in used.drain(..) {
@@ -785,6 +1166,75 @@ impl GpuEvaluator {
             samples: grid_len(level.max(1)) * table.len(),
             elapsed: start.elapsed(),
         })
+    }
+}
+
+impl GpuEvaluator {
+    /// The device's ceiling for an evaluation: `samples` invocations of the minimal shader
+    /// (`shaders/ceiling.wgsl`: 24 bytes written per invocation from its index, nothing
+    /// read), dispatched in the chunks a grid uses, waiting for the device, nothing read
+    /// back. The pipeline is built before the clock starts.
+    pub fn time_ceiling(&self, samples: usize) -> Result<GridTiming> {
+        let (device, queue) = (&self.ctx.device, &self.ctx.queue);
+        let source = shaders::ceiling_source();
+        shaders::validate(&source, Precision::F32)
+            .map_err(|e| Error::Gpu(format!("shaders/{}: {e}", shaders::CEILING.name)))?;
+        let module = shader_module(
+            device,
+            shaders::CEILING.name,
+            source,
+            self.shader_runtime_checks,
+        );
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("g1tess ceiling"),
+            bind_group_layouts: &[Some(&self.layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(shaders::CEILING.name),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("ceiling_main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let sample_bytes = OUT_REALS * 4;
+        let per_dispatch = self
+            .limit_samples(sample_bytes)?
+            .min(self.chunk_samples.max(1))
+            .min(samples.max(1));
+        let buffers = Buffers::new(
+            device,
+            &self.layout,
+            32,
+            32,
+            (per_dispatch * sample_bytes) as u64,
+            32,
+        );
+        self.ctx.check()?;
+        let start = Instant::now();
+        let mut s0 = 0;
+        while s0 < samples {
+            let n = per_dispatch.min(samples - s0);
+            let params = Params {
+                count: n as u32,
+                ..Default::default()
+            };
+            dispatch(
+                device,
+                queue,
+                &pipeline,
+                &buffers,
+                params,
+                self.max_workgroups_per_dim,
+                0,
+            );
+            s0 += n;
+        }
+        self.ctx.wait()?;
+        let elapsed = start.elapsed();
+        self.ctx.check()?;
+        Ok(GridTiming { samples, elapsed })
     }
 }
 

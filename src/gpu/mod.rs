@@ -21,6 +21,7 @@
 pub mod readback;
 pub mod shaders;
 pub mod tessellator;
+pub mod stats;
 
 pub use readback::read_buffer;
 pub use tessellator::GpuTessellator;
@@ -217,6 +218,20 @@ impl GpuContext {
     pub fn wait(&self) -> Result<()> {
         wait(&self.device)
     }
+}
+
+/// The Vulkan adapters this process can open (name, driver, device type), without opening a
+/// device; empty where there is no Vulkan driver. Callers choosing between the GPU and the
+/// CPU read `device_type`: [`wgpu::DeviceType::Cpu`] is a software rasteriser (lavapipe)
+/// running on the same cores as the CPU backend.
+pub fn vulkan_adapters() -> Vec<wgpu::AdapterInfo> {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    desc.backends = wgpu::Backends::VULKAN;
+    let instance = wgpu::Instance::new(desc);
+    pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN))
+        .iter()
+        .map(|a| a.get_info())
+        .collect()
 }
 
 /// Blocks until every submitted command of `device` has finished.

@@ -27,6 +27,19 @@ pub fn read_buffer<T>(
     bytes: u64,
     f: impl FnOnce(&[u8]) -> T,
 ) -> Result<T> {
+    read_buffer_after(device, buffer, bytes, None, f)
+}
+
+/// [`read_buffer`] waiting only for submission `after` (the one that wrote `buffer`), not
+/// for every submission: work submitted later keeps running while `f` reads (double
+/// buffering). `None` waits for everything submitted.
+pub fn read_buffer_after<T>(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    bytes: u64,
+    after: Option<wgpu::SubmissionIndex>,
+    f: impl FnOnce(&[u8]) -> T,
+) -> Result<T> {
     if bytes == 0 {
         return Ok(f(&[]));
     }
@@ -41,7 +54,12 @@ pub fn read_buffer<T>(
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
     });
-    super::wait(device)?;
+    device
+        .poll(wgpu::PollType::Wait {
+            submission_index: after,
+            timeout: None,
+        })
+        .map_err(|e| Error::Gpu(format!("device poll: {e}")))?;
     rx.recv()
         .map_err(|_| Error::Gpu("reading a buffer back: the map callback never ran".into()))?
         .map_err(|e| Error::Gpu(format!("reading a buffer back: mapping failed: {e}")))?;
