@@ -244,7 +244,7 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
                 "points_per_triangle": crate::tess::adaptive::DEVIATION_POINTS.len(),
                 "measured_points": t.deviation.points,
                 "measured_on": "the f64 reference surface of the same levels",
-                "refinement_rounds": t.rounds,
+                "measurements": t.rounds + 1,
                 "max_level": cap,
                 "capped_patches": t.capped_patches,
                 "edge_levels": range(&t.levels.edges),
@@ -268,13 +268,13 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         if let (Some(t), Some(eps)) = (&chosen, eps) {
             eprintln!(
                 "tolerance {eps:.3e}: measured deviation {:.3e} at {} points of {} triangles, \
-                 edge levels {}..{}, {} refinement round(s)",
+                 edge levels {}..{}, {} measurement(s)",
                 t.deviation.max,
                 t.deviation.points,
                 t.deviation.triangles,
                 t.levels.edges.iter().min().unwrap_or(&1),
                 t.levels.edges.iter().max().unwrap_or(&1),
-                t.rounds
+                t.rounds + 1
             );
         }
     }
