@@ -5,6 +5,29 @@
 //! pattern of [`crate::tess::layout`]: both triangles of an edge use the edge's one level,
 //! so the output is watertight by construction.
 //!
+//! ```
+//! use g1tess::eval::cpu::CpuEvaluator;
+//! use g1tess::mesh::{LoadOptions, Mesh};
+//! use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+//! use g1tess::tess::adaptive::{InnerRule, Levels};
+//! use g1tess::tess::stitch::{stitch_plan, StitchPlan};
+//!
+//! let mesh = Mesh::load("sphere320", &LoadOptions::default())?;
+//! let adjacency = mesh.adjacency();
+//! let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default())?;
+//! // About one segment per 0.05 units of edge length; patches as fine as their finest edge.
+//! let levels = Levels::from_fn(
+//!     &mesh,
+//!     &adjacency,
+//!     |e| (e.p[0].distance(e.p[1]) / 0.05).ceil().max(1.0) as u32,
+//!     InnerRule::Max,
+//! )?;
+//! let plan = StitchPlan::with_levels(&mesh, &adjacency, &levels)?;
+//! let (surface, _snap) = stitch_plan::<[f32; 3]>(&plan, &table, &CpuEvaluator::default())?;
+//! assert_eq!(surface.triangles.len(), plan.triangles);
+//! # Ok::<(), g1tess::Error>(())
+//! ```
+//!
 //! **Tolerance.** The levels come from a measured curvature proxy, then are checked by
 //! sampling:
 //! 1. every patch is evaluated (f64) on the grid of level 4; the largest second difference
