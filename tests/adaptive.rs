@@ -597,3 +597,81 @@ fn cli_tolerance_reports_what_it_measured() {
     assert_ne!(o.status.code(), Some(0));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn every_writer_takes_per_edge_levels() {
+    let dir = std::env::temp_dir().join(format!("g1tess-adaptive-fmt-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // fandisk with creases: split normals along the crease edges.
+    let fandisk = common::shared_spec("fandisk.obj");
+    let mut counts = Vec::new();
+    for ext in ["obj", "ply", "stl", "glb"] {
+        let out = dir.join(format!("f.{ext}"));
+        let o = g1tess(&[
+            "tessellate",
+            &fandisk,
+            "--crease-angle",
+            "30",
+            "--tolerance-rel",
+            "3e-4",
+            "--backend",
+            "cpu",
+            "-q",
+            "--json",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(j["adaptive"]["tolerance_met"], true);
+        assert!(j["crease_edges"].as_u64().unwrap() > 0);
+        let tris = j["triangles"].as_u64().unwrap();
+        let file_vertices = j["file_vertices"].as_u64().unwrap();
+        let bytes = std::fs::read(&out).unwrap();
+        // Each file's own count of triangles and vertices, read from its bytes.
+        let (t, v) = match ext {
+            "obj" => {
+                let text = String::from_utf8(bytes).unwrap();
+                let n = |p: &str| text.lines().filter(|l| l.starts_with(p)).count() as u64;
+                (n("f "), n("v "))
+            }
+            "ply" => {
+                let end = bytes
+                    .windows(11)
+                    .position(|w| w == b"end_header\n")
+                    .unwrap();
+                let header = String::from_utf8_lossy(&bytes[..end]).to_string();
+                let count = |e: &str| {
+                    header
+                        .lines()
+                        .find_map(|l| l.strip_prefix(&format!("element {e} ")))
+                        .unwrap()
+                        .trim()
+                        .parse::<u64>()
+                        .unwrap()
+                };
+                (count("face"), count("vertex"))
+            }
+            "stl" => {
+                let n = u32::from_le_bytes(bytes[80..84].try_into().unwrap()) as u64;
+                assert_eq!(bytes.len() as u64, 84 + 50 * n);
+                (n, file_vertices)
+            }
+            _ => {
+                let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+                let json: serde_json::Value = serde_json::from_slice(&bytes[20..20 + len]).unwrap();
+                let acc = json["accessors"].as_array().unwrap();
+                let v = acc[0]["count"].as_u64().unwrap();
+                let i = acc.iter().find(|a| a["type"] == "SCALAR").unwrap()["count"]
+                    .as_u64()
+                    .unwrap();
+                (i / 3, v)
+            }
+        };
+        assert_eq!((t, v), (tris, file_vertices), "{ext}");
+        counts.push(tris);
+    }
+    // The same levels whatever the format.
+    assert!(counts.windows(2).all(|w| w[0] == w[1]), "{counts:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
