@@ -128,6 +128,22 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     };
     let chosen: Option<ToleranceLevels> = match eps {
         Some(eps) => {
+            // The levels are not known before they are measured: refuse up front what the
+            // cap could need (the measurements hold the same stitch store, in f64).
+            let (need, _, _) = tessellation_need(
+                &mesh,
+                adjacency.edges.len(),
+                table.stride,
+                cap,
+                format.needs(),
+                format.buffer_bytes(cap, mesh.triangles.len()),
+            );
+            a.memory.budget().check(
+                "tessellate",
+                &format!("levels up to the cap {cap}"),
+                need.saturating_mul(2),
+                "the f64 measurements at the level cap; lower --max-level",
+            )?;
             let bar = progress::bar(mesh.triangles.len() as u64, "measuring", "patches", a.quiet);
             let t = levels_for_tolerance(
                 &mesh,
