@@ -4,9 +4,11 @@ selected mesh into a smooth G1 surface with the g1tess program.
 
 - File > Export > g1tess Point-Normal (.pn)
 - Object > G1 Smooth: exports the active mesh, runs
-  `g1tess tessellate FILE.pn --scheme S --level N -o OUT.obj --json`, and imports the
-  result as a new object beside the original, shaded smooth, with g1tess's normals as
-  custom normals.
+  `g1tess tessellate FILE.pn --scheme S --level N -o OUT.obj --json` (or, with Detail set
+  to Tolerance, `--tolerance-rel R --max-level M` instead of `--level N`: levels per edge
+  chosen so that the flat triangles stay within R x the bounding-box diagonal of the
+  curved surface), and imports the result as a new object beside the original, shaded
+  smooth, with g1tess's normals as custom normals.
 - The path of the g1tess binary is set in the add-on's preferences (empty: `g1tess` on
   the PATH).
 """
@@ -31,7 +33,7 @@ import tempfile
 
 import bpy
 import numpy as np
-from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 from mathutils import Vector
 
@@ -230,10 +232,22 @@ def export_pn(context, obj, filepath, use_world_space=True, normals="AUTO", appl
         raise G1TessError("cannot write %s: %s" % (filepath, e.strerror or e)) from None
 
 
-def run_g1tess(binary, pn_path, out_path, scheme, level):
-    """Runs `g1tess tessellate` and returns its --json summary."""
-    cmd = [binary, "tessellate", pn_path, "--scheme", scheme, "--level", str(level)]
-    cmd += ["-o", out_path, "--json"]
+def tessellate_command(binary, pn_path, out_path, scheme, level, tolerance_rel=None, max_level=64):
+    """The `g1tess tessellate` command line: a uniform level, or (tolerance_rel given) levels
+    per edge for a tolerance of tolerance_rel x the bounding-box diagonal, capped at
+    max_level."""
+    cmd = [binary, "tessellate", pn_path, "--scheme", scheme]
+    if tolerance_rel is None:
+        cmd += ["--level", str(level)]
+    else:
+        cmd += ["--tolerance-rel", repr(float(tolerance_rel)), "--max-level", str(max_level)]
+    return cmd + ["-o", out_path, "--json"]
+
+
+def run_g1tess(binary, pn_path, out_path, scheme, level, tolerance_rel=None, max_level=64):
+    """Runs `g1tess tessellate` and returns its --json summary (a tolerance run's
+    "adaptive" fields flattened with the prefix "adaptive_")."""
+    cmd = tessellate_command(binary, pn_path, out_path, scheme, level, tolerance_rel, max_level)
     try:
         done = subprocess.run(cmd, capture_output=True, text=True)
     except OSError as e:
@@ -250,6 +264,10 @@ def run_g1tess(binary, pn_path, out_path, scheme, level):
         raise G1TessError(
             "g1tess printed no JSON summary (is '%s' a g1tess binary?)" % binary
         ) from None
+    adaptive = summary.pop("adaptive", None)
+    if isinstance(adaptive, dict):
+        for k, v in adaptive.items():
+            summary["adaptive_" + k] = v
     return summary
 
 
@@ -331,9 +349,32 @@ class OBJECT_OT_g1tess_smooth(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     scheme: EnumProperty(name="Scheme", items=SCHEMES, default="g1")
+    detail: EnumProperty(
+        name="Detail",
+        items=(
+            ("LEVEL", "Level", "The same number of segments on every triangle edge"),
+            (
+                "TOLERANCE",
+                "Tolerance",
+                "Segments per edge chosen so that the flat triangles stay within the "
+                "tolerance of the curved surface (measured by g1tess)",
+            ),
+        ),
+        default="LEVEL",
+    )
     level: IntProperty(
         name="Level", description="Segments per triangle edge", default=8, min=1, max=64,
         soft_max=32,
+    )
+    tolerance: FloatProperty(
+        name="Tolerance",
+        description="Largest distance of the flat triangles from the curved surface, as a "
+        "fraction of the bounding-box diagonal",
+        default=1e-3, min=1e-7, max=0.1, precision=6,
+    )
+    max_level: IntProperty(
+        name="Max Level", description="Cap on the segments per edge the tolerance may ask for",
+        default=64, min=1, max=4096, soft_max=128,
     )
     normals: EnumProperty(name="Normals", items=NORMAL_MODES, default="AUTO")
     apply_modifiers: BoolProperty(name="Apply Modifiers", default=True)
@@ -366,9 +407,15 @@ class OBJECT_OT_g1tess_smooth(bpy.types.Operator):
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
         info = new["g1tess"]
+        if self.detail == "TOLERANCE":
+            detail = "tolerance %g, measured deviation %.3g" % (
+                info["adaptive_tolerance"], info["adaptive_max_deviation"]
+            )
+        else:
+            detail = "level %d" % self.level
         self.report(
-            {"INFO"}, "%s: %d vertices, %d triangles (%s, level %d)"
-            % (new.name, info["vertices"], info["triangles"], self.scheme, self.level)
+            {"INFO"}, "%s: %d vertices, %d triangles (%s, %s)"
+            % (new.name, info["vertices"], info["triangles"], self.scheme, detail)
         )
         return {"FINISHED"}
 
@@ -383,7 +430,10 @@ class OBJECT_OT_g1tess_smooth(bpy.types.Operator):
             pn_path = os.path.join(work, stem + ".pn")
             out_path = os.path.join(work, "%s.%s.obj" % (stem, self.scheme))
             export_pn(context, obj, pn_path, False, self.normals, self.apply_modifiers)
-            summary = run_g1tess(binary, pn_path, out_path, self.scheme, self.level)
+            tolerance = self.tolerance if self.detail == "TOLERANCE" else None
+            summary = run_g1tess(
+                binary, pn_path, out_path, self.scheme, self.level, tolerance, self.max_level
+            )
             try:
                 data = pnio.read_obj(out_path)
             except (OSError, ValueError) as e:

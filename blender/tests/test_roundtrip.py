@@ -296,6 +296,34 @@ def suzanne():
     assert s["boundary_edges"] > 0 and s["nonmanifold_edges"] == 0
 
 
+@check("G1 Smooth with Detail = Tolerance: per-edge levels within the measured tolerance")
+def tolerance_detail():
+    clear_scene()
+    obj = make_icosphere()
+    activate(obj)
+    keep = os.path.join(WORK, "tolerance")
+    r = bpy.ops.object.g1tess_smooth(
+        scheme="g1", detail="TOLERANCE", tolerance=1e-3, max_level=16, keep_dir=keep
+    )
+    assert r == {"FINISHED"}, r
+    new = bpy.context.active_object
+    info = new["g1tess"]
+    # What g1tess measured (10 points in every output triangle) is within what was asked.
+    assert info["adaptive_tolerance_met"]
+    assert info["adaptive_max_deviation"] <= info["adaptive_tolerance"]
+    assert info["adaptive_measured_triangles"] == info["triangles"]
+    # The tolerance is relative to the diagonal of the exported mesh's bounding box.
+    ppos, _, _, _ = read_pn(info["input"])
+    diagonal = float(np.linalg.norm(ppos.max(axis=0) - ppos.min(axis=0)))
+    assert abs(info["adaptive_tolerance"] - 1e-3 * diagonal) <= 1e-12 * diagonal
+    # The object is the file, and the file has the reported counts.
+    pos, _, faces, _ = read_obj(info["output"])
+    assert len(faces) == info["triangles"] == len(new.data.polygons)
+    assert len(pos) == info["vertices"] == len(new.data.vertices)
+    # Fewer triangles than level 8 gives.
+    assert info["triangles"] < 320 * LEVEL**2, info["triangles"]
+
+
 @check("Blender's own OBJ export of the torus (4-decimal normals) is G1 in g1tess")
 def blender_obj_export():
     clear_scene()

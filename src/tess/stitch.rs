@@ -45,11 +45,13 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::eval::pattern::grid_index;
-use crate::eval::{grid_len, grid_triangles, Chunk, Evaluator, Pattern, Vector};
+use crate::eval::{grid_len, grid_triangles, Chunk, Evaluator, PatchPoint, Pattern, Vector};
 use crate::mesh::creases::{normal_key, split_ends};
 use crate::mesh::{Adjacency, Mesh};
 use crate::patch::PatchTable;
 use crate::progress::{NoProgress, Progress};
+use crate::tess::adaptive::Levels;
+use crate::tess::layout;
 use crate::{Error, Result};
 
 const NONE: u32 = u32::MAX;
@@ -107,6 +109,20 @@ pub struct StitchPlan {
     corner_g: [u32; 3],
     edge_g: Vec<u32>,
     interior: Vec<Range<usize>>,
+    /// Per-edge levels ([`StitchPlan::with_levels`]); `None` for a uniform plan.
+    adaptive: Option<Box<AdaptivePlan>>,
+}
+
+/// The per-edge part of a non-uniform plan.
+#[derive(Clone, Debug)]
+struct AdaptivePlan {
+    /// Level of each edge (index in the adjacency).
+    edge_level: Vec<u32>,
+    /// Inner level of each patch, as given (the pattern raises it where it must,
+    /// [`layout::effective_inner`]).
+    inner: Vec<u32>,
+    /// Store slot of each edge's first sample (after the input vertices).
+    edge_store: Vec<u32>,
 }
 
 /// Grid index of corner k of the grid of level n.
@@ -141,25 +157,55 @@ impl StitchPlan {
         if level == 0 {
             return Err(Error::Invalid("level must be at least 1".into()));
         }
+        Self::build(mesh, adjacency, level, None)
+    }
+
+    /// Plans the stitched output of `mesh` with a level per edge and an inner level per
+    /// patch ([`Levels`]; the pattern of each patch is [`layout`]'s). Where every edge and
+    /// inner level are equal this is [`StitchPlan::new`] of that level: the same
+    /// numbering, evaluated on the grid.
+    pub fn with_levels(mesh: &Mesh, adjacency: &Adjacency, levels: &Levels) -> Result<StitchPlan> {
+        levels.check(mesh, adjacency)?;
+        if let Some(n) = levels.uniform_level() {
+            return Self::new(mesh, adjacency, n);
+        }
+        let mut edge_store = Vec::with_capacity(levels.edges.len());
+        let mut slot = 0u64;
+        for &l in &levels.edges {
+            edge_store.push(slot.min(NONE as u64) as u32);
+            slot += l as u64 - 1;
+        }
+        let top = levels
+            .edges
+            .iter()
+            .chain(&levels.inner)
+            .copied()
+            .max()
+            .unwrap_or(1);
+        let adaptive = AdaptivePlan {
+            edge_level: levels.edges.clone(),
+            inner: levels.inner.clone(),
+            edge_store,
+        };
+        Self::build(mesh, adjacency, top, Some(Box::new(adaptive)))
+    }
+
+    fn build(
+        mesh: &Mesh,
+        adjacency: &Adjacency,
+        level: u32,
+        adaptive: Option<Box<AdaptivePlan>>,
+    ) -> Result<StitchPlan> {
         let n = level;
         let nf = mesh.triangles.len();
         let nv = mesh.positions.len();
         let ne = adjacency.edges.len();
-        let per_edge = (n - 1) as u64;
-        let per_interior = ((n as u64).saturating_sub(1) * (n as u64).saturating_sub(2)) / 2;
-        // Upper bound on records: every corner, edge use and interior point its own.
-        let bound = nv as u64 + 3 * nf as u64 * (1 + per_edge) + nf as u64 * per_interior;
-        if bound >= NONE as u64 {
-            return Err(Error::Invalid(format!(
-                "{}: level {level} gives too many vertices for 32-bit indices",
-                mesh.name
-            )));
-        }
+        let uniform = adaptive.is_none();
         let mut plan = StitchPlan {
             level,
             positions: 0,
             records: 0,
-            triangles: nf * (n as usize) * (n as usize),
+            triangles: 0,
             report: StitchReport {
                 boundary_edges: adjacency.boundary,
                 nonmanifold_edges: adjacency.nonmanifold,
@@ -180,16 +226,20 @@ impl StitchPlan {
             interior_pos: vec![NONE; nf],
             interior_rec: vec![NONE; nf],
             corner_g: [0, 1, 2].map(|k| corner_grid(n, k) as u32),
-            edge_g: (0..3)
-                .flat_map(|k| (1..n).map(move |i| edge_grid(n, k, i) as u32))
-                .collect(),
-            interior: interior_rows(n),
+            edge_g: if uniform {
+                (0..3)
+                    .flat_map(|k| (1..n).map(move |i| edge_grid(n, k, i) as u32))
+                    .collect()
+            } else {
+                Vec::new()
+            },
+            interior: if uniform {
+                interior_rows(n)
+            } else {
+                Vec::new()
+            },
+            adaptive,
         };
-        let split: Vec<bool> = split_ends(mesh, adjacency)
-            .iter()
-            .map(|s| s[0] || s[1])
-            .collect();
-        plan.report.split_edges = split.iter().filter(|&&s| s).count();
         for (e, edge) in adjacency.edges.iter().enumerate() {
             for u in &edge.uses {
                 let i = 3 * u.triangle as usize + u.local as usize;
@@ -198,6 +248,32 @@ impl StitchPlan {
                     mesh.triangles[u.triangle as usize][u.local as usize] != edge.v[0];
             }
         }
+        // Upper bound on records: every corner, edge use and interior point its own.
+        let mut bound = nv as u64;
+        let mut triangles = 0u64;
+        for p in 0..nf {
+            let (e, inner) = plan.patch_levels(p);
+            bound += 3 + e.iter().map(|&l| l as u64 - 1).sum::<u64>();
+            bound += layout::interior_count(e, inner) as u64;
+            triangles += layout::triangle_count(e, inner) as u64;
+        }
+        if bound >= NONE as u64 || triangles >= NONE as u64 {
+            return Err(Error::Invalid(format!(
+                "{}: {} gives too many vertices for 32-bit indices",
+                mesh.name,
+                if uniform {
+                    format!("level {level}")
+                } else {
+                    format!("levels up to {level}")
+                }
+            )));
+        }
+        plan.triangles = triangles as usize;
+        let split: Vec<bool> = split_ends(mesh, adjacency)
+            .iter()
+            .map(|s| s[0] || s[1])
+            .collect();
+        plan.report.split_edges = split.iter().filter(|&&s| s).count();
         let mut groups: HashMap<(u32, [u64; 3]), u32> = HashMap::new();
         let (mut pos, mut rec) = (0u32, 0u32);
         for (t, tri) in mesh.triangles.iter().enumerate() {
@@ -223,25 +299,28 @@ impl StitchPlan {
             for k in 0..3 {
                 let u = 3 * t + k;
                 let e = plan.use_edge[u] as usize;
+                let samples = plan.edge_samples(e);
                 if plan.edge_pos[e] == NONE {
                     plan.edge_pos[e] = pos;
                     plan.edge_owner[e] = u as u32;
-                    pos += n - 1;
+                    pos += samples;
                     plan.use_rec[u] = rec;
                     plan.use_new_rec[u] = true;
-                    rec += n - 1;
+                    rec += samples;
                 } else if split[e] {
                     plan.use_rec[u] = rec;
                     plan.use_new_rec[u] = true;
-                    rec += n - 1;
+                    rec += samples;
                 } else {
                     plan.use_rec[u] = plan.use_rec[plan.edge_owner[e] as usize];
                 }
             }
+            let (e, inner) = plan.patch_levels(t);
+            let interior = layout::interior_count(e, inner) as u32;
             plan.interior_pos[t] = pos;
             plan.interior_rec[t] = rec;
-            pos += per_interior as u32;
-            rec += per_interior as u32;
+            pos += interior;
+            rec += interior;
         }
         plan.positions = pos as usize;
         plan.records = rec as usize;
@@ -254,26 +333,138 @@ impl StitchPlan {
         self.tris.len()
     }
 
+    /// Whether every patch is the grid of [`level`](Self::level) (evaluated with
+    /// [`Pattern::Grid`], samples in grid order); otherwise patches have their own
+    /// patterns, evaluated through [`Pattern::Points`] in [`layout`]'s local order.
+    pub fn is_uniform(&self) -> bool {
+        self.adaptive.is_none()
+    }
+
+    /// Level of edge `e` (index in the adjacency).
+    pub fn edge_level(&self, e: usize) -> u32 {
+        match &self.adaptive {
+            Some(a) => a.edge_level[e],
+            None => self.level,
+        }
+    }
+
+    /// Samples strictly inside edge `e`.
+    fn edge_samples(&self, e: usize) -> u32 {
+        self.edge_level(e) - 1
+    }
+
+    /// Levels of patch `p`: its local edges (corner k → k + 1) and its inner level.
+    pub fn patch_levels(&self, p: usize) -> ([u32; 3], u32) {
+        match &self.adaptive {
+            Some(a) => (
+                [0, 1, 2].map(|k| a.edge_level[self.use_edge[3 * p + k] as usize]),
+                a.inner[p],
+            ),
+            None => ([self.level; 3], self.level),
+        }
+    }
+
+    /// Samples of patch `p`.
+    pub fn patch_len(&self, p: usize) -> usize {
+        match &self.adaptive {
+            Some(_) => {
+                let (e, inner) = self.patch_levels(p);
+                layout::point_count(e, inner)
+            }
+            None => grid_len(self.level),
+        }
+    }
+
+    /// Barycentric coordinates of patch `p`'s samples in its sample order (grid order for a
+    /// uniform plan, [`layout`]'s local order otherwise), appended to `out`.
+    pub fn patch_points(&self, p: usize, out: &mut Vec<[f64; 3]>) {
+        match &self.adaptive {
+            Some(_) => {
+                let (e, inner) = self.patch_levels(p);
+                layout::points(e, inner, out);
+            }
+            None => out.extend(crate::eval::grid_barycentrics(self.level)),
+        }
+    }
+
+    /// Triangles of patch `p` as indices into its samples (in sample order), appended to
+    /// `out`.
+    pub fn patch_local_triangles(&self, p: usize, out: &mut Vec<[u32; 3]>) {
+        match &self.adaptive {
+            Some(_) => {
+                let (e, inner) = self.patch_levels(p);
+                layout::triangles(e, inner, out);
+            }
+            None => out.extend(grid_triangles(self.level)),
+        }
+    }
+
     /// Input vertices, input edges (for the boundary store).
     fn store_len(&self) -> usize {
-        self.vertices + self.edge_pos.len() * (self.level as usize - 1)
+        match &self.adaptive {
+            Some(a) => self.vertices + a.edge_level.iter().map(|&l| l as usize - 1).sum::<usize>(),
+            None => self.vertices + self.edge_pos.len() * (self.level as usize - 1),
+        }
     }
 
     /// Store slot of edge `e`'s canonical sample m (1..n).
     fn edge_slot(&self, e: u32, m: u32) -> usize {
-        self.vertices + e as usize * (self.level as usize - 1) + (m as usize - 1)
+        match &self.adaptive {
+            Some(a) => self.vertices + a.edge_store[e as usize] as usize + (m as usize - 1),
+            None => self.vertices + e as usize * (self.level as usize - 1) + (m as usize - 1),
+        }
     }
 
-    /// Grid indices of the samples of local edge k at steps 1..n (from corner k).
-    fn edge_grids(&self, k: usize) -> &[u32] {
-        let m = self.level as usize - 1;
-        &self.edge_g[k * m..(k + 1) * m]
+    /// Where patch `p`'s corners, edge samples and interior lie in its samples. A uniform
+    /// plan answers from its per-level tables; otherwise `scratch` holds the answer.
+    fn local_map<'s>(&'s self, p: usize, scratch: &'s mut LocalScratch) -> LocalMap<'s> {
+        match &self.adaptive {
+            None => {
+                let m = self.level as usize - 1;
+                LocalMap {
+                    corner: self.corner_g,
+                    edges: [0, 1, 2].map(|k| &self.edge_g[k * m..(k + 1) * m]),
+                    interior: &self.interior,
+                }
+            }
+            Some(_) => {
+                let (e, inner) = self.patch_levels(p);
+                let (ranges, interior) = layout::local_edges(e, inner);
+                scratch.edges.clear();
+                let mut ends = [0usize; 3];
+                for (k, r) in ranges.into_iter().enumerate() {
+                    scratch.edges.extend(r);
+                    ends[k] = scratch.edges.len();
+                }
+                scratch.interior.clear();
+                scratch.interior.push(interior);
+                let (a, rest) = scratch.edges.split_at(ends[0]);
+                let (b, c) = rest.split_at(ends[1] - ends[0]);
+                LocalMap {
+                    corner: [0, 1, 2],
+                    edges: [a, b, c],
+                    interior: &scratch.interior,
+                }
+            }
+        }
     }
 
-    /// Record id and position id of every grid point of patch `p`, in grid order.
+    /// Record id and position id of every sample of patch `p`, in its sample order (grid
+    /// order for a uniform plan).
     pub fn local_ids(&self, p: usize, rec: &mut Vec<u32>, pos: &mut Vec<u32>) {
-        let len = grid_len(self.level);
-        // Every grid point is written below (corners, edges, interior), so buffers of the
+        let mut scratch = LocalScratch::default();
+        self.local_ids_with(p, rec, pos, &mut scratch)
+    }
+
+    fn local_ids_with(
+        &self,
+        p: usize,
+        rec: &mut Vec<u32>,
+        pos: &mut Vec<u32>,
+        scratch: &mut LocalScratch,
+    ) {
+        let len = self.patch_len(p);
+        // Every sample is written below (corners, edges, interior), so buffers of the
         // right length are reused as they are.
         if rec.len() != len {
             rec.clear();
@@ -283,9 +474,10 @@ impl StitchPlan {
             pos.clear();
             pos.resize(len, NONE);
         }
+        let map = self.local_map(p, scratch);
         let tri = self.tris[p];
         for (k, &v) in tri.iter().enumerate() {
-            let g = self.corner_g[k] as usize;
+            let g = map.corner[k] as usize;
             rec[g] = self.corner_rec[3 * p + k];
             pos[g] = self.vertex_pos[v as usize];
         }
@@ -293,7 +485,7 @@ impl StitchPlan {
             let u = 3 * p + k;
             let e = self.use_edge[u] as usize;
             let (r0, p0) = (self.use_rec[u], self.edge_pos[e]);
-            let eg = self.edge_grids(k);
+            let eg = map.edges[k];
             // Canonical sample m (1..n) lies at step n − m on a reversed use.
             let mut put = |m: u32, g: u32| {
                 rec[g as usize] = r0 + m;
@@ -306,7 +498,7 @@ impl StitchPlan {
             }
         }
         let (mut r, mut q) = (self.interior_rec[p], self.interior_pos[p]);
-        for row in &self.interior {
+        for row in map.interior {
             for (a, b) in rec[row.clone()].iter_mut().zip(&mut pos[row.clone()]) {
                 *a = r;
                 *b = q;
@@ -317,7 +509,7 @@ impl StitchPlan {
     }
 
     /// Output triangles (record ids) of patch `p`, appended to `out`; `scratch` and
-    /// `grid` (= `grid_triangles(level)`) are reused between calls.
+    /// `grid` (= `grid_triangles(level)`, used by uniform plans) are reused between calls.
     pub fn patch_triangles(
         &self,
         p: usize,
@@ -327,8 +519,31 @@ impl StitchPlan {
     ) {
         self.local_ids(p, &mut scratch.0, &mut scratch.1);
         let rec = &scratch.0;
-        out.extend(grid.iter().map(|t| t.map(|i| rec[i as usize])));
+        if self.is_uniform() {
+            out.extend(grid.iter().map(|t| t.map(|i| rec[i as usize])));
+        } else {
+            let start = out.len();
+            self.patch_local_triangles(p, out);
+            for t in &mut out[start..] {
+                *t = t.map(|i| rec[i as usize]);
+            }
+        }
     }
+}
+
+/// Where one patch's corners, edge samples (local edge k from corner k, steps 1..E_k) and
+/// interior runs lie in its samples.
+struct LocalMap<'a> {
+    corner: [u32; 3],
+    edges: [&'a [u32]; 3],
+    interior: &'a [Range<usize>],
+}
+
+/// The buffers a non-uniform [`LocalMap`] lives in.
+#[derive(Clone, Debug, Default)]
+struct LocalScratch {
+    edges: Vec<u32>,
+    interior: Vec<Range<usize>>,
 }
 
 /// What the stitcher hands to a [`StitchSink`] for one patch. The fields a sink does not
@@ -495,8 +710,9 @@ pub fn memory_estimate(
 }
 
 /// One patch's output, built in parallel, handed to the sink in order. `records` and
-/// `new_positions` keep the length of a grid (a patch never has more), filled up to
-/// `nrec` and `npos`, so nothing is cleared or reallocated between patches.
+/// `new_positions` keep the length of the patch's samples (a patch never has more), filled
+/// up to `nrec` and `npos`, so nothing is cleared or reallocated between patches of one
+/// size.
 struct PatchBuf<V> {
     new_positions: Vec<V>,
     npos: usize,
@@ -507,6 +723,9 @@ struct PatchBuf<V> {
     grid_positions: Vec<V>,
     local_rec: Vec<u32>,
     local_pos: Vec<u32>,
+    /// A non-uniform patch's own triangles (sample indices) and local map.
+    local_triangles: Vec<[u32; 3]>,
+    scratch: LocalScratch,
     snap: f64,
 }
 
@@ -522,17 +741,21 @@ impl<V> Default for PatchBuf<V> {
             grid_positions: Vec::new(),
             local_rec: Vec::new(),
             local_pos: Vec::new(),
+            local_triangles: Vec::new(),
+            scratch: LocalScratch::default(),
             snap: 0.0,
         }
     }
 }
 
-/// Turns the chunks of a grid evaluation into stitched output, patch by patch.
+/// Turns the chunks of an evaluation into stitched output, patch by patch.
 ///
 /// Each chunk is stitched in three passes: the owners of vertices and edges in the chunk
 /// store their samples (in patch order, a few per patch); every patch's output is then
 /// built in parallel (rayon), reading shared samples from the store; the sink receives the
-/// patches in order.
+/// patches in order. A uniform plan takes the chunks of a [`Pattern::Grid`] evaluation
+/// ([`push_chunk`](Self::push_chunk)); any plan takes runs of whole patches in their sample
+/// order ([`push_patches`](Self::push_patches)).
 pub struct Stitcher<'a, V = DVec3> {
     plan: &'a StitchPlan,
     store: Vec<V>,
@@ -543,6 +766,8 @@ pub struct Stitcher<'a, V = DVec3> {
     pub max_snap: f64,
     grid: Vec<[u32; 3]>,
     bufs: Vec<PatchBuf<V>>,
+    offsets: Vec<usize>,
+    scratch: LocalScratch,
 }
 
 impl<'a, V: Vector> Stitcher<'a, V> {
@@ -552,8 +777,14 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             store: vec![V::NAN; plan.store_len()],
             next_patch: 0,
             max_snap: 0.0,
-            grid: grid_triangles(plan.level),
+            grid: if plan.is_uniform() {
+                grid_triangles(plan.level)
+            } else {
+                Vec::new()
+            },
             bufs: Vec::new(),
+            offsets: Vec::new(),
+            scratch: LocalScratch::default(),
         }
     }
 
@@ -563,27 +794,77 @@ impl<'a, V: Vector> Stitcher<'a, V> {
     }
 
     /// Consumes one chunk of a [`Pattern::Grid`] evaluation at the plan's level (chunks
-    /// must arrive in patch order).
+    /// must arrive in patch order; uniform plans only).
     pub fn push_chunk(&mut self, chunk: &Chunk<'_, V>, sink: &mut dyn StitchSink<V>) -> Result<()> {
         let plan = self.plan;
         let per = grid_len(plan.level);
-        if chunk.first != self.next_patch
+        if !plan.is_uniform()
+            || chunk.first != self.next_patch
             || chunk.positions.len() % per != 0
             || chunk.normals.len() != chunk.positions.len()
             || chunk.first + chunk.positions.len() / per > plan.patches()
         {
             return Err(Error::Invalid(format!(
-                "stitching: chunk at patch {} with {} samples does not continue patch {} of {} (grid of {per})",
+                "stitching: chunk at patch {} with {} samples does not continue patch {} of {} (grid of {per}{})",
                 chunk.first,
                 chunk.positions.len(),
+                self.next_patch,
+                plan.patches(),
+                if plan.is_uniform() { "" } else { "; the plan has per-edge levels" }
+            )));
+        }
+        let count = chunk.positions.len() / per;
+        self.offsets.clear();
+        self.offsets.extend((0..=count).map(|j| j * per));
+        self.push_run(chunk.positions, chunk.normals, sink)
+    }
+
+    /// Consumes the samples of whole patches, from patch `first` on (the next one), each
+    /// in its sample order ([`StitchPlan::patch_points`]): what a [`Pattern::Points`]
+    /// evaluation of those points gives.
+    pub fn push_patches(
+        &mut self,
+        first: usize,
+        positions: &[V],
+        normals: &[V],
+        sink: &mut dyn StitchSink<V>,
+    ) -> Result<()> {
+        let plan = self.plan;
+        self.offsets.clear();
+        self.offsets.push(0);
+        let mut p = first;
+        let mut end = 0;
+        while end < positions.len() && p < plan.patches() {
+            end += plan.patch_len(p);
+            self.offsets.push(end);
+            p += 1;
+        }
+        if first != self.next_patch || end != positions.len() || normals.len() != end {
+            return Err(Error::Invalid(format!(
+                "stitching: {} samples from patch {first} are not whole patches continuing patch {} of {}",
+                positions.len(),
                 self.next_patch,
                 plan.patches()
             )));
         }
-        let count = chunk.positions.len() / per;
+        self.push_run(positions, normals, sink)
+    }
+
+    /// Stitches the patches from `next_patch` whose samples lie at `offsets`.
+    fn push_run(
+        &mut self,
+        positions: &[V],
+        normals: &[V],
+        sink: &mut dyn StitchSink<V>,
+    ) -> Result<()> {
+        let plan = self.plan;
+        let first = self.next_patch;
+        let count = self.offsets.len() - 1;
+        let offsets = std::mem::take(&mut self.offsets);
+        let at = |j: usize| offsets[j]..offsets[j + 1];
         // Owners store their shared samples, in patch order.
         for j in 0..count {
-            self.store_owned(chunk.first + j, &chunk.positions[j * per..(j + 1) * per]);
+            self.store_owned(first + j, &positions[at(j)]);
         }
         let needs = sink.needs();
         let batch = batch_patches(plan.level);
@@ -600,9 +881,9 @@ impl<'a, V: Vector> Stitcher<'a, V> {
                     plan,
                     store,
                     grid,
-                    chunk.first + k,
-                    &chunk.positions[k * per..(k + 1) * per],
-                    &chunk.normals[k * per..(k + 1) * per],
+                    first + k,
+                    &positions[at(k)],
+                    &normals[at(k)],
                     needs,
                     buf,
                 )
@@ -616,37 +897,42 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             for (j, buf) in bufs.iter().enumerate() {
                 self.max_snap = self.max_snap.max(buf.snap);
                 sink.patch(&PatchOut {
-                    patch: chunk.first + start + j,
+                    patch: first + start + j,
                     new_positions: &buf.new_positions[..buf.npos],
                     new_records: &buf.records[..buf.nrec],
                     triangles: &buf.triangles,
                     position_triangles: &buf.position_triangles,
                     grid_positions: &buf.grid_positions,
-                    grid_triangles: &self.grid,
+                    grid_triangles: if plan.is_uniform() {
+                        &self.grid
+                    } else {
+                        &buf.local_triangles
+                    },
                 })?;
             }
             start += len;
         }
-        self.next_patch = chunk.first + count;
+        self.offsets = offsets;
+        self.next_patch = first + count;
         Ok(())
     }
 
     /// Stores the samples patch `p` owns (its first uses of vertices and edges).
     fn store_owned(&mut self, p: usize, pos: &[V]) {
         let plan = self.plan;
+        let map = plan.local_map(p, &mut self.scratch);
         for (k, &vk) in plan.tris[p].iter().enumerate() {
             if plan.vertex_owner[vk as usize] == p as u32 {
-                self.store[vk as usize] = pos[plan.corner_g[k] as usize];
+                self.store[vk as usize] = pos[map.corner[k] as usize];
             }
         }
-        let m = plan.level as usize - 1;
         for k in 0..3 {
             let u = 3 * p + k;
             let e = plan.use_edge[u];
             if plan.edge_owner[e as usize] == u as u32 {
+                let eg = map.edges[k];
                 let s0 = plan.edge_slot(e, 1);
-                let dst = &mut self.store[s0..s0 + m];
-                let eg = plan.edge_grids(k);
+                let dst = &mut self.store[s0..s0 + eg.len()];
                 if plan.use_rev[u] {
                     for (d, &g) in dst.iter_mut().zip(eg.iter().rev()) {
                         *d = pos[g as usize];
@@ -695,9 +981,10 @@ fn build_patch<V: Vector>(
     let records = &mut buf.records[..];
     let new_positions = &mut buf.new_positions[..];
     let grid_positions = &mut buf.grid_positions[..];
+    let map = plan.local_map(p, &mut buf.scratch);
     // Largest squared snap distance.
     let mut snap2 = 0f64;
-    // Grid point g (position id `pid`) maps onto the shared sample q.
+    // Sample g (position id `pid`) maps onto the shared sample q.
     let mut visit = |g: usize, q: V, pid: u32, owner: bool, new_rec: bool| {
         if owner {
             if needs.positions {
@@ -722,23 +1009,22 @@ fn build_patch<V: Vector>(
     for (k, &vk) in plan.tris[p].iter().enumerate() {
         let v = vk as usize;
         visit(
-            plan.corner_g[k] as usize,
+            map.corner[k] as usize,
             store[v],
             plan.vertex_pos[v],
             plan.vertex_owner[v] == p as u32,
             plan.corner_new_rec[3 * p + k],
         );
     }
-    let m = plan.level as usize - 1;
     for k in 0..3 {
         let u = 3 * p + k;
         let e = plan.use_edge[u];
         let owner = plan.edge_owner[e as usize] == u as u32;
         let new_rec = plan.use_new_rec[u];
+        let eg = map.edges[k];
         let s0 = plan.edge_slot(e, 1);
-        let shared = &store[s0..s0 + m];
+        let shared = &store[s0..s0 + eg.len()];
         let pid0 = plan.edge_pos[e as usize];
-        let eg = plan.edge_grids(k);
         // Canonical sample m (1..n) lies at step n − m on a reversed use.
         if plan.use_rev[u] {
             for ((&q, &g), pid) in shared.iter().zip(eg.iter().rev()).zip(pid0..) {
@@ -752,7 +1038,7 @@ fn build_patch<V: Vector>(
     }
     buf.snap = snap2.sqrt();
     let mut id = plan.interior_pos[p];
-    for row in &plan.interior {
+    for row in map.interior {
         let len = row.len();
         if needs.positions {
             new_positions[npos..npos + len].copy_from_slice(&pos[row.clone()]);
@@ -774,13 +1060,22 @@ fn build_patch<V: Vector>(
     buf.npos = npos;
     buf.triangles.clear();
     buf.position_triangles.clear();
+    let tris: &[[u32; 3]] = if plan.is_uniform() {
+        grid
+    } else {
+        buf.local_triangles.clear();
+        if needs.triangles || needs.grid_positions {
+            plan.patch_local_triangles(p, &mut buf.local_triangles);
+        }
+        &buf.local_triangles
+    };
     if needs.triangles {
-        plan.local_ids(p, &mut buf.local_rec, &mut buf.local_pos);
+        plan.local_ids_with(p, &mut buf.local_rec, &mut buf.local_pos, &mut buf.scratch);
         let (rec, pid) = (&buf.local_rec, &buf.local_pos);
         buf.triangles
-            .extend(grid.iter().map(|t| t.map(|i| rec[i as usize])));
+            .extend(tris.iter().map(|t| t.map(|i| rec[i as usize])));
         buf.position_triangles
-            .extend(grid.iter().map(|t| t.map(|i| pid[i as usize])));
+            .extend(tris.iter().map(|t| t.map(|i| pid[i as usize])));
     }
 }
 
@@ -846,7 +1141,59 @@ impl<V: Vector> StitchedMesh<V> {
     }
 }
 
-/// Evaluates `table` on the grid of `plan.level` with `evaluator` in the precision `V`
+/// Most samples a run of patches of a non-uniform plan holds ([`PatchRuns`]; one patch at
+/// least): 8 MiB of [`PatchPoint`]s.
+pub const RUN_POINTS: usize = 1 << 18;
+
+/// The evaluation points of a non-uniform plan, a run of whole patches at a time (about
+/// [`RUN_POINTS`] samples), each patch's samples in its sample order.
+pub struct PatchRuns<'a> {
+    plan: &'a StitchPlan,
+    next: usize,
+    points: Vec<PatchPoint>,
+    bary: Vec<[f64; 3]>,
+}
+
+impl<'a> PatchRuns<'a> {
+    pub fn new(plan: &'a StitchPlan) -> PatchRuns<'a> {
+        PatchRuns {
+            plan,
+            next: 0,
+            points: Vec::new(),
+            bary: Vec::new(),
+        }
+    }
+
+    /// The next run: its first patch, its number of patches and its points (hand the list
+    /// back with [`give_back`](Self::give_back) to reuse it).
+    pub fn next_run(&mut self) -> Option<(usize, usize, Vec<PatchPoint>)> {
+        let plan = self.plan;
+        if self.next >= plan.patches() {
+            return None;
+        }
+        let first = self.next;
+        let mut points = std::mem::take(&mut self.points);
+        points.clear();
+        while self.next < plan.patches()
+            && (points.is_empty() || points.len() + plan.patch_len(self.next) <= RUN_POINTS)
+        {
+            self.bary.clear();
+            plan.patch_points(self.next, &mut self.bary);
+            let patch = self.next as u32;
+            points.extend(self.bary.iter().map(|&b| PatchPoint { patch, b }));
+            self.next += 1;
+        }
+        Some((first, self.next - first, points))
+    }
+
+    /// Returns a point list for the next run to reuse.
+    pub fn give_back(&mut self, points: Vec<PatchPoint>) {
+        self.points = points;
+    }
+}
+
+/// Evaluates `table` on the grid of `plan.level` (a uniform plan; the patterns of a
+/// non-uniform plan through [`Pattern::Points`], a run of patches at a time) with `evaluator` in the precision `V`
 /// ([`Vector::evaluate`]: f32 runs the evaluator's native f32 path) and stitches the result
 /// into `sink`; returns the largest snap distance ([`Stitcher::max_snap`]). `progress`
 /// gets the phase "evaluating" over the patches, advanced chunk by chunk.
@@ -865,18 +1212,38 @@ pub fn stitch_into<V: Vector>(
         )));
     }
     let mut stitcher = Stitcher::<V>::new(plan);
-    let per = grid_len(plan.level);
     progress.start("evaluating", plan.patches() as u64);
-    V::evaluate(
-        evaluator,
-        table,
-        &Pattern::Grid { level: plan.level },
-        &mut |chunk| {
-            stitcher.push_chunk(&chunk, sink)?;
-            progress.inc((chunk.positions.len() / per) as u64);
-            Ok(())
-        },
-    )?;
+    if plan.is_uniform() {
+        let per = grid_len(plan.level);
+        V::evaluate(
+            evaluator,
+            table,
+            &Pattern::Grid { level: plan.level },
+            &mut |chunk| {
+                stitcher.push_chunk(&chunk, sink)?;
+                progress.inc((chunk.positions.len() / per) as u64);
+                Ok(())
+            },
+        )?;
+    } else {
+        let mut run = PatchRuns::new(plan);
+        let (mut pos, mut nrm) = (Vec::new(), Vec::new());
+        while let Some((first, count, points)) = run.next_run() {
+            pos.clear();
+            nrm.clear();
+            let pattern = Pattern::Points(points);
+            V::evaluate(evaluator, table, &pattern, &mut |c| {
+                pos.extend_from_slice(c.positions);
+                nrm.extend_from_slice(c.normals);
+                Ok(())
+            })?;
+            stitcher.push_patches(first, &pos, &nrm, sink)?;
+            progress.inc(count as u64);
+            if let Pattern::Points(p) = pattern {
+                run.give_back(p);
+            }
+        }
+    }
     if !stitcher.is_complete() {
         return Err(Error::Invalid(
             "stitching: the evaluator did not deliver every patch".into(),
@@ -906,4 +1273,16 @@ pub fn stitch(
     level: u32,
 ) -> Result<(StitchedMesh, StitchPlan, f64)> {
     stitch_in::<DVec3>(mesh, table, evaluator, level)
+}
+
+/// Stitches the evaluation of any plan (uniform or per-edge levels) in memory, in
+/// precision `V`; returns the mesh and the largest snap distance.
+pub fn stitch_plan<V: Vector>(
+    plan: &StitchPlan,
+    table: &PatchTable,
+    evaluator: &dyn Evaluator,
+) -> Result<(StitchedMesh<V>, f64)> {
+    let mut out = StitchedMesh::default();
+    let snap = stitch_into(plan, table, evaluator, &mut out, &NoProgress)?;
+    Ok((out, snap))
 }

@@ -1,0 +1,208 @@
+//! Screen-space levels on the GPU: a compute pass (`shaders/levels.wgsl`, mirroring
+//! [`crate::tess::screen::edge_level`]) that fills a per-edge level buffer on the device
+//! from device-resident positions and edges, so a renderer can recompute the levels every
+//! frame without reading anything back. [`gpu_screen_levels`] uploads, dispatches and reads
+//! the levels back (tests, one-off use).
+
+use wgpu::util::DeviceExt;
+
+use crate::gpu::Precision;
+use crate::mesh::{Adjacency, Mesh};
+use crate::tess::screen::{ScreenView, W_MIN};
+use crate::{Error, Result};
+
+/// The WGSL source of the level pass.
+pub const LEVELS_WGSL: &str = include_str!("../../shaders/levels.wgsl");
+
+/// Threads per workgroup of `levels_main` (`LEVELS_WORKGROUP` in the shader).
+pub const LEVELS_WORKGROUP: u32 = 64;
+
+/// The shader's `Params` (uniform, 96 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LevelParams {
+    pub view_proj: [f32; 16],
+    pub viewport: [f32; 2],
+    pub target_px: f32,
+    pub max_level: u32,
+    pub edges: u32,
+    pub w_min: f32,
+    pub groups_x: u32,
+    pub pad: u32,
+}
+
+impl LevelParams {
+    /// Parameters for `edges` edges seen through `view` (the matrix rounded to f32).
+    pub fn new(view: &ScreenView, edges: u32) -> LevelParams {
+        LevelParams {
+            view_proj: view.view_proj.to_cols_array().map(|x| x as f32),
+            viewport: view.viewport.map(|x| x as f32),
+            target_px: view.target_px as f32,
+            max_level: view.max_level,
+            edges,
+            w_min: W_MIN as f32,
+            groups_x: 0,
+            pad: 0,
+        }
+    }
+}
+
+/// The level pass: its pipeline and bind group layout (0 params, 1 positions `vec4<f32>`,
+/// 2 edges `vec2<u32>`, 3 levels `u32`).
+pub struct LevelPass {
+    pub layout: wgpu::BindGroupLayout,
+    pub pipeline: wgpu::ComputePipeline,
+}
+
+impl LevelPass {
+    /// Builds the pass (the source validated with naga first).
+    pub fn new(device: &wgpu::Device) -> Result<LevelPass> {
+        crate::gpu::shaders::validate(LEVELS_WGSL, Precision::F32)
+            .map_err(|e| Error::Gpu(format!("shaders/levels.wgsl: {e}")))?;
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        use wgpu::BufferBindingType as B;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("g1tess levels"),
+            entries: &[
+                entry(0, B::Uniform),
+                entry(1, B::Storage { read_only: true }),
+                entry(2, B::Storage { read_only: true }),
+                entry(3, B::Storage { read_only: false }),
+            ],
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("levels.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(LEVELS_WGSL.into()),
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("g1tess levels"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("levels.wgsl"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("levels_main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Ok(LevelPass { layout, pipeline })
+    }
+
+    /// Records the pass into `encoder`: `params` (a uniform buffer of [`LevelParams`],
+    /// written by the caller with `groups_x` from [`LevelPass::groups`]), `positions`,
+    /// `edges` and `levels` stay on the device.
+    pub fn record(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        buffers: [&wgpu::Buffer; 4],
+        groups: (u32, u32),
+    ) {
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("g1tess levels"),
+            layout: &self.layout,
+            entries: &entries,
+        });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("g1tess levels"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups(groups.0, groups.1, 1);
+    }
+
+    /// Workgroup counts (x, y) for `edges` edges, at most `max_per_dim` per dimension.
+    pub fn groups(edges: u32, max_per_dim: u32) -> (u32, u32) {
+        let groups = edges.div_ceil(LEVELS_WORKGROUP).max(1);
+        let x = groups.min(max_per_dim.max(1));
+        (x, groups.div_ceil(x))
+    }
+}
+
+/// Screen-space levels of every edge of `mesh` computed on the GPU (positions rounded to
+/// f32) and read back: the same as [`crate::tess::screen::screen_levels`]'s edge levels up
+/// to f32 rounding where the projected length is a whole number of targets.
+pub fn gpu_screen_levels(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    mesh: &Mesh,
+    adjacency: &Adjacency,
+    view: &ScreenView,
+) -> Result<Vec<u32>> {
+    view.check()?;
+    let ne = adjacency.edges.len();
+    if ne == 0 {
+        return Ok(Vec::new());
+    }
+    let edges = u32::try_from(ne)
+        .map_err(|_| Error::Invalid(format!("{}: {ne} edges are too many", mesh.name)))?;
+    let pass = LevelPass::new(device)?;
+    let positions: Vec<[f32; 4]> = mesh
+        .positions
+        .iter()
+        .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
+        .collect();
+    let ends: Vec<[u32; 2]> = adjacency.edges.iter().map(|e| e.v).collect();
+    let max_dim = device.limits().max_compute_workgroups_per_dimension;
+    let groups = LevelPass::groups(edges, max_dim);
+    let mut params = LevelParams::new(view, edges);
+    params.groups_x = groups.0;
+    use wgpu::BufferUsages as U;
+    let init = |label, contents: &[u8], usage| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage,
+        })
+    };
+    let params_buf = init("level params", bytemuck::bytes_of(&params), U::UNIFORM);
+    let pos_buf = init("positions", bytemuck::cast_slice(&positions), U::STORAGE);
+    let edge_buf = init("edges", bytemuck::cast_slice(&ends), U::STORAGE);
+    let bytes = 4 * ne as u64;
+    let out = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("levels"),
+        size: bytes.div_ceil(16) * 16,
+        usage: U::STORAGE | U::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("levels staging"),
+        size: bytes.div_ceil(16) * 16,
+        usage: U::MAP_READ | U::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("g1tess levels"),
+    });
+    pass.record(
+        device,
+        &mut encoder,
+        [&params_buf, &pos_buf, &edge_buf, &out],
+        groups,
+    );
+    encoder.copy_buffer_to_buffer(&out, 0, &staging, 0, bytes);
+    queue.submit([encoder.finish()]);
+    crate::gpu::read_buffer(device, &staging, bytes, |b| {
+        bytemuck::cast_slice::<u8, u32>(b).to_vec()
+    })
+}
