@@ -368,3 +368,36 @@ fn every_evaluating_command_refuses_work_over_the_memory_budget() {
     }
     assert!(!std::path::Path::new("unused-sweep-dir").exists());
 }
+
+#[test]
+fn a_closed_standard_output_ends_quietly_without_a_panic() {
+    // `g1tess tessellate … -o - | head -c 100`: the reader goes away; the writer must end
+    // (SIGPIPE, as other Unix tools) rather than panic on the failed write.
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+        .args([
+            "tessellate",
+            "sphere320",
+            "--level",
+            "64",
+            "-o",
+            "-",
+            "--format",
+            "obj",
+        ])
+        .arg("-q")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut out = child.stdout.take().unwrap();
+    let mut first = [0u8; 100];
+    std::io::Read::read_exact(&mut out, &mut first).unwrap();
+    drop(out);
+    let result = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!result.status.success());
+    use std::os::unix::process::ExitStatusExt;
+    assert_eq!(result.status.signal(), Some(13), "SIGPIPE: {err}");
+}

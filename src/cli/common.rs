@@ -61,9 +61,19 @@ impl InputArgs {
         }
     }
 
-    /// Loads the mesh and builds the scheme's patch table.
-    pub fn load(&self) -> anyhow::Result<(Mesh, PatchTable)> {
+    /// Loads the mesh, printing what the reader ignored or filled in (its notes) once on
+    /// stderr.
+    pub fn load_mesh(&self) -> anyhow::Result<Mesh> {
         let mesh = Mesh::load(&self.mesh, &self.load_options())?;
+        for note in &mesh.load_report.notes {
+            eprintln!("note: {}: {note}", mesh.name);
+        }
+        Ok(mesh)
+    }
+
+    /// Loads the mesh ([`InputArgs::load_mesh`]) and builds the scheme's patch table.
+    pub fn load(&self) -> anyhow::Result<(Mesh, PatchTable)> {
+        let mesh = self.load_mesh()?;
         let table = PatchTable::build(&mesh, self.scheme, &self.scheme_options())?;
         Ok((mesh, table))
     }

@@ -52,7 +52,7 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
         atomic::resolve_output(&a.output)?;
         atomic::refuse_same_file(&a.output, std::path::Path::new(&a.input.mesh))?;
     }
-    let mesh = crate::mesh::Mesh::load(&a.input.mesh, &a.input.load_options())?;
+    let mesh = a.input.load_mesh()?;
     // Held at once: the patch table, the nodes (24 bytes each), the connectivity, and the
     // edge and half-edge indices; the file streams through a 1 MiB buffer.
     let p = a.order as u64;

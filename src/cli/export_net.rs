@@ -30,7 +30,7 @@ pub fn run(a: &ExportNetArgs) -> anyhow::Result<()> {
         atomic::resolve_output(&a.output)?;
         atomic::refuse_same_file(&a.output, std::path::Path::new(&a.input.mesh))?;
     }
-    let mesh = crate::mesh::Mesh::load(&a.input.mesh, &a.input.load_options())?;
+    let mesh = a.input.load_mesh()?;
     // The patch table (stride × 3 f64 per patch) is what grows with the input; writing
     // streams one patch at a time through a 1 MiB buffer.
     let stride = a.input.scheme.kind().layout().stride as u64;

@@ -240,7 +240,20 @@ fn usage_error(e: clap::Error) -> ExitCode {
     ExitCode::from(2)
 }
 
+/// Standard output closed early (`g1tess stats … | head`): end quietly, as other Unix tools
+/// do, instead of panicking on the failed write. Rust ignores SIGPIPE by default; restore
+/// the default action (terminate) before anything is printed.
+fn default_sigpipe() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: called at the start of main, before any other thread exists; SIG_DFL is a
+    // valid disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 pub fn main() -> ExitCode {
+    default_sigpipe();
     quiet_vulkan_loader();
     install_signal_handler();
     let cli = match Cli::try_parse_from(normalize_args(std::env::args_os().collect())) {

@@ -242,7 +242,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         "--size {} is larger than the {max} pixels this device can draw per panel",
         a.size
     );
-    let mesh = Mesh::load(&a.input.mesh, &a.input.load_options())?;
+    let mesh = a.input.load_mesh()?;
     let level = a.level.unwrap_or_else(|| auto_level(mesh.triangles.len()));
     check_level(&gpu, &mesh, level, a.level.is_some(), &a.memory.budget())?;
     let mut backend = a.backend.clone();

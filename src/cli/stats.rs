@@ -23,7 +23,7 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
     // No whole patch table: the statistics build the patches a chunk of edges at a time.
     let budget = a.memory.budget();
     budget.check_load("stats", &a.input.mesh)?;
-    let mesh = Mesh::load(&a.input.mesh, &a.input.load_options())?;
+    let mesh = a.input.load_mesh()?;
     budget.check_stats("stats", &mesh)?;
     if a.backend.backend == super::common::Backend::Gpu {
         return run_gpu(a, &mesh);
