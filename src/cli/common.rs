@@ -211,6 +211,10 @@ impl crate::eval::Evaluator for LazyGpu {
         }
     }
 
+    fn gpu_precision(&self) -> Option<crate::gpu::Precision> {
+        self.get().ok()?.gpu_precision()
+    }
+
     fn evaluate(
         &self,
         table: &crate::patch::PatchTable,

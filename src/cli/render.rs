@@ -155,17 +155,6 @@ pub fn auto_level(triangles: usize) -> u32 {
     fit.clamp(1, 16)
 }
 
-/// The working precision of `evaluator` when it evaluates on the GPU (its description,
-/// [`Evaluator::describe`], starts "gpu (f32" or "gpu (f64"), else `None` (the CPU, or a
-/// GPU backend that could not open: its own evaluation then reports why).
-fn gpu_precision(evaluator: &dyn Evaluator) -> Option<Precision> {
-    let d = evaluator.describe();
-    let rest = d.strip_prefix("gpu (")?;
-    [Precision::F32, Precision::F64]
-        .into_iter()
-        .find(|p| rest.starts_with(p.name()))
-}
-
 /// The picture of one scheme: with a GPU evaluator, tessellated on the device straight into
 /// the render pass's vertex and index buffers; otherwise evaluated and stitched on the host
 /// and uploaded into buffers of the same layout, drawn by the same pipeline.
@@ -176,7 +165,7 @@ fn scheme_panels(
     opts: &RenderOptions,
     evaluator: &dyn Evaluator,
 ) -> anyhow::Result<crate::render::Panels> {
-    if let Some(precision) = gpu_precision(evaluator) {
+    if let Some(precision) = evaluator.gpu_precision() {
         let gpu = device()?;
         let mut tess = GpuTessellator::new(&gpu.device, &gpu.queue, mesh, table, precision)?;
         // Levels whose buffers exceed the device's storage binding limit go the host way.

@@ -1243,6 +1243,10 @@ impl Evaluator for GpuEvaluator {
         format!("gpu ({}, {})", self.precision, self.ctx.describe())
     }
 
+    fn gpu_precision(&self) -> Option<Precision> {
+        Some(self.precision)
+    }
+
     /// Positions and normals widened to f64 (normals renormalised in f64), corners the
     /// input exactly. An f32 evaluator's positions carry f32 rounding.
     fn evaluate(

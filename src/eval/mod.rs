@@ -189,6 +189,13 @@ pub trait Evaluator {
     /// Which backend and device, for reports ("cpu (2 threads)", the adapter's name, ...).
     fn describe(&self) -> String;
 
+    /// The working precision when this evaluator runs on a GPU (its device can then
+    /// tessellate in place, see [`crate::gpu::tessellator`]); `None` for the CPU, or a GPU
+    /// backend that could not open (its evaluation then reports why).
+    fn gpu_precision(&self) -> Option<crate::gpu::Precision> {
+        None
+    }
+
     /// Evaluates `pattern` on `table`, handing the results to `sink` in order, chunk by
     /// chunk.
     fn evaluate(
