@@ -35,6 +35,9 @@ if ! have_bpy; then
   have_bpy || unavailable "bpy $BPY_VERSION not importable after installation"
 fi
 
+# scripts/test.sh sets the environment up in the background while cargo builds.
+[ "${1:-}" = "--setup-only" ] && exit 0
+
 # scripts/test.sh passes the binary `cargo test --release` has just built (G1TESS_BIN), so the
 # heavy crates are compiled once: a plain `cargo build --release` after `cargo test --release`
 # recompiles wgpu and about 60 other crates, because dev-dependencies switch on other features

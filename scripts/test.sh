@@ -23,12 +23,29 @@ if [ -z "${XDG_RUNTIME_DIR:-}" ]; then
   mkdir -p "$XDG_RUNTIME_DIR" && chmod 700 "$XDG_RUNTIME_DIR"
 fi
 
+# The Python environments of the Blender and Python tests are downloads (network, not
+# CPU): set them up in the background while cargo builds and tests.
+mkdir -p .cache
+scripts/blender_test.sh --setup-only >.cache/blender-setup.log 2>&1 &
+blender_setup=$!
+scripts/python_test.sh --setup-only >.cache/python-setup.log 2>&1 &
+python_setup=$!
+# Waits for a background set-up, shows what it printed, and fails when it failed.
+setup_done() { # PID LOG
+  local rc=0
+  wait "$1" || rc=$?
+  cat "$2"
+  [ "$rc" = 0 ] || { echo "set-up failed (exit $rc), see above" >&2; exit 1; }
+}
+
 echo "== cargo test --release"
 cargo test --release 2>&1
 
 echo "== blender add-on integration test"
+setup_done "$blender_setup" .cache/blender-setup.log
 # The binary cargo test built above (the heavy crates are compiled once per run).
 G1TESS_BIN=target/release/g1tess scripts/blender_test.sh
 
 echo "== python package, gmsh and dask tests"
+setup_done "$python_setup" .cache/python-setup.log
 G1TESS_BIN=target/release/g1tess scripts/python_test.sh
