@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# Long fuzzing campaign: the in-process reader fuzzers of tests/fuzz.rs (OBJ, .pn, built-in
-# specs, soups) with many more cases, and optionally more command lines.
+# Long fuzzing campaign: the in-process reader fuzzers of tests/fuzz.rs (OBJ, .pn, PLY, STL,
+# glTF, built-in specs, soups) with many more cases, and optionally more command lines.
 #
 #   scripts/fuzz.sh [EXECUTIONS] [CLI_CASES]
 #
-# EXECUTIONS (default 1000000) is split over the four reader tests in the proportions of
-# the normal suite (4 : 3 : 2 : 1); CLI_CASES (default 1000) command lines are spawned.
+# EXECUTIONS (default 1000000) is split over the reader tests in the proportions of the
+# normal suite (OBJ 30 %, .pn 20 %, PLY 10 %, STL 8 %, glTF 7 %, specs 15 %, soups 10 %); CLI_CASES (default 1000) command lines are spawned.
 # Prints the executions per second. A failure prints the minimal failing input.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,10 +21,13 @@ run() { # TEST CASES VAR
         'BEGIN { d = e - s; printf "%-15s %9d cases %8.1f s %9.0f /s\n", t, n, d, n / d }'
 }
 start=$(date +%s.%N)
-run obj_mutants $((total * 4 / 10)) PROPTEST_CASES
-run pn_mutants $((total * 3 / 10)) PROPTEST_CASES
-run spec_strings $((total * 2 / 10)) PROPTEST_CASES
-run soups $((total / 10)) PROPTEST_CASES
+run obj_mutants $((total * 3000 / 10000)) PROPTEST_CASES
+run pn_mutants $((total * 2000 / 10000)) PROPTEST_CASES
+run ply_mutants $((total * 1000 / 10000)) PROPTEST_CASES
+run stl_mutants $((total * 800 / 10000)) PROPTEST_CASES
+run gltf_mutants $((total * 700 / 10000)) PROPTEST_CASES
+run spec_strings $((total * 1500 / 10000)) PROPTEST_CASES
+run soups $((total * 1000 / 10000)) PROPTEST_CASES
 end=$(date +%s.%N)
 awk -v n="$total" -v s="$start" -v e="$end" \
     'BEGIN { d = e - s; printf "readers: %d executions in %.1f s: %.0f /s\n", n, d, n / d }'
