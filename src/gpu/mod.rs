@@ -20,8 +20,8 @@
 
 pub mod readback;
 pub mod shaders;
-pub mod tessellator;
 pub mod stats;
+pub mod tessellator;
 
 pub use readback::read_buffer;
 pub use tessellator::GpuTessellator;
