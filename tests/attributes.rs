@@ -218,6 +218,16 @@ fn meshes_without_attributes_carry_none() {
     assert!(out.attributes.is_empty());
     // No records beyond one per position: normals are not split on the sphere.
     assert_eq!(plan.records, plan.positions);
+    // Attributes out of step with the triangles (the field is public) are refused.
+    let mut bad = mesh.clone();
+    bad.attributes.uvs = Some(vec![[[0.0; 2]; 3]; 3]);
+    let e = StitchPlan::new(&bad, &bad.adjacency(), 3)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("attributes for 3 triangles, the mesh has 320"),
+        "{e}"
+    );
 }
 
 fn temp(name: &str) -> std::path::PathBuf {

@@ -241,6 +241,17 @@ impl StitchPlan {
     ) -> Result<StitchPlan> {
         let n = level;
         let nf = mesh.triangles.len();
+        let a = &mesh.attributes;
+        let lens = [
+            a.uvs.as_ref().map(Vec::len),
+            a.colors.as_ref().map(Vec::len),
+        ];
+        if let Some(len) = lens.into_iter().flatten().find(|&l| l != nf) {
+            return Err(Error::Invalid(format!(
+                "{}: per-corner attributes for {len} triangles, the mesh has {nf}",
+                mesh.name
+            )));
+        }
         let nv = mesh.positions.len();
         let ne = adjacency.edges.len();
         let uniform = adaptive.is_none();
