@@ -8,7 +8,8 @@ selected mesh into a smooth G1 surface with the g1tess program.
   to Tolerance, `--tolerance-rel R --max-level M` instead of `--level N`: levels per edge
   chosen so that the flat triangles stay within R x the bounding-box diagonal of the
   curved surface), and imports the result as a new object beside the original, shaded
-  smooth, with g1tess's normals as custom normals.
+  smooth, with g1tess's normals as custom normals and, when the output file has texture
+  coordinates (`vt`), its UVs as the UV map "UVMap".
 - The path of the g1tess binary is set in the add-on's preferences (empty: `g1tess` on
   the PATH).
 """
@@ -284,6 +285,11 @@ def build_object(context, name, data, original, place_beside):
         cn = data.corner_normals()
         if cn is not None:
             me.normals_split_custom_set(cn.tolist())
+    uv = data.corner_uvs()
+    if uv is not None:
+        # g1tess's texture coordinates (interpolated in each patch, split at seams).
+        layer = me.uv_layers.new(name="UVMap")
+        layer.data.foreach_set("uv", uv.astype(np.float32).ravel())
     me.update()
     obj = bpy.data.objects.new(name, me)
     collections = original.users_collection or (context.scene.collection,)

@@ -66,13 +66,26 @@ def write_pn(path, positions, vertex_normals, triangles, corners=(), comment=Non
 
 class ObjData:
     """What `read_obj` found: positions (V, 3), normals (N, 3) (may be empty), triangles
-    (T, 3) vertex ids and, per triangle corner, a normal id or -1 (T, 3)."""
+    (T, 3) vertex ids and, per triangle corner, a normal id or -1 (T, 3); texture
+    coordinates (U, 2) (may be empty) and per corner a texture coordinate id or -1 (T, 3)."""
 
-    def __init__(self, positions, normals, triangles, corner_normal_ids):
+    def __init__(self, positions, normals, triangles, corner_normal_ids, uvs=None, corner_uv_ids=None):
         self.positions = positions
         self.normals = normals
         self.triangles = triangles
         self.corner_normal_ids = corner_normal_ids
+        self.uvs = np.zeros((0, 2)) if uvs is None else uvs
+        if corner_uv_ids is None:
+            corner_uv_ids = np.full(triangles.shape, -1, dtype=np.int64)
+        self.corner_uv_ids = corner_uv_ids
+
+    def corner_uvs(self):
+        """(T*3, 2) texture coordinate of every triangle corner, in triangle order (Blender
+        loop order of a mesh built by from_pydata), or None when the file has no `vt` or a
+        corner has none."""
+        if len(self.uvs) == 0 or len(self.corner_uv_ids) == 0 or (self.corner_uv_ids < 0).any():
+            return None
+        return self.uvs[self.corner_uv_ids.ravel()]
 
     def vertex_normals(self):
         """One normal per vertex when every corner of a vertex uses the same normal value
@@ -103,9 +116,10 @@ def _index(text, count, what):
 
 
 def read_obj(path):
-    """Reads the `v`, `vn` and `f` lines of an OBJ file (any face form, negative indices,
-    polygons fan-triangulated). Raises ValueError naming the file and line on bad input."""
-    positions, normals, tris, tri_n = [], [], [], []
+    """Reads the `v`, `vn`, `vt` and `f` lines of an OBJ file (any face form, negative
+    indices, polygons fan-triangulated). Raises ValueError naming the file and line on bad
+    input."""
+    positions, normals, uvs, tris, tri_n, tri_t = [], [], [], [], [], []
     with open(path, "r", encoding="utf-8") as f:
         for lineno, line in enumerate(f, 1):
             parts = line.split("#", 1)[0].split()
@@ -121,8 +135,13 @@ def read_obj(path):
                     normals.append([float(x) for x in parts[1:4]])
                     if len(normals[-1]) != 3:
                         raise ValueError("'vn' needs 3 numbers")
+                elif kw == "vt":
+                    uv = [float(x) for x in parts[1:3]]
+                    if not uv:
+                        raise ValueError("'vt' needs a number")
+                    uvs.append(uv + [0.0] * (2 - len(uv)))
                 elif kw == "f":
-                    vs, ns = [], []
+                    vs, ns, ts = [], [], []
                     for corner in parts[1:]:
                         fields = corner.split("/")
                         vs.append(_index(fields[0], len(positions), "vertex"))
@@ -130,17 +149,24 @@ def read_obj(path):
                             ns.append(_index(fields[2], len(normals), "normal"))
                         else:
                             ns.append(-1)
+                        if len(fields) >= 2 and fields[1]:
+                            ts.append(_index(fields[1], len(uvs), "texture coordinate"))
+                        else:
+                            ts.append(-1)
                     if len(vs) < 3:
                         raise ValueError("face with fewer than 3 corners")
                     for i in range(1, len(vs) - 1):
                         tris.append([vs[0], vs[i], vs[i + 1]])
                         tri_n.append([ns[0], ns[i], ns[i + 1]])
+                        tri_t.append([ts[0], ts[i], ts[i + 1]])
             except ValueError as e:
                 raise ValueError("%s:%d: %s" % (path, lineno, e)) from None
     positions = np.array(positions, dtype=np.float64).reshape(-1, 3)
     normals = np.array(normals, dtype=np.float64).reshape(-1, 3)
     triangles = np.array(tris, dtype=np.int64).reshape(-1, 3)
     corner_ids = np.array(tri_n, dtype=np.int64).reshape(-1, 3)
+    uvs = np.array(uvs, dtype=np.float64).reshape(-1, 2)
+    corner_uv_ids = np.array(tri_t, dtype=np.int64).reshape(-1, 3)
     if len(triangles) and (triangles.min() < 0 or triangles.max() >= len(positions)):
         raise ValueError("%s: face vertex index out of range" % path)
     if len(corner_ids) and corner_ids.max() >= len(normals):
@@ -150,4 +176,4 @@ def read_obj(path):
         if not (length > 0).all():
             raise ValueError("%s: zero-length normal" % path)
         normals = normals / length[:, None]
-    return ObjData(positions, normals, triangles, corner_ids)
+    return ObjData(positions, normals, triangles, corner_ids, uvs, corner_uv_ids)

@@ -518,6 +518,41 @@ def split_normals_import():
     assert np.abs(cn - want).max() < CUSTOM_NORMAL_TOL, cn
 
 
+@check("G1 Smooth imports the output's texture coordinates as the UV map")
+def uv_import():
+    # A stand-in for g1tess that writes a welded square whose two triangles have their own
+    # texture coordinates at the shared vertices 1 and 3 (a UV seam along the diagonal).
+    obj_text = (
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\n"
+        "vt 0 0\nvt 0.5 0\nvt 0.5 0.5\nvt 0.625 0.125\nvt 1 0.5\nvt 0.625 0.625\n"
+        "f 1/1/1 2/2/1 3/3/1\nf 1/4/1 3/5/1 4/6/1\n"
+    )
+    fake = os.path.join(WORK, "fake-uv-g1tess")
+    with open(fake, "w") as f:
+        f.write(
+            "#!%s\nimport json, sys\nout = sys.argv[sys.argv.index('-o') + 1]\n"
+            "open(out, 'w').write(%r)\n"
+            "print(json.dumps({'output': out, 'vertices': 4, 'triangles': 2}))\n"
+            % (sys.executable, obj_text)
+        )
+    os.chmod(fake, 0o755)
+    clear_scene()
+    obj = make_icosphere()
+    activate(obj)
+    set_binary(fake)
+    try:
+        assert bpy.ops.object.g1tess_smooth(level=2) == {"FINISHED"}
+    finally:
+        set_binary(BINARY)
+    me = bpy.context.active_object.data
+    assert (len(me.vertices), len(me.polygons)) == (4, 2)
+    assert [layer.name for layer in me.uv_layers] == ["UVMap"]
+    uv = mesh_array(me.uv_layers["UVMap"].data, "uv", len(me.loops), 2)
+    want = np.array([[0, 0], [0.5, 0], [0.5, 0.5], [0.625, 0.125], [1, 0.5], [0.625, 0.625]])
+    # Exact: every value is a short binary fraction, stored as f32.
+    assert np.array_equal(uv, want.astype(np.float32)), uv
+
+
 def main():
     passed = sum(ok for _, ok in RESULTS)
     failed = len(RESULTS) - passed

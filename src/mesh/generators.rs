@@ -202,6 +202,7 @@ fn with_vertex_normals(
         positions,
         triangles,
         corner_normals,
+        attributes: Default::default(),
         load_report,
     }
 }

@@ -32,6 +32,10 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     /// Unit normal at each corner of each triangle (always renormalised).
     pub corner_normals: Vec<[DVec3; 3]>,
+    /// Per-corner texture coordinates and colours, in step with `triangles` (empty when
+    /// the input gave none); set them through [`Mesh::set_corner_uvs`] and
+    /// [`Mesh::set_corner_colors`], which check their length.
+    pub attributes: CornerAttributes,
     /// What loading changed or found (dropped vertices, estimated normals, ...).
     pub load_report: LoadReport,
 }
@@ -54,10 +58,6 @@ pub struct LoadReport {
     /// without a texture coordinate, ...): one line each, for the user.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub notes: Vec<String>,
-    /// Per-corner attributes besides normals (read them with [`Mesh::corner_uvs`] and
-    /// [`Mesh::corner_colors`]). Held here so that every constructor of `Mesh` carries them.
-    #[serde(skip)]
-    pub(crate) attributes: CornerAttributes,
 }
 
 /// Per-corner attributes a mesh may carry besides normals, one entry per triangle of
@@ -341,24 +341,24 @@ impl Mesh {
     /// Texture coordinates (u, v) of each corner of each triangle, in step with
     /// [`Mesh::triangles`], when the input gave them.
     pub fn corner_uvs(&self) -> Option<&[[[f32; 2]; 3]]> {
-        self.load_report.attributes.uvs.as_deref()
+        self.attributes.uvs.as_deref()
     }
 
     /// Colour (red, green, blue, alpha in [0, 1]) of each corner of each triangle, in step
     /// with [`Mesh::triangles`], when the input gave colours (alpha 1 where it gave none;
     /// see [`Mesh::colors_have_alpha`]).
     pub fn corner_colors(&self) -> Option<&[[[f32; 4]; 3]]> {
-        self.load_report.attributes.colors.as_deref()
+        self.attributes.colors.as_deref()
     }
 
     /// Whether the input's colours had an alpha channel.
     pub fn colors_have_alpha(&self) -> bool {
-        self.load_report.attributes.alpha
+        self.attributes.alpha
     }
 
     /// All per-corner attributes besides normals.
     pub fn attributes(&self) -> &CornerAttributes {
-        &self.load_report.attributes
+        &self.attributes
     }
 
     /// Sets (or, with `None`, removes) the per-corner texture coordinates: one entry per
@@ -367,7 +367,7 @@ impl Mesh {
         if let Some(u) = &uvs {
             self.check_corner_data(u.len(), u.iter().flatten().flatten(), "texture coordinate")?;
         }
-        self.load_report.attributes.uvs = uvs;
+        self.attributes.uvs = uvs;
         Ok(())
     }
 
@@ -381,8 +381,8 @@ impl Mesh {
         if let Some(c) = &colors {
             self.check_corner_data(c.len(), c.iter().flatten().flatten(), "colour")?;
         }
-        self.load_report.attributes.alpha = alpha && colors.is_some();
-        self.load_report.attributes.colors = colors;
+        self.attributes.alpha = alpha && colors.is_some();
+        self.attributes.colors = colors;
         Ok(())
     }
 
@@ -597,7 +597,7 @@ impl Soup {
                 }
             }
         }
-        report.attributes = CornerAttributes {
+        let attributes = CornerAttributes {
             uvs: has_uvs.then_some(corner_uvs),
             alpha: alpha && colors.is_some(),
             colors: colors.is_some().then_some(corner_colors),
@@ -607,6 +607,7 @@ impl Soup {
             positions,
             triangles,
             corner_normals,
+            attributes,
             load_report: report,
         };
         mesh.apply_options(opts)?;

@@ -18,7 +18,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::text::{self, echo, Tokens};
-use super::{normals, weld, LoadOptions, LoadReport, Mesh};
+use super::{normals, weld, CornerAttributes, LoadOptions, LoadReport, Mesh};
 use crate::{Error, Result};
 
 /// Marks a corner without a normal.
@@ -549,6 +549,7 @@ fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
             })
         })
         .collect();
+    let mut attributes = CornerAttributes::default();
     if !tri_uvs.is_empty() {
         let missing = tri_uvs.iter().flatten().filter(|&&i| i == u32::MAX).count();
         if missing > 0 {
@@ -556,7 +557,7 @@ fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
                 "{missing} face corners without a texture coordinate: (0, 0) given"
             ));
         }
-        report.attributes.uvs = Some(
+        attributes.uvs = Some(
             tri_uvs
                 .iter()
                 .map(|t| t.map(|i| texcoords.get(i as usize).copied().unwrap_or([0.0; 2])))
@@ -568,6 +569,7 @@ fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
         positions,
         triangles: tris,
         corner_normals,
+        attributes,
         load_report: report,
     })
 }

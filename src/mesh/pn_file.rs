@@ -413,6 +413,7 @@ fn build(path: &Path, raw: Raw) -> Result<Mesh> {
         positions,
         triangles,
         corner_normals: normals,
+        attributes: Default::default(),
         load_report: report,
     })
 }

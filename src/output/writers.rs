@@ -17,6 +17,13 @@
 //!   vertex record) and u32 indices; accessor min/max bounds set. The JSON chunk is reserved
 //!   up front and filled in once the bounds are known.
 //!
+//!
+//! Texture coordinates and colours ([`StitchPlan::has_uvs`], [`StitchPlan::has_colors`]) go
+//! with the vertex records: OBJ `vt` (one per record, faces `p/r/r`; OBJ has no colours),
+//! PLY `float s t` and `uchar red green blue [alpha]` after the normal, glTF `TEXCOORD_0`
+//! (float) and `COLOR_0` (float, `VEC3`, or `VEC4` when the input had alpha) interleaved
+//! after the normal. STL has none. A mesh without them is written as before.
+//!
 //! PLY and glTF list every vertex before any triangle: their triangles are regenerated
 //! from the plan (topology only) after the vertices are written.
 //!
@@ -34,7 +41,7 @@ use rayon::prelude::*;
 use super::atomic::write_atomic_with;
 use crate::eval::{grid_len, grid_triangles, Vector};
 use crate::progress::Progress;
-use crate::tess::stitch::{Needs, PatchOut, StitchPlan, StitchSink};
+use crate::tess::stitch::{Needs, PatchOut, RecordAttributes, StitchPlan, StitchSink};
 use crate::{Error, Result};
 
 /// Output mesh formats.
@@ -341,6 +348,34 @@ fn push_record<V: Vector>(buf: &mut Vec<u8>, position: V, normal: V) {
     buf.extend_from_slice(&b);
 }
 
+/// Bytes of a vertex record's attributes in PLY (f32 texture coordinates, byte colours)
+/// or glTF (f32 texture coordinates and colours).
+fn attribute_bytes(plan: &StitchPlan, byte_colors: bool) -> usize {
+    let channels = if plan.colors_have_alpha() { 4 } else { 3 };
+    let color = if byte_colors { channels } else { 4 * channels };
+    8 * plan.has_uvs() as usize + color * plan.has_colors() as usize
+}
+
+/// Appends a record's attributes as the plan has them: texture coordinates (two f32), then
+/// the colour (three or four channels, bytes or f32), little-endian.
+fn push_attributes(buf: &mut Vec<u8>, plan: &StitchPlan, a: &RecordAttributes, byte_colors: bool) {
+    if plan.has_uvs() {
+        for x in a.uv {
+            buf.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    if plan.has_colors() {
+        let channels = if plan.colors_have_alpha() { 4 } else { 3 };
+        for &c in &a.color[..channels] {
+            if byte_colors {
+                buf.push((c.clamp(0.0, 1.0) * 255.0).round() as u8);
+            } else {
+                buf.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+}
+
 /// Appends the f32 little-endian bytes of `v`.
 #[inline]
 fn push_f32s<V: Vector>(buf: &mut Vec<u8>, v: V) {
@@ -363,8 +398,16 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
     fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
         writeln!(
             w,
-            "# {}\n# stitched: {} positions (v), {} vertex normals (vn), {} triangles",
-            self.title, self.plan.positions, self.plan.records, self.plan.triangles
+            "# {}\n# stitched: {} positions (v), {} vertex normals (vn), {}{} triangles",
+            self.title,
+            self.plan.positions,
+            self.plan.records,
+            if self.plan.has_uvs() {
+                format!("{} texture coordinates (vt), ", self.plan.records)
+            } else {
+                String::new()
+            },
+            self.plan.triangles
         )
     }
 
@@ -392,8 +435,29 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
             t.push('\n');
             flush(t, w)?;
         }
+        let uvs = self.plan.has_uvs();
+        if uvs {
+            for a in out.new_attributes {
+                // Shortest decimals that read back to the same f32.
+                let _ = writeln!(t, "vt {:?} {:?}", a.uv[0], a.uv[1]);
+                flush(t, w)?;
+            }
+        }
         for (r, p) in out.triangles.iter().zip(out.position_triangles) {
             flush(t, w)?;
+            if uvs {
+                let _ = writeln!(
+                    t,
+                    "f {}/{r0}/{r0} {}/{r1}/{r1} {}/{r2}/{r2}",
+                    p[0] + 1,
+                    p[1] + 1,
+                    p[2] + 1,
+                    r0 = r[0] + 1,
+                    r1 = r[1] + 1,
+                    r2 = r[2] + 1
+                );
+                continue;
+            }
             let _ = writeln!(
                 t,
                 "f {}//{} {}//{} {}//{}",
@@ -437,11 +501,21 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
                 }
             })
             .collect();
+        let mut extra = String::new();
+        if self.plan.has_uvs() {
+            extra.push_str("property float s\nproperty float t\n");
+        }
+        if self.plan.has_colors() {
+            extra.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
+            if self.plan.colors_have_alpha() {
+                extra.push_str("property uchar alpha\n");
+            }
+        }
         write!(
             w,
             "ply\nformat binary_little_endian 1.0\ncomment {title}\n\
              element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-             property float nx\nproperty float ny\nproperty float nz\n\
+             property float nx\nproperty float ny\nproperty float nz\n{extra}\
              element face {}\nproperty list uchar int vertex_indices\nend_header\n",
             self.plan.records, self.plan.triangles
         )
@@ -449,8 +523,15 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
 
     fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
-        for r in out.new_records {
-            push_record(&mut self.buf, r.position, r.normal);
+        if self.plan.has_attributes() {
+            for (r, a) in out.new_records.iter().zip(out.new_attributes) {
+                push_record(&mut self.buf, r.position, r.normal);
+                push_attributes(&mut self.buf, self.plan, a, true);
+            }
+        } else {
+            for r in out.new_records {
+                push_record(&mut self.buf, r.position, r.normal);
+            }
         }
         w.write_all(&self.buf)
     }
@@ -524,7 +605,7 @@ struct GlbLayout {
 const GLB_JSON_SLACK: usize = 256;
 
 fn glb_layout(plan: &StitchPlan, title: &str) -> GlbLayout {
-    let vertex_bytes = plan.records as u64 * 24;
+    let vertex_bytes = plan.records as u64 * glb_stride(plan);
     let index_bytes = plan.triangles as u64 * 12;
     let placeholder = glb_json(plan, title, [-f32::MAX; 3], [-f32::MAX; 3]).len();
     let json_bytes = (placeholder + GLB_JSON_SLACK).next_multiple_of(4) as u64;
@@ -536,10 +617,16 @@ fn glb_layout(plan: &StitchPlan, title: &str) -> GlbLayout {
     }
 }
 
+/// Bytes of one interleaved glTF vertex: position, normal, then the attributes.
+fn glb_stride(plan: &StitchPlan) -> u64 {
+    24 + attribute_bytes(plan, false) as u64
+}
+
 fn glb_json(plan: &StitchPlan, title: &str, min: [f32; 3], max: [f32; 3]) -> String {
     let r = plan.records as u64;
     let t = plan.triangles as u64;
-    serde_json::json!({
+    let stride = glb_stride(plan);
+    let mut json = serde_json::json!({
         "asset": {"version": "2.0", "generator": "g1tess"},
         "scene": 0,
         "scenes": [{"nodes": [0]}],
@@ -552,10 +639,10 @@ fn glb_json(plan: &StitchPlan, title: &str, min: [f32; 3], max: [f32; 3]) -> Str
                 "mode": 4
             }]
         }],
-        "buffers": [{"byteLength": r * 24 + t * 12}],
+        "buffers": [{"byteLength": r * stride + t * 12}],
         "bufferViews": [
-            {"buffer": 0, "byteOffset": 0, "byteLength": r * 24, "byteStride": 24, "target": 34962},
-            {"buffer": 0, "byteOffset": r * 24, "byteLength": t * 12, "target": 34963}
+            {"buffer": 0, "byteOffset": 0, "byteLength": r * stride, "byteStride": stride, "target": 34962},
+            {"buffer": 0, "byteOffset": r * stride, "byteLength": t * 12, "target": 34963}
         ],
         "accessors": [
             {"bufferView": 0, "byteOffset": 0, "componentType": 5126, "count": r,
@@ -565,8 +652,28 @@ fn glb_json(plan: &StitchPlan, title: &str, min: [f32; 3], max: [f32; 3]) -> Str
             {"bufferView": 1, "byteOffset": 0, "componentType": 5125, "count": 3 * t,
              "type": "SCALAR"}
         ]
-    })
-    .to_string()
+    });
+    // Attributes follow the normal in each vertex, as accessors 3 and on.
+    let mut offset = 24;
+    let mut add = |name: &str, kind: &str, bytes: u64| {
+        let accessors = json["accessors"].as_array_mut().expect("accessors");
+        let id = accessors.len();
+        accessors.push(serde_json::json!({"bufferView": 0, "byteOffset": offset,
+            "componentType": 5126, "count": r, "type": kind}));
+        json["meshes"][0]["primitives"][0]["attributes"][name] = id.into();
+        offset += bytes;
+    };
+    if plan.has_uvs() {
+        add("TEXCOORD_0", "VEC2", 8);
+    }
+    if plan.has_colors() {
+        if plan.colors_have_alpha() {
+            add("COLOR_0", "VEC4", 16);
+        } else {
+            add("COLOR_0", "VEC3", 12);
+        }
+    }
+    json.to_string()
 }
 
 struct GlbWriter<'a> {
@@ -600,13 +707,16 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
 
     fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
-        for r in out.new_records {
+        for (j, r) in out.new_records.iter().enumerate() {
             let p = r.position.to_f32();
             for (k, x) in p.into_iter().enumerate() {
                 self.min[k] = self.min[k].min(x);
                 self.max[k] = self.max[k].max(x);
             }
             push_record(&mut self.buf, r.position, r.normal);
+            if let Some(a) = out.new_attributes.get(j) {
+                push_attributes(&mut self.buf, self.plan, a, false);
+            }
         }
         w.write_all(&self.buf)
     }

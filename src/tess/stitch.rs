@@ -28,6 +28,14 @@
 //! records, `f p//r`); formats with one attribute set per vertex (PLY, glTF) write the
 //! records, so their meshes are cut along creases, as split normals require there.
 //!
+//! **Attributes.** Per-corner texture coordinates and colours of the input
+//! ([`Mesh::attributes`]) are interpolated linearly in each patch's barycentric domain (at
+//! a corner the input value itself) and handed over per new record
+//! ([`PatchOut::new_attributes`]). They split records like normals do: an input vertex has
+//! one record per distinct (normal, attributes) around it, and an edge whose triangles
+//! disagree on an end's attributes (a UV seam) gets one record per triangle for each
+//! sample, each with its own side's values. Positions stay shared across a seam.
+//!
 //! Memory: the plan is O(triangles); while streaming, the stitcher keeps the positions of
 //! the input vertices and edge samples (V + E(n − 1) points) and the output of one batch
 //! of patches (fewer patches per batch at high levels), so big outputs never need the
@@ -47,7 +55,7 @@ use rayon::prelude::*;
 use crate::eval::pattern::grid_index;
 use crate::eval::{grid_len, grid_triangles, Chunk, Evaluator, PatchPoint, Pattern, Vector};
 use crate::mesh::creases::{normal_key, split_ends};
-use crate::mesh::{Adjacency, Mesh};
+use crate::mesh::{Adjacency, CornerAttributes, Mesh};
 use crate::patch::PatchTable;
 use crate::progress::{NoProgress, Progress};
 use crate::tess::adaptive::Levels;
@@ -64,13 +72,21 @@ pub struct VertexRecord<V = DVec3> {
     pub position_id: u32,
 }
 
+/// The attributes of one vertex record, interpolated from its patch's corners: texture
+/// coordinates and colour (red, green, blue, alpha); the parts the input has not are 0.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RecordAttributes {
+    pub uv: [f32; 2],
+    pub color: [f32; 4],
+}
+
 /// What stitching found in the input topology.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct StitchReport {
     pub boundary_edges: usize,
     pub nonmanifold_edges: usize,
-    /// Edges whose triangles disagree on an end normal: their samples get one record per
-    /// triangle.
+    /// Edges whose triangles disagree on an end normal or an end's attributes (creases,
+    /// UV seams): their samples get one record per triangle.
     pub split_edges: usize,
     /// Records beyond one per position (split normals).
     pub extra_records: usize,
@@ -111,6 +127,33 @@ pub struct StitchPlan {
     interior: Vec<Range<usize>>,
     /// Per-edge levels ([`StitchPlan::with_levels`]); `None` for a uniform plan.
     adaptive: Option<Box<AdaptivePlan>>,
+    /// The mesh's per-corner attributes, when it has any.
+    attrs: Option<Box<CornerAttributes>>,
+}
+
+/// Bits of corner k of triangle t's attributes (0 for absent parts; −0 as 0), the key
+/// records and seams are split by.
+fn attribute_key(attrs: &CornerAttributes, t: usize, k: usize) -> [u32; 6] {
+    let bits = |x: f32| if x == 0.0 { 0 } else { x.to_bits() };
+    let mut key = [0; 6];
+    if let Some(u) = &attrs.uvs {
+        key[0] = bits(u[t][k][0]);
+        key[1] = bits(u[t][k][1]);
+    }
+    if let Some(c) = &attrs.colors {
+        for (d, &x) in key[2..].iter_mut().zip(&c[t][k]) {
+            *d = bits(x);
+        }
+    }
+    key
+}
+
+/// Linear interpolation of three corner values at barycentric coordinates `b`, in f64.
+fn interpolate<const N: usize>(corners: &[[f32; N]; 3], b: [f64; 3]) -> [f32; N] {
+    std::array::from_fn(|c| {
+        (b[0] * corners[0][c] as f64 + b[1] * corners[1][c] as f64 + b[2] * corners[2][c] as f64)
+            as f32
+    })
 }
 
 /// The per-edge part of a non-uniform plan.
@@ -198,6 +241,17 @@ impl StitchPlan {
     ) -> Result<StitchPlan> {
         let n = level;
         let nf = mesh.triangles.len();
+        let a = &mesh.attributes;
+        let lens = [
+            a.uvs.as_ref().map(Vec::len),
+            a.colors.as_ref().map(Vec::len),
+        ];
+        if let Some(len) = lens.into_iter().flatten().find(|&l| l != nf) {
+            return Err(Error::Invalid(format!(
+                "{}: per-corner attributes for {len} triangles, the mesh has {nf}",
+                mesh.name
+            )));
+        }
         let nv = mesh.positions.len();
         let ne = adjacency.edges.len();
         let uniform = adaptive.is_none();
@@ -239,6 +293,8 @@ impl StitchPlan {
                 Vec::new()
             },
             adaptive,
+            attrs: (mesh.attributes.uvs.is_some() || mesh.attributes.colors.is_some())
+                .then(|| Box::new(mesh.attributes.clone())),
         };
         for (e, edge) in adjacency.edges.iter().enumerate() {
             for u in &edge.uses {
@@ -269,12 +325,31 @@ impl StitchPlan {
             )));
         }
         plan.triangles = triangles as usize;
-        let split: Vec<bool> = split_ends(mesh, adjacency)
+        let mut split: Vec<bool> = split_ends(mesh, adjacency)
             .iter()
             .map(|s| s[0] || s[1])
             .collect();
+        if let Some(attrs) = &plan.attrs {
+            // A seam: the edge's triangles disagree on an end's attributes.
+            for (e, edge) in adjacency.edges.iter().enumerate() {
+                let ends = |u: &crate::mesh::EdgeUse| {
+                    let (t, k) = (u.triangle as usize, u.local as usize);
+                    let a = attribute_key(attrs, t, k);
+                    let b = attribute_key(attrs, t, (k + 1) % 3);
+                    if mesh.triangles[t][k] == edge.v[0] {
+                        (a, b)
+                    } else {
+                        (b, a)
+                    }
+                };
+                if let Some((first, rest)) = edge.uses.split_first() {
+                    let f = ends(first);
+                    split[e] |= rest.iter().any(|u| ends(u) != f);
+                }
+            }
+        }
         plan.report.split_edges = split.iter().filter(|&&s| s).count();
-        let mut groups: HashMap<(u32, [u64; 3]), u32> = HashMap::new();
+        let mut groups: HashMap<(u32, [u64; 3], [u32; 6]), u32> = HashMap::new();
         let (mut pos, mut rec) = (0u32, 0u32);
         for (t, tri) in mesh.triangles.iter().enumerate() {
             for (k, &vk) in tri.iter().enumerate() {
@@ -284,7 +359,11 @@ impl StitchPlan {
                     plan.vertex_owner[v] = t as u32;
                     pos += 1;
                 }
-                let key = (vk, normal_key(mesh.corner_normals[t][k]));
+                let akey = match &plan.attrs {
+                    Some(a) => attribute_key(a, t, k),
+                    None => [0; 6],
+                };
+                let key = (vk, normal_key(mesh.corner_normals[t][k]), akey);
                 let c = 3 * t + k;
                 match groups.get(&key) {
                     Some(&r) => plan.corner_rec[c] = r,
@@ -326,6 +405,27 @@ impl StitchPlan {
         plan.records = rec as usize;
         plan.report.extra_records = plan.records - plan.positions;
         Ok(plan)
+    }
+
+    /// Whether the output records carry texture coordinates
+    /// ([`RecordAttributes::uv`]).
+    pub fn has_uvs(&self) -> bool {
+        self.attrs.as_ref().is_some_and(|a| a.uvs.is_some())
+    }
+
+    /// Whether the output records carry colours ([`RecordAttributes::color`]).
+    pub fn has_colors(&self) -> bool {
+        self.attrs.as_ref().is_some_and(|a| a.colors.is_some())
+    }
+
+    /// Whether the colours' alpha channel came from the input.
+    pub fn colors_have_alpha(&self) -> bool {
+        self.attrs.as_ref().is_some_and(|a| a.alpha)
+    }
+
+    /// Whether the output records carry attributes ([`PatchOut::new_attributes`]).
+    pub fn has_attributes(&self) -> bool {
+        self.attrs.is_some()
     }
 
     /// Number of patches.
@@ -554,6 +654,9 @@ pub struct PatchOut<'a, V = DVec3> {
     pub new_positions: &'a [V],
     /// Records first appearing in this patch, in id order.
     pub new_records: &'a [VertexRecord<V>],
+    /// Attributes of each of `new_records`, when the plan carries any
+    /// ([`StitchPlan::has_attributes`]); empty otherwise.
+    pub new_attributes: &'a [RecordAttributes],
     /// This patch's triangles as record ids ([`Needs::triangles`]).
     pub triangles: &'a [[u32; 3]],
     /// The same triangles as position ids ([`Needs::triangles`]).
@@ -727,6 +830,9 @@ struct PatchBuf<V> {
     local_triangles: Vec<[u32; 3]>,
     scratch: LocalScratch,
     snap: f64,
+    /// Attributes of the new records; a non-uniform patch's barycentric coordinates.
+    attributes: Vec<RecordAttributes>,
+    bary: Vec<[f64; 3]>,
 }
 
 impl<V> Default for PatchBuf<V> {
@@ -744,6 +850,8 @@ impl<V> Default for PatchBuf<V> {
             local_triangles: Vec::new(),
             scratch: LocalScratch::default(),
             snap: 0.0,
+            attributes: Vec::new(),
+            bary: Vec::new(),
         }
     }
 }
@@ -768,6 +876,8 @@ pub struct Stitcher<'a, V = DVec3> {
     bufs: Vec<PatchBuf<V>>,
     offsets: Vec<usize>,
     scratch: LocalScratch,
+    /// Barycentric coordinates of the grid (uniform plans with attributes).
+    grid_bary: Vec<[f64; 3]>,
 }
 
 impl<'a, V: Vector> Stitcher<'a, V> {
@@ -785,6 +895,11 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             bufs: Vec::new(),
             offsets: Vec::new(),
             scratch: LocalScratch::default(),
+            grid_bary: if plan.is_uniform() && plan.has_attributes() {
+                crate::eval::grid_barycentrics(plan.level)
+            } else {
+                Vec::new()
+            },
         }
     }
 
@@ -874,7 +989,7 @@ impl<'a, V: Vector> Stitcher<'a, V> {
         let mut start = 0;
         while start < count {
             let len = batch.min(count - start);
-            let (store, grid) = (&self.store, &self.grid);
+            let (store, grid, grid_bary) = (&self.store, &self.grid, &self.grid_bary);
             let build = |(j, buf): (usize, &mut PatchBuf<V>)| {
                 let k = start + j;
                 build_patch(
@@ -886,7 +1001,10 @@ impl<'a, V: Vector> Stitcher<'a, V> {
                     &normals[at(k)],
                     needs,
                     buf,
-                )
+                );
+                if let Some(attrs) = &plan.attrs {
+                    build_attributes(plan, attrs, grid_bary, first + k, buf);
+                }
             };
             let bufs = &mut self.bufs[..len];
             if len > 1 {
@@ -900,6 +1018,11 @@ impl<'a, V: Vector> Stitcher<'a, V> {
                     patch: first + start + j,
                     new_positions: &buf.new_positions[..buf.npos],
                     new_records: &buf.records[..buf.nrec],
+                    new_attributes: if plan.attrs.is_some() {
+                        &buf.attributes
+                    } else {
+                        &[]
+                    },
                     triangles: &buf.triangles,
                     position_triangles: &buf.position_triangles,
                     grid_positions: &buf.grid_positions,
@@ -1079,6 +1202,56 @@ fn build_patch<V: Vector>(
     }
 }
 
+/// Builds the attributes of patch `p`'s new records into `buf.attributes`, in record order
+/// (corners, edge uses in canonical order, interior), each interpolated at its sample's
+/// barycentric coordinates in patch `p` (`grid_bary` for a uniform plan).
+fn build_attributes<V>(
+    plan: &StitchPlan,
+    attrs: &CornerAttributes,
+    grid_bary: &[[f64; 3]],
+    p: usize,
+    buf: &mut PatchBuf<V>,
+) {
+    let bary: &[[f64; 3]] = if plan.is_uniform() {
+        grid_bary
+    } else {
+        buf.bary.clear();
+        plan.patch_points(p, &mut buf.bary);
+        &buf.bary
+    };
+    let uv = attrs.uvs.as_ref().map(|u| &u[p]);
+    let color = attrs.colors.as_ref().map(|c| &c[p]);
+    let at = |g: u32| {
+        let b = bary[g as usize];
+        RecordAttributes {
+            uv: uv.map_or([0.0; 2], |u| interpolate(u, b)),
+            color: color.map_or([0.0; 4], |c| interpolate(c, b)),
+        }
+    };
+    let out = &mut buf.attributes;
+    out.clear();
+    let map = plan.local_map(p, &mut buf.scratch);
+    for k in 0..3 {
+        if plan.corner_new_rec[3 * p + k] {
+            out.push(at(map.corner[k]));
+        }
+    }
+    for k in 0..3 {
+        let u = 3 * p + k;
+        if plan.use_new_rec[u] {
+            // Canonical sample m (1..n) lies at step n − m on a reversed use.
+            if plan.use_rev[u] {
+                out.extend(map.edges[k].iter().rev().map(|&g| at(g)));
+            } else {
+                out.extend(map.edges[k].iter().map(|&g| at(g)));
+            }
+        }
+    }
+    for row in map.interior {
+        out.extend(row.clone().map(|g| at(g as u32)));
+    }
+}
+
 /// A stitched mesh held in memory (small runs, tests, pictures).
 #[derive(Clone, Debug)]
 pub struct StitchedMesh<V = DVec3> {
@@ -1090,6 +1263,9 @@ pub struct StitchedMesh<V = DVec3> {
     pub record_position: Vec<u32>,
     /// Triangles as record ids.
     pub triangles: Vec<[u32; 3]>,
+    /// Attributes of each vertex record, when the plan carries any
+    /// ([`StitchPlan::has_attributes`]); empty otherwise.
+    pub attributes: Vec<RecordAttributes>,
 }
 
 impl<V> Default for StitchedMesh<V> {
@@ -1099,6 +1275,7 @@ impl<V> Default for StitchedMesh<V> {
             normals: Vec::new(),
             record_position: Vec::new(),
             triangles: Vec::new(),
+            attributes: Vec::new(),
         }
     }
 }
@@ -1119,6 +1296,7 @@ impl<V: Vector> StitchSink<V> for StitchedMesh<V> {
             self.record_position.push(r.position_id);
         }
         self.triangles.extend_from_slice(out.triangles);
+        self.attributes.extend_from_slice(out.new_attributes);
         Ok(())
     }
 }
