@@ -38,6 +38,8 @@
 //! on every patch that changed.
 
 use std::collections::{HashMap, HashSet};
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -118,25 +120,90 @@ struct Plan {
 /// `mesh` with its normals repaired for `scheme` (see the module documentation) and what
 /// changed. A mesh whose patches are all certified valid comes back unchanged.
 pub fn repair(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<(Mesh, RepairReport)> {
+    let outcome = cached_plan(mesh, scheme, opts)?;
+    Ok(match &outcome.plan {
+        Some(p) => (p.mesh.clone(), p.report.clone()),
+        None => (mesh.clone(), outcome.report.clone()),
+    })
+}
+
+/// What [`repair`] reports for `mesh`, without copying the repaired mesh. The repair of
+/// the same mesh, scheme and options that built a table just before (with
+/// [`SchemeOptions::repair_folds`]) is not run again: the last few outcomes are kept.
+pub fn report(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<RepairReport> {
+    Ok(cached_plan(mesh, scheme, opts)?.report.clone())
+}
+
+/// The outcome of the search on one mesh: its plan (`None` where every patch was already
+/// certified) and its report.
+struct Outcome {
+    plan: Option<Plan>,
+    report: RepairReport,
+}
+
+/// Outcomes kept, most recent last (a command builds a table and then reports on it; `render`
+/// does so once per scheme).
+const KEPT: usize = 2;
+
+/// Outcomes of recent searches, by [`fingerprint`].
+static OUTCOMES: Mutex<Vec<(u64, Arc<Outcome>)>> = Mutex::new(Vec::new());
+
+/// A 64-bit hash of everything the search depends on: the positions, triangles and
+/// corner normals (bit patterns), the scheme and its options.
+fn fingerprint(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    scheme.name().hash(&mut h);
+    opts.phong_alpha.to_bits().hash(&mut h);
+    mesh.positions.len().hash(&mut h);
+    for p in &mesh.positions {
+        p.to_array().map(f64::to_bits).hash(&mut h);
+    }
+    mesh.triangles.hash(&mut h);
+    for c in &mesh.corner_normals {
+        c.map(|n| n.to_array().map(f64::to_bits)).hash(&mut h);
+    }
+    h.finish()
+}
+
+/// The search's outcome on `mesh`, from [`OUTCOMES`] or computed (and kept).
+fn cached_plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Arc<Outcome>> {
     let opts = SchemeOptions {
         repair_folds: false,
         ..*opts
     };
-    match plan(mesh, scheme, &opts)? {
-        Some(p) => Ok((p.mesh, p.report)),
+    let key = fingerprint(mesh, scheme, &opts);
+    let kept = |o: &Mutex<Vec<(u64, Arc<Outcome>)>>| {
+        let list = o.lock().unwrap_or_else(|e| e.into_inner());
+        list.iter().find(|(k, _)| *k == key).map(|(_, v)| v.clone())
+    };
+    if let Some(o) = kept(&OUTCOMES) {
+        return Ok(o);
+    }
+    let outcome = Arc::new(match plan(mesh, scheme, &opts)? {
+        Some(p) => Outcome {
+            report: p.report.clone(),
+            plan: Some(p),
+        },
         None => {
             let table = PatchTable::build(mesh, scheme, &opts)?;
             let c = super::validity::count(&table);
-            Ok((
-                mesh.clone(),
-                RepairReport {
+            Outcome {
+                plan: None,
+                report: RepairReport {
                     before: c,
                     after: c,
                     ..Default::default()
                 },
-            ))
+            }
         }
+    });
+    let mut list = OUTCOMES.lock().unwrap_or_else(|e| e.into_inner());
+    list.retain(|(k, _)| *k != key);
+    if list.len() >= KEPT {
+        list.remove(0);
     }
+    list.push((key, outcome.clone()));
+    Ok(outcome)
 }
 
 /// The builder of `scheme` on `mesh` with repaired normals (what
@@ -152,7 +219,8 @@ pub(super) fn repaired_builder<'a>(
         ..*opts
     };
     let base = (scheme.info().prepare)(mesh, &opts)?;
-    let Some(p) = plan(mesh, scheme, &opts)? else {
+    let outcome = cached_plan(mesh, scheme, &opts)?;
+    let Some(p) = &outcome.plan else {
         return Ok(base);
     };
     let rb = PatchBuilder::new(&p.mesh, scheme, &opts)?;
