@@ -287,6 +287,40 @@ fn repair_fixes_a_tilted_normal_and_keeps_g1_and_watertight() {
 }
 
 #[test]
+fn bunny_repair_counts_are_exact_and_kept_for_the_warning() {
+    // The local search's outcome on the bunny (deterministic): 7 folded before, 2 after
+    // (one on an input triangle that turns away from every neighbour), 10 vertices moved.
+    let bunny = common::load("stanford-bunny.obj");
+    let opts = SchemeOptions::default();
+    let (fixed, r) = repair(&bunny, Scheme::G1, &opts).unwrap();
+    assert_eq!(
+        (
+            r.before.folded,
+            r.before.undecided,
+            r.after.folded,
+            r.after.undecided
+        ),
+        (7, 0, 2, 0),
+        "{r:?}"
+    );
+    assert_eq!(r.vertices_touched, 10);
+    assert_eq!(r.left_on_flipped_triangles, 1);
+    let table = PatchTable::build(&fixed, Scheme::G1, &opts).unwrap();
+    assert_eq!(count(&table), r.after);
+    // What the warning line reports is the outcome kept from that search, equal to it.
+    assert_eq!(
+        g1tess::patch::repair::report(&bunny, Scheme::G1, &opts).unwrap(),
+        r
+    );
+    // Fandisk (sharp features, crease normals): every G1 patch certified, nothing to
+    // repair.
+    let fandisk = common::load("fandisk.obj");
+    let t = PatchTable::build(&fandisk, Scheme::G1, &opts).unwrap();
+    assert_eq!(count(&t).valid, fandisk.triangles.len());
+    assert_eq!(fandisk.triangles.len(), 12946);
+}
+
+#[test]
 fn stats_report_counts_patches_and_prints_null_without_interior_edges() {
     let mesh = triangle([[0.0, 0.0, 1.0]; 3]);
     let r = stats_report(
