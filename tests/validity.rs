@@ -321,6 +321,68 @@ fn bunny_repair_counts_are_exact_and_kept_for_the_warning() {
 }
 
 #[test]
+fn repair_next_to_a_crease_keeps_both_sides_of_the_crease_curve() {
+    // Fandisk with creases above 40°: tilt one normal group of a crease vertex by about 100°;
+    // the patches across the crease share the crease curve built from both groups'
+    // normals, so the repair must rebuild them too, or the option's table would crack.
+    let mut mesh = Mesh::load(
+        &common::shared_spec("fandisk.obj"),
+        &LoadOptions {
+            crease_angle: Some(40.0),
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap();
+    let key = |n: DVec3| n.to_array().map(f64::to_bits);
+    let mut normals_at: std::collections::HashMap<u32, Vec<[u64; 3]>> = Default::default();
+    for (tri, ns) in mesh.triangles.iter().zip(&mesh.corner_normals) {
+        for (v, n) in tri.iter().zip(ns) {
+            let e = normals_at.entry(*v).or_default();
+            if !e.contains(&key(*n)) {
+                e.push(key(*n));
+            }
+        }
+    }
+    let v = (0..mesh.positions.len() as u32)
+        .find(|v| normals_at.get(v).is_some_and(|k| k.len() == 2))
+        .unwrap();
+    let target = normals_at[&v][0];
+    let mut old = DVec3::ZERO;
+    for (tri, ns) in mesh.triangles.iter().zip(mesh.corner_normals.iter_mut()) {
+        for (w, n) in tri.iter().zip(ns.iter_mut()) {
+            if *w == v && key(*n) == target {
+                old = *n;
+                *n = (-*n + 0.8 * n.any_orthonormal_vector()).normalize();
+            }
+        }
+    }
+    assert!(old != DVec3::ZERO);
+    let opts = SchemeOptions::default();
+    let before = count(&PatchTable::build(&mesh, Scheme::G1, &opts).unwrap());
+    assert!(before.folded > 0, "{before:?}");
+    let (fixed, r) = repair(&mesh, Scheme::G1, &opts).unwrap();
+    assert!(r.after.folded < before.folded, "{r:?}");
+    let table = PatchTable::build(&fixed, Scheme::G1, &opts).unwrap();
+    let via_option = PatchTable::build(
+        &mesh,
+        Scheme::G1,
+        &SchemeOptions {
+            repair_folds: true,
+            ..opts
+        },
+    )
+    .unwrap();
+    // Bit for bit the patches of the repaired mesh, the crease neighbours included.
+    let differ = (0..table.len())
+        .filter(|&i| via_option.patch(i) != table.patch(i))
+        .count();
+    assert_eq!(differ, 0);
+    let c = continuity(&fixed, &fixed.adjacency(), &table, &CpuEvaluator::default()).unwrap();
+    assert!(c.max_gap <= 1e-12 * fixed.diagonal(), "gap {}", c.max_gap);
+    assert_eq!(count(&table), r.after);
+}
+
+#[test]
 fn stats_report_counts_patches_and_prints_null_without_interior_edges() {
     let mesh = triangle([[0.0, 0.0, 1.0]; 3]);
     let r = stats_report(

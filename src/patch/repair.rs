@@ -281,6 +281,8 @@ struct Groups {
     /// Corners of each group.
     list: Vec<Vec<u32>>,
     vertex: Vec<u32>,
+    /// Groups of each vertex.
+    at_vertex: Vec<Vec<u32>>,
 }
 
 impl Groups {
@@ -306,6 +308,7 @@ impl Groups {
         let mut of_corner = vec![0u32; by_vertex.len()];
         let mut list = Vec::new();
         let mut vertex = Vec::new();
+        let mut at_vertex = vec![Vec::new(); nv];
         let mut keys: Vec<[u64; 3]> = Vec::new();
         for v in 0..nv {
             let cs = &by_vertex[count[v] as usize..count[v + 1] as usize];
@@ -327,12 +330,14 @@ impl Groups {
                 }
                 list.push(corners);
                 vertex.push(v as u32);
+                at_vertex[v].push(g);
             }
         }
         Groups {
             of_corner,
             list,
             vertex,
+            at_vertex,
         }
     }
 
@@ -347,10 +352,20 @@ impl Groups {
         self.list[g as usize].retain(|c| !b.contains(c));
         self.list.push(b.to_vec());
         self.vertex.push(self.vertex[g as usize]);
+        self.at_vertex[self.vertex[g as usize] as usize].push(new);
         for &c in b {
             self.of_corner[c as usize] = new;
         }
         new
+    }
+
+    /// The triangles whose patch a new normal of group `g` may change: every triangle at
+    /// its vertex (across a crease edge there, the shared crease curve is built from both
+    /// sides' normals).
+    fn triangles_around(&self, g: u32) -> impl Iterator<Item = u32> + '_ {
+        self.at_vertex[self.vertex[g as usize] as usize]
+            .iter()
+            .flat_map(|&h| self.list[h as usize].iter().map(|&c| c / 3))
     }
 
     /// The normal of group `g` in `mesh`.
@@ -461,7 +476,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 }
                 let mut ring: Vec<u32> = moves
                     .iter()
-                    .flat_map(|&(g, _)| groups.corners(g).iter().map(|&c| c / 3))
+                    .flat_map(|&(g, _)| groups.triangles_around(g))
                     .collect();
                 ring.sort_unstable();
                 ring.dedup();
@@ -517,12 +532,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 // away from this patch get their own normal (a new crease at the vertex),
                 // kept only where the certificate says it helps.
                 let (g, h, old) = split;
-                let mut ring: Vec<u32> = groups
-                    .corners(g)
-                    .iter()
-                    .chain(groups.corners(h))
-                    .map(|&c| c / 3)
-                    .collect();
+                let mut ring: Vec<u32> = groups.triangles_around(g).collect();
                 ring.sort_unstable();
                 ring.dedup();
                 let v = verdicts_of(&work, scheme, opts, &ring, false)?;
@@ -660,12 +670,13 @@ fn split_group(
     None
 }
 
-/// Sets the normal of every corner of group `g` to `n`, listing their triangles.
+/// Sets the normal of every corner of group `g` to `n`, listing the triangles whose patch
+/// may change ([`Groups::triangles_around`]).
 fn set_group(work: &mut Mesh, groups: &Groups, g: u32, n: DVec3, tris: &mut Vec<u32>) {
     for &c in groups.corners(g) {
         work.corner_normals[c as usize / 3][c as usize % 3] = n;
-        tris.push(c / 3);
     }
+    tris.extend(groups.triangles_around(g));
 }
 
 /// Angle between unit vectors in degrees (atan2 of |a × b| and a · b: accurate at small
