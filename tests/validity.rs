@@ -7,7 +7,9 @@ use g1tess::mesh::generators::icosphere;
 use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::output::stats::{continuity, stats_report};
 use g1tess::patch::repair::repair;
-use g1tess::patch::validity::{check_patch, count, jacobian, PatchCounts, Verdict};
+use g1tess::patch::validity::{
+    check_patch, count, jacobian, PatchCounts, Verdict, QUICK_BLEND_BOUND,
+};
 use g1tess::patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
 use glam::DVec3;
 
@@ -144,6 +146,77 @@ fn built_in_and_spot_patches_are_all_certified() {
 }
 
 #[test]
+fn the_quick_blend_bound_holds_over_the_domain() {
+    // ρ = 12 x² y z (φ − 1/2), φ = y/(y + z), for corner m (x, y, z = b_m, b_{m+1}, b_{m+2}),
+    // differentiated along s (b1 − b0) and t (b2 − b0) by central differences on a grid of
+    // the open domain; the derivation gives a largest value of 6 · 4/27 ≈ 0.889.
+    let rho = |m: usize, b: [f64; 3]| {
+        let (x, y, z) = (b[m], b[(m + 1) % 3], b[(m + 2) % 3]);
+        12.0 * x * x * y * z * (y / (y + z) - 0.5)
+    };
+    let h = 1e-6;
+    let n = 300;
+    let mut largest = 0.0f64;
+    for i in 1..n {
+        for j in 1..n - i {
+            let b = [
+                1.0 - (i + j) as f64 / n as f64,
+                i as f64 / n as f64,
+                j as f64 / n as f64,
+            ];
+            for m in 0..3 {
+                for dir in [[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]] {
+                    let at = |e: f64| std::array::from_fn(|k| b[k] + e * dir[k]);
+                    let d = (rho(m, at(h)) - rho(m, at(-h))) / (2.0 * h);
+                    largest = largest.max(d.abs());
+                }
+            }
+        }
+    }
+    // Central differences are exact to O(h²) ≈ 1e-12 here; the supremum 0.889 is reached
+    // on the edge y = 0 (x = 2/3), which this open grid only approaches (0.837 at n = 300):
+    // the bound is not vacuous.
+    assert!(largest <= QUICK_BLEND_BOUND, "{largest}");
+    assert!(largest > 0.8, "{largest}");
+}
+
+#[test]
+fn bunny_verdicts_are_counted_exactly() {
+    // The bunny's G1 patches: almost all certified by the quick whole-domain test, the
+    // rest by subdivision; the 7 folds come with witnesses (deterministic counts).
+    let bunny = common::load("stanford-bunny.obj");
+    let t = PatchTable::build(&bunny, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let verdicts = g1tess::patch::validity::check_table(&t);
+    let folded: Vec<_> = verdicts
+        .iter()
+        .enumerate()
+        .filter_map(|(i, v)| match v {
+            Verdict::Folded {
+                s,
+                t: tt,
+                jacobian: j,
+            } => Some((i, *s, *tt, *j)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(folded.len(), 7);
+    assert_eq!(
+        verdicts
+            .iter()
+            .filter(|v| **v == Verdict::Undecided)
+            .count(),
+        0
+    );
+    for (i, s, tt, j) in folded {
+        // Each witness is a fold by the patch's own evaluation (b_0 = 1 − s − t rounds
+        // apart from the witness's own b_0, hence the relative 1e-9).
+        let (again, scale) = jacobian(&t, i, [1.0 - s - tt, s, tt]);
+        assert!((again - j).abs() <= 1e-9 * j.abs(), "{again} vs {j}");
+        assert!(again < -1e-12 * scale);
+    }
+}
+
+#[test]
 fn repair_leaves_a_valid_mesh_bit_for_bit() {
     let mesh = common::load("torus200");
     let plain = SchemeOptions::default();
@@ -211,6 +284,102 @@ fn repair_fixes_a_tilted_normal_and_keeps_g1_and_watertight() {
     assert!(1.0 - c.cos.min <= 1e-12, "1 - min cos {}", 1.0 - c.cos.min);
     assert_eq!(c.folded, 0);
     assert!(c.max_gap <= 1e-12 * fixed.diagonal(), "gap {}", c.max_gap);
+}
+
+#[test]
+fn bunny_repair_counts_are_exact_and_kept_for_the_warning() {
+    // The local search's outcome on the bunny (deterministic): 7 folded before, 2 after
+    // (one on an input triangle that turns away from every neighbour), 10 vertices moved.
+    let bunny = common::load("stanford-bunny.obj");
+    let opts = SchemeOptions::default();
+    let (fixed, r) = repair(&bunny, Scheme::G1, &opts).unwrap();
+    assert_eq!(
+        (
+            r.before.folded,
+            r.before.undecided,
+            r.after.folded,
+            r.after.undecided
+        ),
+        (7, 0, 2, 0),
+        "{r:?}"
+    );
+    assert_eq!(r.vertices_touched, 10);
+    assert_eq!(r.left_on_flipped_triangles, 1);
+    let table = PatchTable::build(&fixed, Scheme::G1, &opts).unwrap();
+    assert_eq!(count(&table), r.after);
+    // What the warning line reports is the outcome kept from that search, equal to it.
+    assert_eq!(
+        g1tess::patch::repair::report(&bunny, Scheme::G1, &opts).unwrap(),
+        r
+    );
+    // Fandisk (sharp features, crease normals): every G1 patch certified, nothing to
+    // repair.
+    let fandisk = common::load("fandisk.obj");
+    let t = PatchTable::build(&fandisk, Scheme::G1, &opts).unwrap();
+    assert_eq!(count(&t).valid, fandisk.triangles.len());
+    assert_eq!(fandisk.triangles.len(), 12946);
+}
+
+#[test]
+fn repair_next_to_a_crease_keeps_both_sides_of_the_crease_curve() {
+    // Fandisk with creases above 40°: tilt one normal group of a crease vertex by about 100°;
+    // the patches across the crease share the crease curve built from both groups'
+    // normals, so the repair must rebuild them too, or the option's table would crack.
+    let mut mesh = Mesh::load(
+        &common::shared_spec("fandisk.obj"),
+        &LoadOptions {
+            crease_angle: Some(40.0),
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap();
+    let key = |n: DVec3| n.to_array().map(f64::to_bits);
+    let mut normals_at: std::collections::HashMap<u32, Vec<[u64; 3]>> = Default::default();
+    for (tri, ns) in mesh.triangles.iter().zip(&mesh.corner_normals) {
+        for (v, n) in tri.iter().zip(ns) {
+            let e = normals_at.entry(*v).or_default();
+            if !e.contains(&key(*n)) {
+                e.push(key(*n));
+            }
+        }
+    }
+    let v = (0..mesh.positions.len() as u32)
+        .find(|v| normals_at.get(v).is_some_and(|k| k.len() == 2))
+        .unwrap();
+    let target = normals_at[&v][0];
+    let mut old = DVec3::ZERO;
+    for (tri, ns) in mesh.triangles.iter().zip(mesh.corner_normals.iter_mut()) {
+        for (w, n) in tri.iter().zip(ns.iter_mut()) {
+            if *w == v && key(*n) == target {
+                old = *n;
+                *n = (-*n + 0.8 * n.any_orthonormal_vector()).normalize();
+            }
+        }
+    }
+    assert!(old != DVec3::ZERO);
+    let opts = SchemeOptions::default();
+    let before = count(&PatchTable::build(&mesh, Scheme::G1, &opts).unwrap());
+    assert!(before.folded > 0, "{before:?}");
+    let (fixed, r) = repair(&mesh, Scheme::G1, &opts).unwrap();
+    assert!(r.after.folded < before.folded, "{r:?}");
+    let table = PatchTable::build(&fixed, Scheme::G1, &opts).unwrap();
+    let via_option = PatchTable::build(
+        &mesh,
+        Scheme::G1,
+        &SchemeOptions {
+            repair_folds: true,
+            ..opts
+        },
+    )
+    .unwrap();
+    // Bit for bit the patches of the repaired mesh, the crease neighbours included.
+    let differ = (0..table.len())
+        .filter(|&i| via_option.patch(i) != table.patch(i))
+        .count();
+    assert_eq!(differ, 0);
+    let c = continuity(&fixed, &fixed.adjacency(), &table, &CpuEvaluator::default()).unwrap();
+    assert!(c.max_gap <= 1e-12 * fixed.diagonal(), "gap {}", c.max_gap);
+    assert_eq!(count(&table), r.after);
 }
 
 #[test]

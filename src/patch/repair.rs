@@ -38,6 +38,8 @@
 //! on every patch that changed.
 
 use std::collections::{HashMap, HashSet};
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex};
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -118,25 +120,90 @@ struct Plan {
 /// `mesh` with its normals repaired for `scheme` (see the module documentation) and what
 /// changed. A mesh whose patches are all certified valid comes back unchanged.
 pub fn repair(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<(Mesh, RepairReport)> {
+    let outcome = cached_plan(mesh, scheme, opts)?;
+    Ok(match &outcome.plan {
+        Some(p) => (p.mesh.clone(), p.report.clone()),
+        None => (mesh.clone(), outcome.report.clone()),
+    })
+}
+
+/// What [`repair`] reports for `mesh`, without copying the repaired mesh. The repair of
+/// the same mesh, scheme and options that built a table just before (with
+/// [`SchemeOptions::repair_folds`]) is not run again: the last few outcomes are kept.
+pub fn report(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<RepairReport> {
+    Ok(cached_plan(mesh, scheme, opts)?.report.clone())
+}
+
+/// The outcome of the search on one mesh: its plan (`None` where every patch was already
+/// certified) and its report.
+struct Outcome {
+    plan: Option<Plan>,
+    report: RepairReport,
+}
+
+/// Outcomes kept, most recent last (a command builds a table and then reports on it; `render`
+/// does so once per scheme).
+const KEPT: usize = 2;
+
+/// Outcomes of recent searches, by [`fingerprint`].
+static OUTCOMES: Mutex<Vec<(u64, Arc<Outcome>)>> = Mutex::new(Vec::new());
+
+/// A 64-bit hash of everything the search depends on: the positions, triangles and
+/// corner normals (bit patterns), the scheme and its options.
+fn fingerprint(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    scheme.name().hash(&mut h);
+    opts.phong_alpha.to_bits().hash(&mut h);
+    mesh.positions.len().hash(&mut h);
+    for p in &mesh.positions {
+        p.to_array().map(f64::to_bits).hash(&mut h);
+    }
+    mesh.triangles.hash(&mut h);
+    for c in &mesh.corner_normals {
+        c.map(|n| n.to_array().map(f64::to_bits)).hash(&mut h);
+    }
+    h.finish()
+}
+
+/// The search's outcome on `mesh`, from [`OUTCOMES`] or computed (and kept).
+fn cached_plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Arc<Outcome>> {
     let opts = SchemeOptions {
         repair_folds: false,
         ..*opts
     };
-    match plan(mesh, scheme, &opts)? {
-        Some(p) => Ok((p.mesh, p.report)),
+    let key = fingerprint(mesh, scheme, &opts);
+    let kept = |o: &Mutex<Vec<(u64, Arc<Outcome>)>>| {
+        let list = o.lock().unwrap_or_else(|e| e.into_inner());
+        list.iter().find(|(k, _)| *k == key).map(|(_, v)| v.clone())
+    };
+    if let Some(o) = kept(&OUTCOMES) {
+        return Ok(o);
+    }
+    let outcome = Arc::new(match plan(mesh, scheme, &opts)? {
+        Some(p) => Outcome {
+            report: p.report.clone(),
+            plan: Some(p),
+        },
         None => {
             let table = PatchTable::build(mesh, scheme, &opts)?;
             let c = super::validity::count(&table);
-            Ok((
-                mesh.clone(),
-                RepairReport {
+            Outcome {
+                plan: None,
+                report: RepairReport {
                     before: c,
                     after: c,
                     ..Default::default()
                 },
-            ))
+            }
         }
+    });
+    let mut list = OUTCOMES.lock().unwrap_or_else(|e| e.into_inner());
+    list.retain(|(k, _)| *k != key);
+    if list.len() >= KEPT {
+        list.remove(0);
     }
+    list.push((key, outcome.clone()));
+    Ok(outcome)
 }
 
 /// The builder of `scheme` on `mesh` with repaired normals (what
@@ -152,7 +219,8 @@ pub(super) fn repaired_builder<'a>(
         ..*opts
     };
     let base = (scheme.info().prepare)(mesh, &opts)?;
-    let Some(p) = plan(mesh, scheme, &opts)? else {
+    let outcome = cached_plan(mesh, scheme, &opts)?;
+    let Some(p) = &outcome.plan else {
         return Ok(base);
     };
     let rb = PatchBuilder::new(&p.mesh, scheme, &opts)?;
@@ -213,6 +281,8 @@ struct Groups {
     /// Corners of each group.
     list: Vec<Vec<u32>>,
     vertex: Vec<u32>,
+    /// Groups of each vertex.
+    at_vertex: Vec<Vec<u32>>,
 }
 
 impl Groups {
@@ -238,6 +308,7 @@ impl Groups {
         let mut of_corner = vec![0u32; by_vertex.len()];
         let mut list = Vec::new();
         let mut vertex = Vec::new();
+        let mut at_vertex = vec![Vec::new(); nv];
         let mut keys: Vec<[u64; 3]> = Vec::new();
         for v in 0..nv {
             let cs = &by_vertex[count[v] as usize..count[v + 1] as usize];
@@ -259,12 +330,14 @@ impl Groups {
                 }
                 list.push(corners);
                 vertex.push(v as u32);
+                at_vertex[v].push(g);
             }
         }
         Groups {
             of_corner,
             list,
             vertex,
+            at_vertex,
         }
     }
 
@@ -279,10 +352,20 @@ impl Groups {
         self.list[g as usize].retain(|c| !b.contains(c));
         self.list.push(b.to_vec());
         self.vertex.push(self.vertex[g as usize]);
+        self.at_vertex[self.vertex[g as usize] as usize].push(new);
         for &c in b {
             self.of_corner[c as usize] = new;
         }
         new
+    }
+
+    /// The triangles whose patch a new normal of group `g` may change: every triangle at
+    /// its vertex (across a crease edge there, the shared crease curve is built from both
+    /// sides' normals).
+    fn triangles_around(&self, g: u32) -> impl Iterator<Item = u32> + '_ {
+        self.at_vertex[self.vertex[g as usize] as usize]
+            .iter()
+            .flat_map(|&h| self.list[h as usize].iter().map(|&c| c / 3))
     }
 
     /// The normal of group `g` in `mesh`.
@@ -393,7 +476,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 }
                 let mut ring: Vec<u32> = moves
                     .iter()
-                    .flat_map(|&(g, _)| groups.corners(g).iter().map(|&c| c / 3))
+                    .flat_map(|&(g, _)| groups.triangles_around(g))
                     .collect();
                 ring.sort_unstable();
                 ring.dedup();
@@ -449,12 +532,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 // away from this patch get their own normal (a new crease at the vertex),
                 // kept only where the certificate says it helps.
                 let (g, h, old) = split;
-                let mut ring: Vec<u32> = groups
-                    .corners(g)
-                    .iter()
-                    .chain(groups.corners(h))
-                    .map(|&c| c / 3)
-                    .collect();
+                let mut ring: Vec<u32> = groups.triangles_around(g).collect();
                 ring.sort_unstable();
                 ring.dedup();
                 let v = verdicts_of(&work, scheme, opts, &ring, false)?;
@@ -592,12 +670,13 @@ fn split_group(
     None
 }
 
-/// Sets the normal of every corner of group `g` to `n`, listing their triangles.
+/// Sets the normal of every corner of group `g` to `n`, listing the triangles whose patch
+/// may change ([`Groups::triangles_around`]).
 fn set_group(work: &mut Mesh, groups: &Groups, g: u32, n: DVec3, tris: &mut Vec<u32>) {
     for &c in groups.corners(g) {
         work.corner_normals[c as usize / 3][c as usize % 3] = n;
-        tris.push(c / 3);
     }
+    tris.extend(groups.triangles_around(g));
 }
 
 /// Angle between unit vectors in degrees (atan2 of |a × b| and a · b: accurate at small

@@ -54,6 +54,8 @@ use crate::Result;
 pub const MAX_DEPTH: u32 = 12;
 /// Most cells examined per patch before it is left undecided.
 pub const MAX_CELLS: usize = 4096;
+/// From this depth on, every cell that does not certify is searched for a witness.
+const WITNESS_DEPTH: u32 = 6;
 
 /// The verdict on one patch.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -342,9 +344,11 @@ impl Geometry {
     }
 
     /// A lower bound of J on `cell` (certified when positive: the tolerance is taken off),
-    /// and the barycentric point where its smallest Bernstein coefficient sits (a witness
-    /// candidate).
-    fn bound(&self, cell: &Cell) -> (f64, [f64; 3]) {
+    /// the barycentric point where its smallest Bernstein coefficient sits (a witness
+    /// candidate), and whether that coefficient itself is below the tolerance (the
+    /// polynomial part alone does not certify the cell: only then is a witness looked for
+    /// at a shallow cell).
+    fn bound(&self, cell: &Cell) -> (f64, [f64; 3], bool) {
         let t = tables();
         let n = self.n;
         let len = t.powers[n as usize].len();
@@ -401,7 +405,7 @@ impl Geometry {
         let deg = (2 * m).max(1) as f64;
         let b =
             std::array::from_fn(|j| (0..3).map(|k| g[k] as f64 / deg * cell[k][j]).sum::<f64>());
-        (lower, b)
+        (lower, b, jmin <= self.tol)
     }
 }
 
@@ -491,8 +495,63 @@ fn blend_terms(m: usize, cell: &Cell) -> ([f64; 3], f64, f64) {
     (ell, d[1] + d[0], d[2] + d[0])
 }
 
+/// Bound on |∂ρ/∂s| and |∂ρ/∂t| over the whole domain for ρ = 12 x² y z (φ − 1/2), the part
+/// of corner m's Gregory weight that [`quick_gregory`] leaves out (x, y, z = b_m, b_{m+1},
+/// b_{m+2}, φ = y/(y + z)).
+///
+/// With σ = y + z = 1 − x and u = y/σ, ρ = 6 x² σ² g(u), g(u) = u (1 − u)(2u − 1), |g| ≤ √3/18
+/// and |g'| ≤ 1 on [0, 1]. The directions ∂/∂s = ∂_{b1} − ∂_{b0} and ∂/∂t = ∂_{b2} − ∂_{b0}
+/// are, for every m, one of ±(e_y − e_x), ±(e_z − e_x), ±(e_y − e_z). Along e_y − e_x
+/// (dσ = 1, du = (1 − u)/σ): ∂ρ = 6 x σ [2 (x − σ) g + x g'(u)(1 − u)], and
+/// |g'(u)(1 − u)| ≤ |g'| ≤ 1, so |∂ρ| ≤ 6 x (1 − x) [2 |2x − 1| √3/18 + x] ≤ 0.98 for x ∈ [0, 1]; e_z − e_x is the same by
+/// the symmetry y ↔ z (g(1 − u) = −g(u)). Along e_y − e_z (dσ = 0, du = 1/σ):
+/// ∂ρ = 6 x² σ g'(u), at most 6 · 4/27 ≈ 0.89. Hence 1 bounds all six.
+pub const QUICK_BLEND_BOUND: f64 = 1.0;
+
+/// A quick sufficient test that a G1 patch (`c`, its 18 control points) is valid over its
+/// whole domain, with no subdivision: the Gregory interior points are replaced by their
+/// means (G_{m,1} + G_{m−1,2})/2, which makes the patch a quartic Bézier triangle P (J_P of
+/// degree 6, bounded by its Bernstein coefficients); what that leaves out is
+/// Σ_m ρ_m ΔG_m with ρ_m = 12 x² y z (φ − 1/2), whose derivatives are at most
+/// [`QUICK_BLEND_BOUND`] |ΔG_m| each. Then J ≥ min J_P − (|P_s| r + r |P_t| + r²),
+/// r = Σ_m |ΔG_m|. True only when that bound, less the rounding tolerance, is positive;
+/// false says nothing (the full certificate decides).
+fn quick_gregory(c: &[DVec3], nref: DVec3) -> bool {
+    let t = tables();
+    let mut q = [DVec3::ZERO; 15];
+    for (j, p) in basis::g1_boundary_powers().iter().enumerate() {
+        q[basis::bezier_index(4, *p)] = c[j];
+    }
+    let mut r = 0.0;
+    for m in 0..3 {
+        let g1 = c[12 + 2 * m];
+        let g2 = c[13 + 2 * ((m + 2) % 3)];
+        q[basis::bezier_index(4, interior_powers(m))] = 0.5 * (g1 + g2);
+        r += QUICK_BLEND_BOUND * (g1 - g2).length();
+    }
+    let (ds, dt) = derivatives(&q, 4);
+    let ps = ds[..10].iter().map(|v| v.length()).fold(0.0, f64::max);
+    let pt = dt[..10].iter().map(|v| v.length()).fold(0.0, f64::max);
+    let mut tn = [DVec3::ZERO; 10];
+    for (j, v) in dt[..10].iter().enumerate() {
+        tn[j] = v.cross(nref);
+    }
+    let mut jc = [0.0f64; 28];
+    for &(a, b, g, w) in &t.products[3] {
+        jc[g] += w * ds[a].dot(tn[b]);
+    }
+    let jmin = jc.iter().copied().fold(f64::INFINITY, f64::min);
+    let cmax = c.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
+    // The same rounding tolerance as [`Geometry::new`] (degree 4 here).
+    let tol = 1e-9 * ps * pt + 64.0 * f64::EPSILON * cmax * 4.0 * (ps + pt);
+    jmin - (ps * r + r * pt + r * r) - tol > 0.0
+}
+
 /// The verdict on patch `i` of `table`.
 pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
+    if table.kind == PatchKind::Gregory && quick_gregory(table.patch(i), table.flat_normals[i]) {
+        return Verdict::Valid;
+    }
     let witness = |b: [f64; 3]| -> Option<Verdict> {
         let (j, scale) = jacobian(table, i, b);
         // Below −1e-12 |S_s| |S_t|: far beyond the rounding of the evaluation.
@@ -514,17 +573,23 @@ pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
     let mut undecided = false;
     while let Some((cell, depth)) = stack.pop() {
         cells += 1;
-        let (lower, b) = geom.bound(&cell);
+        let (lower, b, suspect) = geom.bound(&cell);
         if lower > 0.0 {
             continue;
         }
-        let centroid = std::array::from_fn(|j| (cell[0][j] + cell[1][j] + cell[2][j]) / 3.0);
-        for p in [b, centroid] {
-            if let Some(v) = witness(p) {
-                return v;
+        let leaf = depth >= MAX_DEPTH || cells + stack.len() + 4 > MAX_CELLS;
+        // Witnesses (two evaluations of the patch) are looked for where the polynomial part
+        // itself fails, deep in the subdivision and at a last cell; elsewhere the cell only
+        // needs a smaller remainder, which its children get.
+        if suspect || leaf || depth >= WITNESS_DEPTH {
+            let centroid = std::array::from_fn(|j| (cell[0][j] + cell[1][j] + cell[2][j]) / 3.0);
+            for p in [b, centroid] {
+                if let Some(v) = witness(p) {
+                    return v;
+                }
             }
         }
-        if depth >= MAX_DEPTH || cells + stack.len() + 4 > MAX_CELLS {
+        if leaf {
             undecided = true;
             continue;
         }
@@ -549,9 +614,9 @@ pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
 
 /// The line `tessellate` and `render` print about `table` (built for `mesh` with `opts`):
 /// with [`SchemeOptions::repair_folds`], what the repair changed and what is left
-/// ([`super::repair::repair`], run again on `mesh`: deterministic, so it describes
-/// `table`); otherwise the count of folded patches ([`fold_line`]), `None` where every
-/// patch is certified valid.
+/// ([`super::repair::report`]: the outcome of the repair that built `table`, kept, not
+/// searched again); otherwise the count of folded patches ([`fold_line`]), `None` where
+/// every patch is certified valid.
 pub fn fold_warning(
     mesh: &crate::mesh::Mesh,
     table: &PatchTable,
@@ -560,7 +625,7 @@ pub fn fold_warning(
     if !opts.repair_folds {
         return Ok(fold_line(&mesh.name, table));
     }
-    let (_, report) = super::repair::repair(mesh, table.scheme, opts)?;
+    let report = super::repair::report(mesh, table.scheme, opts)?;
     let c = count(table);
     let mut line = report.to_text(&mesh.name, table.scheme);
     if c.folded > 0 || c.undecided > 0 {
