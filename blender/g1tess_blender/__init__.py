@@ -267,7 +267,6 @@ def export_input(context, obj, stem, use_world_space=True, normals="AUTO", apply
         if uv is None:
             pnio.write_pn(path, p, n, t, c, comment=comment)
         else:
-            comment += ", UV map '%s'" % obj.data.uv_layers.active.name
             pnio.write_obj(path, p, n, t, c, uv, loops, comment=comment)
     except OSError as e:
         raise G1TessError("cannot write %s: %s" % (path, e.strerror or e)) from None
