@@ -3,7 +3,8 @@
 selected mesh into a smooth G1 surface with the g1tess program.
 
 - File > Export > g1tess Point-Normal (.pn)
-- Object > G1 Smooth: exports the active mesh, runs
+- Object > G1 Smooth: exports the active mesh (as `.pn`, or, when it has a UV layer, as OBJ
+  with the active layer's texture coordinates per corner), runs
   `g1tess tessellate FILE.pn --scheme S --level N -o OUT.obj --json` (or, with Detail set
   to Tolerance, `--tolerance-rel R --max-level M` instead of `--level N`: levels per edge
   chosen so that the flat triangles stay within R x the bounding-box diagonal of the
@@ -137,6 +138,14 @@ def mesh_arrays(context, obj, use_world_space=True, normals="AUTO", apply_modifi
     corners lists (triangle, corner, normal) for the triangle corners whose normal is not
     their vertex's normal.
     """
+    return mesh_data(context, obj, use_world_space, normals, apply_modifiers)[:4]
+
+
+def mesh_data(context, obj, use_world_space=True, normals="AUTO", apply_modifiers=True):
+    """`mesh_arrays` and the texture coordinates of the active UV layer: returns
+    (positions, vertex normals, triangles, corners, uvs, triangle loops) where uvs is
+    (L, 2) f64, one per Blender loop (None without a UV layer), and triangle loops (T, 3)
+    the loop of every triangle corner (in the order of `triangles`)."""
     if obj is None or obj.type != "MESH":
         raise G1TessError("select a mesh object")
     if obj.mode == "EDIT":
@@ -165,6 +174,11 @@ def mesh_arrays(context, obj, use_world_space=True, normals="AUTO", apply_modifi
             me.corner_normals.foreach_get("vector", ln)
             loop_vert = np.empty(nl, dtype=np.int32)
             me.loops.foreach_get("vertex_index", loop_vert)
+        uv = None
+        uv_layer = me.uv_layers.active
+        if uv_layer is not None:
+            uv = np.empty(nl * 2, dtype=np.float32)
+            uv_layer.data.foreach_get("uv", uv)
     finally:
         bpy.data.meshes.remove(me)
 
@@ -172,6 +186,7 @@ def mesh_arrays(context, obj, use_world_space=True, normals="AUTO", apply_modifi
     vnormals = vn.reshape(-1, 3).astype(np.float64)
     triangles = tri.reshape(-1, 3).astype(np.int64)
     corner_of = tri_loops.reshape(-1, 3)
+    uvs = uv.reshape(-1, 2).astype(np.float64) if uv is not None else None
     corner_normal = None
     if use_corners:
         ln = ln.reshape(-1, 3).astype(np.float64)
@@ -200,6 +215,7 @@ def mesh_arrays(context, obj, use_world_space=True, normals="AUTO", apply_modifi
             # normals' side.
             order = [0, 2, 1]
             triangles = triangles[:, order]
+            corner_of = corner_of[:, order]
             if corner_normal is not None:
                 corner_normal = corner_normal[:, order]
                 differs = differs[:, order]
@@ -215,7 +231,9 @@ def mesh_arrays(context, obj, use_world_space=True, normals="AUTO", apply_modifi
             corners.append((int(t), int(k), flat[t, k]))
     if not np.isfinite(positions).all():
         raise G1TessError("'%s' has a non-finite vertex position" % obj.name)
-    return positions, vnormals, triangles, corners
+    if uvs is not None and not np.isfinite(uvs).all():
+        raise G1TessError("'%s' has a non-finite texture coordinate" % obj.name)
+    return positions, vnormals, triangles, corners, uvs, corner_of
 
 
 def export_pn(context, obj, filepath, use_world_space=True, normals="AUTO", apply_modifiers=True):
@@ -231,6 +249,28 @@ def export_pn(context, obj, filepath, use_world_space=True, normals="AUTO", appl
         return pnio.write_pn(filepath, p, n, t, c, comment=comment)
     except OSError as e:
         raise G1TessError("cannot write %s: %s" % (filepath, e.strerror or e)) from None
+
+
+def export_input(context, obj, stem, use_world_space=True, normals="AUTO", apply_modifiers=True):
+    """Writes the input g1tess reads for G1 Smooth: `stem.obj` (positions, per-corner
+    normals and the active UV layer's texture coordinates) when the mesh has a UV layer,
+    else `stem.pn`. Returns the path written."""
+    p, n, t, c, uv, loops = mesh_data(context, obj, use_world_space, normals, apply_modifiers)
+    path = stem + (".pn" if uv is None else ".obj")
+    comment = "%s, %s space, normals %s, Blender %s" % (
+        obj.name,
+        "world" if use_world_space else "local",
+        normals.lower(),
+        bpy.app.version_string,
+    )
+    try:
+        if uv is None:
+            pnio.write_pn(path, p, n, t, c, comment=comment)
+        else:
+            pnio.write_obj(path, p, n, t, c, uv, loops, comment=comment)
+    except OSError as e:
+        raise G1TessError("cannot write %s: %s" % (path, e.strerror or e)) from None
+    return path
 
 
 def tessellate_command(binary, pn_path, out_path, scheme, level, tolerance_rel=None, max_level=64):
@@ -391,8 +431,8 @@ class OBJECT_OT_g1tess_smooth(bpy.types.Operator):
     )
     keep_dir: StringProperty(
         name="Keep Files In",
-        description="Folder that keeps the exchanged .pn and .obj files (empty: a "
-        "temporary folder, removed afterwards)",
+        description="Folder that keeps the exchanged .pn or .obj input and the .obj "
+        "output (empty: a temporary folder, removed afterwards)",
         subtype="DIR_PATH",
         default="",
     )
@@ -433,9 +473,11 @@ class OBJECT_OT_g1tess_smooth(bpy.types.Operator):
         work = keep or tempfile.mkdtemp(prefix="g1tess-")
         try:
             stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", obj.name) or "mesh"
-            pn_path = os.path.join(work, stem + ".pn")
             out_path = os.path.join(work, "%s.%s.obj" % (stem, self.scheme))
-            export_pn(context, obj, pn_path, False, self.normals, self.apply_modifiers)
+            pn_path = export_input(
+                context, obj, os.path.join(work, stem), False, self.normals,
+                self.apply_modifiers,
+            )
             tolerance = self.tolerance if self.detail == "TOLERANCE" else None
             summary = run_g1tess(
                 binary, pn_path, out_path, self.scheme, self.level, tolerance, self.max_level

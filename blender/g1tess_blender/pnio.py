@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: MIT OR Apache-2.0
 """File formats of the g1tess add-on, without Blender: the point-normal format `.pn`
-(version 1, written here, read by g1tess) and the OBJ files g1tess writes (read here).
+(version 1, written here, read by g1tess), the OBJ input written for meshes with texture
+coordinates, and the OBJ files g1tess writes (read here).
 
 The `.pn` format (documented in the repository README):
 
@@ -56,6 +57,59 @@ def write_pn(path, positions, vertex_normals, triangles, corners=(), comment=Non
             f.writelines(
                 "c %d %d %s\n" % (t, k, _fmt(float(x) for x in n)) for t, k, n in corners
             )
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    return len(positions), len(triangles), len(corners)
+
+
+def write_obj(
+    path, positions, vertex_normals, triangles, corners, uvs, triangle_uv_ids, comment=None
+):
+    """Writes the input g1tess reads when the mesh has texture coordinates, as OBJ,
+    atomically: `v` per vertex, `vn` per vertex normal then one per entry of `corners`
+    (the per-corner normals of the `.pn` format), `vt` per entry of `uvs` (one per Blender
+    loop) and `f v/vt/vn` per triangle, every number in `repr(float)` form.
+
+    triangle_uv_ids: (T, 3) 0-based index into uvs of every triangle corner.
+    Returns (V, T, C).
+    """
+    positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    vertex_normals = np.asarray(vertex_normals, dtype=np.float64).reshape(-1, 3)
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    uvs = np.asarray(uvs, dtype=np.float64).reshape(-1, 2)
+    uv_ids = np.asarray(triangle_uv_ids, dtype=np.int64).reshape(-1, 3)
+    corners = list(corners)
+    if len(positions) != len(vertex_normals):
+        raise ValueError("one vertex normal per position is needed")
+    if uv_ids.shape != triangles.shape:
+        raise ValueError("one texture coordinate id per triangle corner is needed")
+    if len(uv_ids) and (uv_ids.min() < 0 or uv_ids.max() >= len(uvs)):
+        raise ValueError("texture coordinate id out of range")
+    if not (
+        np.isfinite(positions).all()
+        and np.isfinite(vertex_normals).all()
+        and np.isfinite(uvs).all()
+    ):
+        raise ValueError("non-finite position, normal or texture coordinate")
+    # Normal ids: the vertex's normal, or the corner's own (after the V vertex normals).
+    normal_ids = triangles.copy()
+    for j, (t, k, _) in enumerate(corners):
+        normal_ids[t, k] = len(positions) + j
+    faces = np.stack([triangles + 1, uv_ids + 1, normal_ids + 1], axis=2).reshape(-1, 9)
+    tmp = "%s.tmp%d" % (path, os.getpid())
+    try:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as f:
+            if comment:
+                for line in str(comment).splitlines():
+                    f.write("# %s\n" % line)
+            f.writelines("v %s\n" % _fmt(r) for r in positions.tolist())
+            f.writelines("vn %s\n" % _fmt(r) for r in vertex_normals.tolist())
+            f.writelines("vn %s\n" % _fmt(float(x) for x in n) for _, _, n in corners)
+            f.writelines("vt %s\n" % _fmt(r) for r in uvs.tolist())
+            f.writelines("f %d/%d/%d %d/%d/%d %d/%d/%d\n" % tuple(r) for r in faces.tolist())
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -5,7 +5,8 @@ module from PyPI. Run by scripts/blender_test.sh:
 
 It installs the add-on the way a user does (a zip through Blender's "Install from Disk"
 operator, into a throw-away user folder), then round-trips an icosphere, a torus and a
-subdivided Suzanne through the add-on's operators and checks the results against the files
+subdivided Suzanne (no UV layers: sent as .pn) and a UV sphere and a cube (UV-mapped: sent as
+OBJ with their UVs) through the add-on's operators and checks the results against the files
 and against `g1tess stats`. Prints `blender: N passed, M failed` and exits non-zero when
 anything failed.
 """
@@ -136,19 +137,20 @@ def triangulate(obj):
 
 
 def make_icosphere():
-    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3)
+    # No UV layer: G1 Smooth sends such meshes as .pn (meshes with UVs go as OBJ).
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=3, calc_uvs=False)
     return bpy.context.active_object
 
 
 def make_torus():
-    bpy.ops.mesh.primitive_torus_add(major_segments=10, minor_segments=10)
+    bpy.ops.mesh.primitive_torus_add(major_segments=10, minor_segments=10, generate_uvs=False)
     obj = bpy.context.active_object
     triangulate(obj)
     return obj
 
 
 def make_suzanne():
-    bpy.ops.mesh.primitive_monkey_add()
+    bpy.ops.mesh.primitive_monkey_add(calc_uvs=False)
     obj = bpy.context.active_object
     mod = obj.modifiers.new("Subdivision", "SUBSURF")
     mod.levels = 1
@@ -551,6 +553,179 @@ def uv_import():
     want = np.array([[0, 0], [0.5, 0], [0.5, 0.5], [0.625, 0.125], [1, 0.5], [0.625, 0.625]])
     # Exact: every value is a short binary fraction, stored as f32.
     assert np.array_equal(uv, want.astype(np.float32)), uv
+
+def read_obj_input(path):
+    """Independent reader of the OBJ input the add-on writes for meshes with UVs:
+    v, vn, vt and f v/vt/vn (1-based)."""
+    v, vn, vt, f = [], [], [], []
+    with open(path, encoding="utf-8") as fh:
+        for line in fh:
+            p = line.split("#")[0].split()
+            if not p:
+                continue
+            rows = {"v": v, "vn": vn, "vt": vt}
+            if p[0] in rows:
+                rows[p[0]].append([float(x) for x in p[1:]])
+            else:
+                assert p[0] == "f" and len(p) == 4, line
+                f.append([[int(x) - 1 for x in c.split("/")] for c in p[1:]])
+    return np.array(v), np.array(vn), np.array(vt), np.array(f, dtype=np.int64)
+
+
+def triangle_uvs(me):
+    """(T, 3) vertex ids and (T, 3, 2) f32 UVs of the active layer at the corners of the
+    mesh's loop triangles (the add-on's triangle order)."""
+    me.calc_loop_triangles()
+    nt = len(me.loop_triangles)
+    tri = mesh_array(me.loop_triangles, "vertices", nt, 3, np.int32)
+    loops = mesh_array(me.loop_triangles, "loops", nt, 3, np.int32)
+    uv = mesh_array(me.uv_layers.active.data, "uv", len(me.loops), 2)
+    return tri, uv[loops]
+
+
+UV_LEVEL = 3
+
+
+@check("G1 Smooth carries a UV sphere's UVs (seam, poles) through g1tess at level 3")
+def uv_round_trip():
+    clear_scene()
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=8, calc_uvs=True)
+    obj = bpy.context.active_object
+    triangulate(obj)  # bmesh keeps the UV layer
+    me = obj.data
+    nv, ne, nt = len(me.vertices), len(me.edges), len(me.polygons)
+    assert (nv, nt) == (16 * 7 + 2, 16 * 6 * 2 + 2 * 16), (nv, nt)
+    co = mesh_array(me.vertices, "co", nv, 3)
+    tri, tuv = triangle_uvs(me)
+    assert (tuv >= 0).all() and (tuv <= 1).all()
+    activate(obj)
+    r = bpy.ops.object.g1tess_smooth(scheme="g1", level=UV_LEVEL, keep_dir=os.path.join(WORK, "uv"))
+    assert r == {"FINISHED"}, r
+    new = bpy.context.active_object
+    info = new["g1tess"]
+    nme = new.data
+
+    # The input went as OBJ: Blender's f32 positions and UVs exactly, one vt per loop.
+    assert info["input"].endswith(".obj"), info["input"]
+    pv, pvn, pvt, pf = read_obj_input(info["input"])
+    assert np.array_equal(pv, co.astype(np.float64)), "exported positions are not exact"
+    assert len(pvt) == len(me.loops) and len(pf) == nt
+    assert np.array_equal(pf[:, :, 0], tri), "exported triangles differ"
+    assert np.array_equal(pvt[pf[:, :, 1]], tuv.astype(np.float64)), "exported UVs not exact"
+    assert np.abs(np.linalg.norm(pvn, axis=1) - 1).max() < 1e-15
+    # The same normals as the .pn export: g1tess measures the same surface from both.
+    pn = os.path.join(WORK, "uv-sphere.pn")
+    activate(obj)
+    assert bpy.ops.export_mesh.g1tess_pn(filepath=pn, use_world_space=False) == {"FINISHED"}
+    ppos, pnrm, ptri, pc = read_pn(pn)
+    want_n = pnrm[ptri]
+    for t, k, n in pc:
+        want_n[t, k] = n
+    assert np.array_equal(ppos, pv) and np.array_equal(ptri, pf[:, :, 0])
+    assert np.array_equal(pvn[pf[:, :, 2]], want_n), "corner normals differ from the .pn"
+    s_obj, s_pn = stats(info["input"]), stats(pn)
+    for key in ("vertices", "triangles", "interior_edges", "boundary_edges"):
+        assert s_obj[key] == s_pn[key], (key, s_obj[key], s_pn[key])
+    # g1tess renormalises OBJ normals (the .pn's are taken as written): an ulp apart.
+    for a, b in ((s_obj["cos"]["min"], s_pn["cos"]["min"]), (s_obj["max_gap"], s_pn["max_gap"])):
+        assert abs(a - b) <= 1e-15, (a, b)
+    assert 1 - s_obj["cos"]["min"] <= G1_LIMIT, s_obj["cos"]
+
+    # Watertight by position: one output vertex per welded sample, seams included.
+    welded = nv + ne * (UV_LEVEL - 1) + nt * (UV_LEVEL - 1) * (UV_LEVEL - 2) // 2
+    assert len(nme.vertices) == info["vertices"] == welded, (len(nme.vertices), welded)
+    assert len(nme.polygons) == info["triangles"] == nt * UV_LEVEL**2
+    assert [layer.name for layer in nme.uv_layers] == ["UVMap"]
+    nco = mesh_array(nme.vertices, "co", len(nme.vertices), 3)
+    nloop_v = mesh_array(nme.loops, "vertex_index", len(nme.loops), 1, np.int32).reshape(-1, 3)
+    nuv = mesh_array(nme.uv_layers["UVMap"].data, "uv", len(nme.loops), 2).reshape(-1, 3, 2)
+    parent = np.arange(len(nloop_v)) // UV_LEVEL**2  # g1tess writes patch after patch
+
+    # At the input corners the UVs are the input UVs of that corner of the same triangle.
+    index = {tuple(p): i for i, p in enumerate(co.tolist())}
+    corner_err, corners_seen = 0.0, 0
+    for t, k in np.ndindex(nloop_v.shape):
+        v = index.get(tuple(nco[nloop_v[t, k]].tolist()))
+        if v is None:
+            continue
+        pt = parent[t]
+        at = np.nonzero(tri[pt] == v)[0]
+        assert len(at) == 1, "output corner at vertex %d is not a corner of triangle %d" % (v, pt)
+        corner_err = max(corner_err, float(np.abs(nuv[t, k] - tuv[pt, at[0]]).max()))
+        corners_seen += 1
+    assert corners_seen == nt * 3, corners_seen  # each patch has its 3 corners once
+    # g1tess interpolates in f64 and writes f32 values; Blender stores f32 (the ulp of a UV
+    # in [0, 1] is at most 6e-8).
+    assert corner_err <= 1e-6, corner_err
+    # Linear in each patch: every UV lies within its input triangle's UV bounding box.
+    lo, hi = tuv.min(axis=1)[parent], tuv.max(axis=1)[parent]
+    outside = max(float((lo[:, None] - nuv).max()), float((nuv - hi[:, None]).max()))
+    assert outside <= 1e-6, outside  # the same f32 rounding as above
+
+    # A seam stays a seam: the input vertices and edges whose triangles disagree on the UV
+    # keep every one of their UVs in the output, and no other output vertex is split.
+    def distinct(vert_ids, uvs):
+        sets = {}
+        for v, uv in zip(vert_ids.ravel().tolist(), uvs.reshape(-1, 2).tolist()):
+            sets.setdefault(v, set()).add(tuple(uv))
+        return sets
+
+    in_sets = distinct(tri, tuv)
+    seam_vertices = {v for v, uvs in in_sets.items() if len(uvs) > 1}
+    edge_uvs = {}
+    for t in range(nt):
+        for k in range(3):
+            a, b = int(tri[t, k]), int(tri[t, (k + 1) % 3])
+            key = (min(a, b), max(a, b))
+            ends = (tuple(tuv[t, k]), tuple(tuv[t, (k + 1) % 3]))
+            edge_uvs.setdefault(key, set()).add(ends if a < b else ends[::-1])
+    assert len(edge_uvs) == ne
+    seam_edges = sum(len(x) > 1 for x in edge_uvs.values())
+    out_sets = distinct(nloop_v, nuv)
+    split = sum(len(x) > 1 for x in out_sets.values())
+    for v in seam_vertices:
+        w = nloop_v.ravel()[np.nonzero((nco[nloop_v.ravel()] == co[v]).all(axis=1))[0][0]]
+        assert out_sets[int(w)] == in_sets[v], (v, out_sets[int(w)], in_sets[v])
+    print(
+        "     UV sphere: %d -> %d vertices, %d triangles; %d seam vertices, %d seam edges, "
+        "%d split output vertices; corner UV error %.1e, outside the triangle's UV box %.1e"
+        % (nv, len(nme.vertices), len(nme.polygons), len(seam_vertices), seam_edges, split,
+           corner_err, outside)
+    )
+    assert seam_edges > 0 and len(seam_vertices) > 0
+    assert split == len(seam_vertices) + seam_edges * (UV_LEVEL - 1), split
+
+
+@check("G1 Smooth of a UV-mapped cube with sharp edges: the OBJ input keeps the corner normals")
+def uv_corner_normals():
+    clear_scene()
+    bpy.ops.mesh.primitive_cube_add(calc_uvs=True)
+    obj = bpy.context.active_object
+    me = obj.data
+    me.shade_smooth()
+    attr = me.attributes.new("sharp_edge", "BOOLEAN", "EDGE")
+    attr.data.foreach_set("value", [True] * len(me.edges))
+    me.update()
+    activate(obj)
+    r = bpy.ops.object.g1tess_smooth(scheme="g1", level=2, keep_dir=os.path.join(WORK, "uv-cube"))
+    assert r == {"FINISHED"}, r
+    info = bpy.context.active_object["g1tess"]
+    pv, pvn, pvt, pf = read_obj_input(info["input"])
+    # 8 vertex normals, then one normal per corner that differs: all 36 (face normals).
+    assert (len(pv), len(pvn), len(pvt), len(pf)) == (8, 8 + 36, 24, 12)
+    for t in range(12):
+        p = pv[pf[t, :, 0]]
+        fn = np.cross(p[1] - p[0], p[2] - p[0])
+        assert np.abs(pvn[pf[t, :, 2]] - fn / np.linalg.norm(fn)).max() < 1e-6
+    pn = os.path.join(WORK, "uv-cube.pn")
+    activate(obj)
+    assert bpy.ops.export_mesh.g1tess_pn(filepath=pn, use_world_space=False) == {"FINISHED"}
+    s_obj, s_pn = stats(info["input"]), stats(pn)
+    for key in ("vertices", "triangles", "interior_edges", "crease_edges"):
+        assert s_obj[key] == s_pn[key], (key, s_obj[key], s_pn[key])
+    assert s_obj["crease_edges"] == 12, s_obj["crease_edges"]  # the cube's 12 edges
+    new = bpy.data.objects[obj.name + ".g1"]
+    assert [layer.name for layer in new.data.uv_layers] == ["UVMap"]
 
 
 def main():
