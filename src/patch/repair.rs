@@ -36,6 +36,19 @@
 //! input normal, and the largest distance between the repaired and the unrepaired surface
 //! at equal parameters (an upper bound of their Hausdorff distance) over a grid of level 8
 //! on every patch that changed.
+//!
+//! ```
+//! use g1tess::patch::{repair, validity, PatchTable, Scheme, SchemeOptions};
+//! let mesh = g1tess::mesh::generators::icosphere(2);
+//! let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default())?;
+//! let counts = validity::count(&table);
+//! assert_eq!(counts.valid, mesh.triangles.len());
+//! // Nothing folds, so the repair leaves the mesh bit for bit as it is.
+//! let (same, report) = repair::repair(&mesh, Scheme::G1, &SchemeOptions::default())?;
+//! assert_eq!(same.corner_normals, mesh.corner_normals);
+//! assert_eq!(report.vertices_touched, 0);
+//! # Ok::<(), g1tess::Error>(())
+//! ```
 
 use std::collections::{HashMap, HashSet};
 use std::hash::{Hash, Hasher};
