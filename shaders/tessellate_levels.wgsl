@@ -4,11 +4,12 @@
 // tess::stitch::StitchPlan::with_levels, from a per-edge u32 level buffer on the device.
 // Appended, like tessellate.wgsl (and instead of it), to the evaluation module of the patch
 // kind and the header of src/gpu/tessellator.rs (tess_header); it uses from the evaluation
-// module only kind_weights, eval_weights, Sample, absolute, grid_ij, row_start and the
-// group-0 binding patch_data.
+// module only kind_weights, eval_weights, eval_table, Sample, absolute, grid_ij,
+// grid_barycentric, row_start and the group-0 bindings params (per), patch_data, grid_w.
 //
 // mirrors tess::layout::effective_inner, tess::layout::points, tess::layout::triangles
 // mirrors tess::adaptive::InnerRule::inner, gpu::tessellator::Topology::new
+// mirrors gpu::tessellator::level_grid_base
 //
 // Numbering: every item of the stitched order (a corner record, the record block of an
 // edge use, a patch's interior) starts at a + block_off[b] + int_off[c], where (a, b, c)
@@ -19,8 +20,8 @@
 // Passes, in order: lv_patch_main (per patch: clamped edge levels and inner level),
 // lv_scan_main (4 workgroups: the prefix sums of block samples, interior samples, patch
 // samples and patch triangles, one workgroup each), lv_finish_main (indirect draw and
-// dispatch arguments from the totals), lv_points_main (one thread per sample, dispatched
-// indirectly), lv_triangles_main (one thread per patch, a serial walk of its pattern),
+// dispatch arguments from the totals), lv_points_main or lv_points_basis_main (one thread
+// per sample, dispatched indirectly), lv_triangles_main (one thread per patch, a serial walk of its pattern),
 // lv_copy_main (one thread per patch edge: split-normal records take the owner's
 // positions).
 
@@ -262,14 +263,18 @@ fn local_record(p: u32, e: vec3<u32>, local: u32) -> LvRec {
     return LvRec(interior_base(p) + q, FLAG_WRITE);
 }
 
-// One thread per sample of every patch: evaluates it and writes its record where this
-// patch writes it.
-@compute @workgroup_size(TESS_WORKGROUP)
-fn lv_points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let t = lv_thread(gid, state[ST_POINT_GROUPS_X]);
-    if (t >= state[ST_TOTALS + 2u]) {
-        return;
-    }
+// The sample of thread t: its patch, local index and record, and its grid level and grid
+// point (every sample of the pattern is a point of the grid of some level: a corner of
+// level 1, edge k's sample i of the grid of level E_k, an interior point of level n').
+struct LvSample {
+    p: u32,
+    local: u32,
+    rec: LvRec,
+    level: u32,
+    ij: vec2<u32>,
+}
+
+fn lv_sample(t: u32) -> LvSample {
     // The patch: the last whose first sample is at or before t.
     var lo = 0u;
     var hi = lv.patches - 1u;
@@ -289,39 +294,35 @@ fn lv_points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let e = patch_edges_levels(p);
     let n = effective_inner(e, patch_inner(p));
     let r = local_record(p, e, local);
-    if ((r.flags & FLAG_WRITE) == 0u) {
-        return;
-    }
-    // Barycentrics as tess::layout::points computes them.
-    var b = vec3<real>(0.0);
-    var corner = 3u;
     if (local < 3u) {
-        b[local] = real(1.0);
-        corner = local;
-    } else {
-        var q = local - 3u;
-        var done = false;
-        for (var k = 0u; k < 3u; k++) {
-            let m = e[k] - 1u;
-            if (!done && q < m) {
-                let i = q + 1u;
-                let ef = real(e[k]);
-                b[k] = real(e[k] - i) / ef;
-                b[(k + 1u) % 3u] = real(i) / ef;
-                done = true;
-            } else if (!done) {
-                q -= m;
-            }
-        }
-        if (!done) {
-            let ij = grid_ij(n - 3u, q) + vec2<u32>(1u, 1u);
-            let nf = real(n);
-            b = vec3<real>(real(n - ij.x - ij.y) / nf, real(ij.x) / nf, real(ij.y) / nf);
-        }
+        let ij = array<vec2<u32>, 3>(vec2<u32>(0u, 0u), vec2<u32>(1u, 0u), vec2<u32>(0u, 1u));
+        return LvSample(p, local, r, 1u, ij[local]);
     }
-    let s = absolute(p, eval_weights(p, kind_weights(b)), corner);
-    let o = r.id * 6u;
-    if ((r.flags & FLAG_COPY) == 0u) {
+    var q = local - 3u;
+    for (var k = 0u; k < 3u; k++) {
+        let m = e[k] - 1u;
+        if (q < m) {
+            // Step i from corner k: b_k = (E − i)/E, b_{k+1} = i/E.
+            let i = q + 1u;
+            let l = e[k];
+            var ij = vec2<u32>(i, 0u);
+            if (k == 1u) {
+                ij = vec2<u32>(l - i, i);
+            } else if (k == 2u) {
+                ij = vec2<u32>(0u, l - i);
+            }
+            return LvSample(p, local, r, l, ij);
+        }
+        q -= m;
+    }
+    return LvSample(p, local, r, n, grid_ij(n - 3u, q) + vec2<u32>(1u, 1u));
+}
+
+// Writes the record of sample `x` evaluated (patch-relative) as `ev`.
+fn lv_store(x: LvSample, ev: Sample) {
+    let s = absolute(x.p, ev, select(3u, x.local, x.local < 3u));
+    let o = x.rec.id * 6u;
+    if ((x.rec.flags & FLAG_COPY) == 0u) {
         vertices[o] = f32(s.p.x);
         vertices[o + 1u] = f32(s.p.y);
         vertices[o + 2u] = f32(s.p.z);
@@ -329,6 +330,45 @@ fn lv_points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     vertices[o + 3u] = f32(s.n.x);
     vertices[o + 4u] = f32(s.n.y);
     vertices[o + 5u] = f32(s.n.z);
+}
+
+// One thread per sample of every patch: evaluates it with the basis read from the table of
+// every grid level up to the cap (grid_w as eval_table reads it, params.per points in all,
+// level l's grid after those of the smaller levels: lv_grid_base) and writes its record
+// where this patch writes it.
+@compute @workgroup_size(TESS_WORKGROUP)
+fn lv_points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let t = lv_thread(gid, state[ST_POINT_GROUPS_X]);
+    if (t >= state[ST_TOTALS + 2u]) {
+        return;
+    }
+    let x = lv_sample(t);
+    if ((x.rec.flags & FLAG_WRITE) == 0u) {
+        return;
+    }
+    let local = lv_grid_base(x.level) + row_start(x.level, x.ij.y) + x.ij.x;
+    lv_store(x, eval_table(x.p, local));
+}
+
+// First point of the grid of level l in the table: the points of the grids of levels
+// 1..l − 1, Σ_{m=1}^{l−1} (m + 1)(m + 2)/2 = l (l + 1)(l + 2)/6 − 1
+// (gpu::tessellator::level_grid_base).
+fn lv_grid_base(l: u32) -> u32 {
+    return l * (l + 1u) * (l + 2u) / 6u - 1u;
+}
+
+// As lv_points_main with the basis computed in the shader (caps whose table is too large).
+@compute @workgroup_size(TESS_WORKGROUP)
+fn lv_points_basis_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let t = lv_thread(gid, state[ST_POINT_GROUPS_X]);
+    if (t >= state[ST_TOTALS + 2u]) {
+        return;
+    }
+    let x = lv_sample(t);
+    if ((x.rec.flags & FLAG_WRITE) == 0u) {
+        return;
+    }
+    lv_store(x, eval_weights(x.p, kind_weights(grid_barycentric(x.level, x.ij))));
 }
 
 // Local index of grid point (i, j) of the grid of level n (tess::layout::local_of): the

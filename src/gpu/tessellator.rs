@@ -523,6 +523,8 @@ struct LevelTess {
     finish: wgpu::ComputePipeline,
     points: wgpu::ComputePipeline,
     triangles: wgpu::ComputePipeline,
+    /// Group 0 of the per-edge passes: its own parameters and basis table.
+    group0: wgpu::BindGroup,
     copy: wgpu::ComputePipeline,
     uniform: wgpu::Buffer,
     statics: wgpu::Buffer,
@@ -657,6 +659,34 @@ fn grid_weight_bytes<R: Real>(kind: PatchKind, level: u32) -> Vec<u8> {
             flat[(j * 3) * per + local] = R::of(w.w[j]);
             flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
             flat[(j * 3 + 2) * per + local] = R::of(w.wt[j]);
+        }
+    }
+    bytemuck::cast_slice(&flat).to_vec()
+}
+
+/// First point of the grid of level `l` in the per-edge basis table: the points of the
+/// grids of levels 1..l − 1, l (l + 1)(l + 2)/6 − 1.
+pub fn level_grid_base(l: u32) -> u32 {
+    let l = l as u64;
+    (l * (l + 1) * (l + 2) / 6 - 1) as u32
+}
+
+/// The basis of every point of the grids of levels 1..=`top`, level after level, laid out
+/// as `eval_table` of `shaders/common.wgsl` reads it (per = all the points).
+fn level_weight_bytes<R: Real>(kind: PatchKind, top: u32) -> Vec<u8> {
+    let per = level_grid_base(top + 1) as usize;
+    let stride = kind.stride();
+    let mut flat: Vec<R> = vec![R::of(0.0); per * stride * 3];
+    for l in 1..=top {
+        let base = level_grid_base(l) as usize;
+        for (g, b) in grid_barycentrics(l).into_iter().enumerate() {
+            let w = kind.weights(b);
+            let local = base + g;
+            for j in 0..stride {
+                flat[(j * 3) * per + local] = R::of(w.w[j]);
+                flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
+                flat[(j * 3 + 2) * per + local] = R::of(w.wt[j]);
+            }
         }
     }
     bytemuck::cast_slice(&flat).to_vec()
@@ -1164,6 +1194,47 @@ impl GpuTessellator {
                 usage: U::STORAGE,
             },
         );
+        // The basis of every grid level up to the cap (every sample of the pattern is a
+        // point of one of them), as eval_table reads it; computed in the shader where too
+        // large.
+        let top = max_level.max(3);
+        let per = level_grid_base(top + 1) as u64;
+        let rb = self.precision.bytes() as u64;
+        let table_bytes = per * self.kind.stride() as u64 * 3 * rb;
+        let use_table = table_bytes <= MAX_GRID_TABLE_BYTES.min(self.max_binding);
+        let grid_w = if use_table {
+            let bytes = match self.precision {
+                Precision::F32 => level_weight_bytes::<f32>(self.kind, top),
+                Precision::F64 => level_weight_bytes::<f64>(self.kind, top),
+            };
+            wgpu::util::DeviceExt::create_buffer_init(
+                device,
+                &wgpu::util::BufferInitDescriptor {
+                    label: Some("tess level weights"),
+                    contents: &bytes,
+                    usage: U::STORAGE,
+                },
+            )
+        } else {
+            buffer("tess level weights", 16, U::STORAGE)
+        };
+        let params = Params {
+            count: 0,
+            first_local: 0,
+            level: top,
+            per: per as u32,
+            groups_x: 0,
+            _pad: [0; 3],
+        };
+        let params = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("tess level params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: U::UNIFORM,
+            },
+        );
+        let group0 = Self::bind0(device, &self.layout0, &params, &self.patch_data, &grid_w);
         let p = topo.patches as u64;
         let state_len = LV_STATE_HEAD as u64 + 4 * p + topo.edge_blocks as u64 + 1 + 3 * p;
         let lt = LevelTess {
@@ -1171,7 +1242,12 @@ impl GpuTessellator {
             patch: make("lv_patch_main"),
             scan: make("lv_scan_main"),
             finish: make("lv_finish_main"),
-            points: make("lv_points_main"),
+            points: make(if use_table {
+                "lv_points_main"
+            } else {
+                "lv_points_basis_main"
+            }),
+            group0,
             triangles: make("lv_triangles_main"),
             copy: make("lv_copy_main"),
             layout1,
@@ -1387,7 +1463,7 @@ impl GpuTessellator {
                 timestamp_writes: None,
             });
             pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &self.group0, &[]);
+            pass.set_bind_group(0, &lt.group0, &[]);
             pass.set_bind_group(1, &group1, &[]);
             match dispatch {
                 Some((x, y)) => pass.dispatch_workgroups(x, y, 1),
