@@ -1319,6 +1319,45 @@ impl GpuTessellator {
     /// Host levels are written with `queue.write_buffer`, so submit the encoder before
     /// tessellating again. The exact counts stay on the device: the indirect arguments and
     /// [`GpuTessellator::level_state`].
+    ///
+    /// Screen-space levels every frame, computed and used on the device:
+    ///
+    /// ```no_run
+    /// # fn demo(
+    /// #     device: &wgpu::Device,
+    /// #     queue: &wgpu::Queue,
+    /// #     tess: &mut g1tess::gpu::tessellator::GpuTessellator,
+    /// #     // LevelPass bindings: positions (vec4<f32> per vertex), edges (the two
+    /// #     // vertex ids of each adjacency edge), levels (u32 per edge, STORAGE).
+    /// #     positions: &wgpu::Buffer,
+    /// #     edges: &wgpu::Buffer,
+    /// #     levels: &wgpu::Buffer,
+    /// #     params: &wgpu::Buffer,
+    /// #     edge_count: u32,
+    /// #     view_proj: glam::DMat4,
+    /// # ) -> g1tess::Result<()> {
+    /// use g1tess::gpu::tessellator::LevelSource;
+    /// use g1tess::tess::adaptive::InnerRule;
+    /// use g1tess::tess::screen::ScreenView;
+    /// use g1tess::tess::screen_gpu::{LevelParams, LevelPass};
+    ///
+    /// let pass = LevelPass::new(device)?; // once
+    /// let max_level = 16;
+    /// // Every frame: levels from the camera, then the tessellation, in one encoder.
+    /// let view = ScreenView { view_proj, viewport: [1280.0, 720.0], target_px: 8.0, max_level };
+    /// let groups = LevelPass::groups(edge_count, device.limits().max_compute_workgroups_per_dimension);
+    /// let mut p = LevelParams::new(&view, edge_count);
+    /// p.groups_x = groups.0;
+    /// queue.write_buffer(params, 0, bytemuck::bytes_of(&p));
+    /// let mut encoder = device.create_command_encoder(&Default::default());
+    /// pass.record(device, &mut encoder, [params, positions, edges, levels], groups);
+    /// let source = LevelSource::Device { levels, rule: InnerRule::Max };
+    /// tess.tessellate_levels(device, queue, &mut encoder, source, max_level)?;
+    /// // ... a render pass: tess.draw(&mut pass) (draw_indexed_indirect) ...
+    /// queue.submit([encoder.finish()]);
+    /// # Ok(())
+    /// # }
+    /// ```
     pub fn tessellate_levels(
         &mut self,
         device: &wgpu::Device,
@@ -1517,9 +1556,11 @@ impl GpuTessellator {
         encoder: &mut wgpu::CommandEncoder,
         axes: [[f32; 3]; 3],
     ) -> Result<()> {
-        let counts = self
-            .counts
-            .ok_or_else(|| Error::Invalid("bounds of a surface not tessellated yet".into()))?;
+        let counts = self.counts.ok_or_else(|| {
+            Error::Invalid(
+                "bounds need a uniform tessellation (tessellate) recorded before them".into(),
+            )
+        })?;
         let (bx, by) = groups(counts.vertices, self.max_groups)?;
         self.uniform.bounds_count = counts.vertices;
         self.uniform.bounds_groups_x = bx;
