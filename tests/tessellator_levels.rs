@@ -17,8 +17,8 @@ use wgpu::util::DeviceExt;
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::gpu::shaders::validate;
 use g1tess::gpu::tessellator::{
-    tess_levels_module_source, GpuTessellator, LevelSource, LV_STATE_RECORDS, TESS_LEVELS_WGSL,
-    VERTEX_BYTES,
+    level_grid_base, tess_levels_module_source, GpuTessellator, LevelSource, LV_STATE_RECORDS,
+    TESS_LEVELS_WGSL, VERTEX_BYTES,
 };
 use g1tess::gpu::{read_buffer, GpuContext, Precision};
 use g1tess::mesh::{LoadOptions, Mesh};
@@ -105,6 +105,19 @@ fn level_module_validates_for_every_kind_in_f32_and_f64() {
             );
         }
     }
+}
+
+/// The per-edge basis table puts the grid of level l after those of levels 1..l − 1.
+#[test]
+fn level_grid_base_counts_the_smaller_grids() {
+    let mut sum = 0u64;
+    for l in 1..=200u32 {
+        assert_eq!(level_grid_base(l), sum, "level {l}");
+        sum += g1tess::eval::grid_len(l) as u64;
+    }
+    // Past 32-bit products: the cap's largest level.
+    let l = g1tess::tess::layout::MAX_LEVEL as u64 + 1;
+    assert_eq!(level_grid_base(l as u32), l * (l + 1) * (l + 2) / 6 - 1);
 }
 
 /// Source of the Rust module file for `segments` (a::b → src/a/b.rs or src/a/b/mod.rs).

@@ -666,9 +666,9 @@ fn grid_weight_bytes<R: Real>(kind: PatchKind, level: u32) -> Vec<u8> {
 
 /// First point of the grid of level `l` in the per-edge basis table: the points of the
 /// grids of levels 1..l − 1, l (l + 1)(l + 2)/6 − 1.
-pub fn level_grid_base(l: u32) -> u32 {
+pub fn level_grid_base(l: u32) -> u64 {
     let l = l as u64;
-    (l * (l + 1) * (l + 2) / 6 - 1) as u32
+    l * (l + 1) * (l + 2) / 6 - 1
 }
 
 /// The basis of every point of the grids of levels 1..=`top`, level after level, laid out
@@ -1198,7 +1198,7 @@ impl GpuTessellator {
         // point of one of them), as eval_table reads it; computed in the shader where too
         // large.
         let top = max_level.max(3);
-        let per = level_grid_base(top + 1) as u64;
+        let per = level_grid_base(top + 1);
         let rb = self.precision.bytes() as u64;
         let table_bytes = per * self.kind.stride() as u64 * 3 * rb;
         let use_table = table_bytes <= MAX_GRID_TABLE_BYTES.min(self.max_binding);
