@@ -31,10 +31,21 @@
 //! where `a`, `b` and `c` count the corner records, edge blocks and interiors before it,
 //! none of which depends on the level n. [`Topology`] keeps `(a, b, c)` of every item a
 //! patch refers to ([`TOPO_STRIDE`] u32 per patch), so one compute pass places every
-//! sample and writes every triangle at any level, with no plan per level. Per-edge levels
-//! would keep the same table: `b (n − 1)` and `c (n − 1)(n − 2)/2` become the exclusive
-//! prefix sums, over edge blocks and over patches, of each block's and each interior's
-//! sample count (a scan pass per frame), while `a` stays as it is.
+//! sample and writes every triangle at any level, with no plan per level.
+//!
+//! **Per-edge levels.** [`GpuTessellator::tessellate_levels`] tessellates with a level per
+//! edge and an inner level per patch ([`crate::tess::layout`]'s pattern, after OpenSubdiv
+//! Bfr) from a device buffer of edge levels (as [`crate::tess::screen_gpu::LevelPass`]
+//! writes them from the camera, inner levels by an [`InnerRule`]) or from host
+//! [`Levels`], with nothing read back: the same table serves, `b (n − 1)` and
+//! `c (n − 1)(n − 2)/2` becoming the exclusive prefix sums, over edge blocks and over
+//! patches in creation order, of each block's `E − 1` and each interior's
+//! `(n' − 1)(n' − 2)/2` samples, computed on the device each time
+//! (`shaders/tessellate_levels.wgsl`: inner levels, four prefix sums, the indirect draw
+//! and dispatch arguments from their totals, one thread per sample, a serial walk of each
+//! patch's pattern for its triangles). The output is
+//! [`crate::tess::stitch::StitchPlan::with_levels`]'s numbering and triangles exactly.
+//! Buffers are sized for a level cap (`max_level`) and reused while large enough.
 //!
 //! ```no_run
 //! # fn demo(
@@ -90,6 +101,8 @@ use crate::eval::{grid_barycentrics, grid_len};
 use crate::mesh::creases::{normal_key, split_ends};
 use crate::mesh::{Adjacency, Mesh};
 use crate::patch::{PatchKind, PatchTable};
+use crate::tess::adaptive::{InnerRule, Levels};
+use crate::tess::layout::MAX_LEVEL;
 use crate::{Error, Result};
 
 use super::shaders::{self, SLOT_CORNERS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO};
@@ -173,6 +186,12 @@ pub struct Topology {
     /// Blocks whose positions are copied from the owner's (split normals).
     pub copied_blocks: u32,
     pub patches: usize,
+    /// Edge (index in the adjacency) of each record block, in creation order.
+    pub block_edge: Vec<u32>,
+    /// Edge (index in the adjacency) of local edge k of patch p, at 3p + k.
+    pub patch_edges: Vec<u32>,
+    /// Edges of the adjacency.
+    pub edges: usize,
 }
 
 /// The record of one grid point: its id, the table's flags, and the record its position
@@ -221,6 +240,7 @@ impl Topology {
         let mut groups: HashMap<(u32, [u64; 3]), [u32; 3]> = HashMap::new();
         let mut edge_block: Vec<Option<[u32; 3]>> = vec![None; adjacency.edges.len()];
         let (mut a, mut b, mut copied) = (0u32, 0u32, 0u32);
+        let mut block_edge = Vec::with_capacity(adjacency.edges.len());
         for (t, tri) in mesh.triangles.iter().enumerate() {
             let row = &mut table[t * TOPO_STRIDE..(t + 1) * TOPO_STRIDE];
             let c = t as u32;
@@ -247,11 +267,13 @@ impl Topology {
                     None => {
                         let abc = [a, b, c];
                         edge_block[e] = Some(abc);
+                        block_edge.push(e as u32);
                         b += 1;
                         (abc, abc, FLAG_WRITE)
                     }
                     Some(owner) if split[e] => {
                         let abc = [a, b, c];
+                        block_edge.push(e as u32);
                         b += 1;
                         copied += 1;
                         (abc, owner, FLAG_WRITE | FLAG_COPY)
@@ -272,6 +294,9 @@ impl Topology {
             edge_blocks: b,
             copied_blocks: copied,
             patches: nf,
+            block_edge,
+            patch_edges: use_edge,
+            edges: adjacency.edges.len(),
         })
     }
 
@@ -415,6 +440,117 @@ pub struct TessUniform {
     pub axes: [[f32; 4]; 3],
 }
 
+/// `shaders/tessellate_levels.wgsl`: per-edge tessellation, appended (after
+/// [`tess_header`]) to the evaluation module of the patch kind.
+pub const TESS_LEVELS_WGSL: &str = include_str!("../../shaders/tessellate_levels.wgsl");
+
+/// Complete WGSL of the per-edge tessellation module of `kind`: the evaluation module,
+/// [`tess_header`], `shaders/tessellate_levels.wgsl`.
+pub fn tess_levels_module_source(kind: PatchKind, precision: Precision) -> Result<String> {
+    Ok(format!(
+        "{}\n// ---- src/gpu/tessellator.rs ----\n{}\n// ---- shaders/tessellate_levels.wgsl ----\n{}",
+        shaders::module_source(kind, precision)?,
+        tess_header(),
+        TESS_LEVELS_WGSL
+    ))
+}
+
+/// Where [`GpuTessellator::tessellate_levels`] takes its levels from.
+#[derive(Clone, Copy, Debug)]
+pub enum LevelSource<'a> {
+    /// A device buffer (`STORAGE`) of one u32 level per edge of the mesh's adjacency, as
+    /// [`crate::tess::screen_gpu::LevelPass`] writes it; inner levels by `rule`. Levels are
+    /// clamped to 1..=max_level on the device.
+    Device {
+        levels: &'a wgpu::Buffer,
+        rule: InnerRule,
+    },
+    /// Levels on the host (edge and inner levels in 1..=max_level), uploaded.
+    Host(&'a Levels),
+}
+
+/// Offsets (u32) in [`GpuTessellator::level_state`]: the totals (block samples, interior
+/// samples, patch samples, triangles).
+pub const LV_STATE_TOTALS: usize = 0;
+/// The `draw_indexed_indirect` arguments (also copied to [`GpuTessellator::indirect`]).
+pub const LV_STATE_DRAW: usize = 4;
+/// The vertex records written.
+pub const LV_STATE_RECORDS: usize = 12;
+/// u32 at the head of the state buffer.
+const LV_STATE_HEAD: usize = 16;
+/// Workgroups of the scan pass: one per prefix sum.
+const LV_SCANS: u32 = 4;
+
+/// `Lv` of `shaders/tessellate_levels.wgsl`, byte for byte.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+struct LvUniform {
+    patches: u32,
+    blocks: u32,
+    edges: u32,
+    max_level: u32,
+    rule: u32,
+    patch_groups_x: u32,
+    max_groups: u32,
+    corner_records: u32,
+    pinfo: u32,
+    block_off: u32,
+    int_off: u32,
+    pt_off: u32,
+    tri_off: u32,
+    copy_groups_x: u32,
+    pad: [u32; 2],
+}
+
+/// Upper bounds of one per-edge tessellation with levels up to `max_level`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LevelCapacity {
+    pub max_level: u32,
+    /// Vertex records at most (the exact count is at [`LV_STATE_RECORDS`] on the device).
+    pub vertices: u64,
+    /// Indices at most (the exact count is in the indirect arguments).
+    pub indices: u64,
+    /// Samples evaluated at most.
+    pub samples: u64,
+}
+
+/// Pipelines and buffers of per-edge tessellation (made on first use).
+struct LevelTess {
+    max_level: u32,
+    layout1: wgpu::BindGroupLayout,
+    patch: wgpu::ComputePipeline,
+    scan: wgpu::ComputePipeline,
+    finish: wgpu::ComputePipeline,
+    points: wgpu::ComputePipeline,
+    triangles: wgpu::ComputePipeline,
+    /// Group 0 of the per-edge passes: its own parameters and basis table.
+    group0: wgpu::BindGroup,
+    copy: wgpu::ComputePipeline,
+    uniform: wgpu::Buffer,
+    statics: wgpu::Buffer,
+    state: wgpu::Buffer,
+    dispatch: wgpu::Buffer,
+    host_levels: wgpu::Buffer,
+}
+
+impl Topology {
+    /// Upper bounds of a per-edge tessellation whose levels are at most `max_level`: the
+    /// pattern raises inner levels to 3 at least, so L = max(max_level, 3) bounds the inner
+    /// level, L² the triangles of a patch.
+    pub fn level_capacity(&self, max_level: u32) -> LevelCapacity {
+        let m = max_level.max(1) as u64;
+        let l = m.max(3);
+        let interior = (l - 1) * (l - 2) / 2;
+        let p = self.patches as u64;
+        LevelCapacity {
+            max_level,
+            vertices: self.corner_records as u64 + self.edge_blocks as u64 * (m - 1) + p * interior,
+            indices: 3 * p * l * l,
+            samples: p * (3 * m + interior),
+        }
+    }
+}
+
 /// Grids whose basis table is at most this large read it (computed once per level on the
 /// CPU); finer levels compute the basis in the shader.
 pub const MAX_GRID_TABLE_BYTES: u64 = 32 << 20;
@@ -445,6 +581,7 @@ pub struct GpuTessellator {
     group1: wgpu::BindGroup,
     uniform: TessUniform,
     counts: Option<TessCounts>,
+    levels: Option<LevelTess>,
 }
 
 /// Bytes rounded up to a multiple of 16, at least 16.
@@ -510,8 +647,8 @@ fn patch_bytes<R: Real>(table: &PatchTable) -> Vec<u8> {
     bytemuck::cast_slice(&out).to_vec()
 }
 
-/// The basis of every grid point of `level`, laid out as `table_weights` of
-/// `shaders/tessellate.wgsl` reads it.
+/// The basis of every grid point of `level`, laid out as `eval_table` of
+/// `shaders/common.wgsl` reads it.
 fn grid_weight_bytes<R: Real>(kind: PatchKind, level: u32) -> Vec<u8> {
     let per = grid_len(level);
     let stride = kind.stride();
@@ -522,6 +659,34 @@ fn grid_weight_bytes<R: Real>(kind: PatchKind, level: u32) -> Vec<u8> {
             flat[(j * 3) * per + local] = R::of(w.w[j]);
             flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
             flat[(j * 3 + 2) * per + local] = R::of(w.wt[j]);
+        }
+    }
+    bytemuck::cast_slice(&flat).to_vec()
+}
+
+/// First point of the grid of level `l` in the per-edge basis table: the points of the
+/// grids of levels 1..l − 1, l (l + 1)(l + 2)/6 − 1.
+pub fn level_grid_base(l: u32) -> u64 {
+    let l = l as u64;
+    l * (l + 1) * (l + 2) / 6 - 1
+}
+
+/// The basis of every point of the grids of levels 1..=`top`, level after level, laid out
+/// as `eval_table` of `shaders/common.wgsl` reads it (per = all the points).
+fn level_weight_bytes<R: Real>(kind: PatchKind, top: u32) -> Vec<u8> {
+    let per = level_grid_base(top + 1) as usize;
+    let stride = kind.stride();
+    let mut flat: Vec<R> = vec![R::of(0.0); per * stride * 3];
+    for l in 1..=top {
+        let base = level_grid_base(l) as usize;
+        for (g, b) in grid_barycentrics(l).into_iter().enumerate() {
+            let w = kind.weights(b);
+            let local = base + g;
+            for j in 0..stride {
+                flat[(j * 3) * per + local] = R::of(w.w[j]);
+                flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
+                flat[(j * 3 + 2) * per + local] = R::of(w.wt[j]);
+            }
         }
     }
     bytemuck::cast_slice(&flat).to_vec()
@@ -708,6 +873,7 @@ impl GpuTessellator {
             group1,
             uniform: TessUniform::default(),
             counts: None,
+            levels: None,
         })
     }
 
@@ -956,6 +1122,430 @@ impl GpuTessellator {
         Ok(counts)
     }
 
+    /// Builds the per-edge pipelines and buffers for levels up to `max_level`, or reuses
+    /// those built while large enough.
+    fn level_tess(&mut self, device: &wgpu::Device, max_level: u32) -> Result<()> {
+        if let Some(lt) = &self.levels {
+            if lt.max_level >= max_level {
+                return Ok(());
+            }
+        }
+        let topo = &self.topology;
+        let source = tess_levels_module_source(self.kind, self.precision)?;
+        shaders::validate(&source, self.precision).map_err(|e| {
+            Error::Gpu(format!(
+                "shaders/tessellate_levels.wgsl ({:?}): {e}",
+                self.kind
+            ))
+        })?;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tessellate_levels.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let layout1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("g1tess tessellate levels"),
+            entries: &[
+                entry(0, uniform_ty()),
+                entry(1, storage_ty(true)),
+                entry(2, storage_ty(false)),
+                entry(3, storage_ty(false)),
+                entry(4, storage_ty(true)),
+                entry(5, storage_ty(true)),
+                entry(6, storage_ty(false)),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("g1tess tessellate levels"),
+            bind_group_layouts: &[Some(&self.layout0), Some(&layout1)],
+            immediate_size: 0,
+        });
+        let make = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        use wgpu::BufferUsages as U;
+        let buffer = |label, size: u64, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: padded(size),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let mut statics_data: Vec<u32> = topo
+            .patch_edges
+            .iter()
+            .chain(&topo.block_edge)
+            .copied()
+            .collect();
+        // Bindings are never empty.
+        statics_data.resize(statics_data.len().max(4), 0);
+        let statics = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("tess level statics"),
+                contents: bytemuck::cast_slice(&statics_data),
+                usage: U::STORAGE,
+            },
+        );
+        // The basis of every grid level up to the cap (every sample of the pattern is a
+        // point of one of them), as eval_table reads it; computed in the shader where too
+        // large.
+        let top = max_level.max(3);
+        let per = level_grid_base(top + 1);
+        let rb = self.precision.bytes() as u64;
+        let table_bytes = per * self.kind.stride() as u64 * 3 * rb;
+        let use_table = table_bytes <= MAX_GRID_TABLE_BYTES.min(self.max_binding);
+        let grid_w = if use_table {
+            let bytes = match self.precision {
+                Precision::F32 => level_weight_bytes::<f32>(self.kind, top),
+                Precision::F64 => level_weight_bytes::<f64>(self.kind, top),
+            };
+            wgpu::util::DeviceExt::create_buffer_init(
+                device,
+                &wgpu::util::BufferInitDescriptor {
+                    label: Some("tess level weights"),
+                    contents: &bytes,
+                    usage: U::STORAGE,
+                },
+            )
+        } else {
+            buffer("tess level weights", 16, U::STORAGE)
+        };
+        let params = Params {
+            count: 0,
+            first_local: 0,
+            level: top,
+            per: per as u32,
+            groups_x: 0,
+            _pad: [0; 3],
+        };
+        let params = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("tess level params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: U::UNIFORM,
+            },
+        );
+        let group0 = Self::bind0(device, &self.layout0, &params, &self.patch_data, &grid_w);
+        let p = topo.patches as u64;
+        let state_len = LV_STATE_HEAD as u64 + 4 * p + topo.edge_blocks as u64 + 1 + 3 * p;
+        let lt = LevelTess {
+            max_level,
+            patch: make("lv_patch_main"),
+            scan: make("lv_scan_main"),
+            finish: make("lv_finish_main"),
+            points: make(if use_table {
+                "lv_points_main"
+            } else {
+                "lv_points_basis_main"
+            }),
+            group0,
+            triangles: make("lv_triangles_main"),
+            copy: make("lv_copy_main"),
+            layout1,
+            uniform: buffer(
+                "tess level uniform",
+                std::mem::size_of::<LvUniform>() as u64,
+                U::UNIFORM | U::COPY_DST,
+            ),
+            statics,
+            state: buffer(
+                "tess level state",
+                4 * state_len,
+                U::STORAGE | U::COPY_SRC | U::COPY_DST,
+            ),
+            dispatch: buffer("tess level dispatch", 12, U::INDIRECT | U::COPY_DST),
+            host_levels: buffer(
+                "tess host levels",
+                4 * (topo.edges as u64 + p),
+                U::STORAGE | U::COPY_DST,
+            ),
+        };
+        self.levels = Some(lt);
+        Ok(())
+    }
+
+    /// Whether levels up to `max_level` fit: 32-bit indices and thread counts, and the
+    /// vertex and index buffers within the device's storage binding limit.
+    pub fn check_max_level(&self, max_level: u32) -> Result<LevelCapacity> {
+        if max_level == 0 || max_level > MAX_LEVEL {
+            return Err(Error::Invalid(format!(
+                "a level cap of {max_level} is outside 1..={MAX_LEVEL}"
+            )));
+        }
+        let topo = &self.topology;
+        let cap = topo.level_capacity(max_level);
+        if cap.vertices >= u32::MAX as u64
+            || cap.indices >= u32::MAX as u64
+            || cap.samples >= u32::MAX as u64
+        {
+            return Err(Error::Invalid(format!(
+                "levels up to {max_level} on {} patches exceed 32-bit vertex indices",
+                topo.patches
+            )));
+        }
+        for (what, bytes) in [
+            ("vertex", cap.vertices * VERTEX_BYTES),
+            ("index", cap.indices * 4),
+        ] {
+            if bytes > self.max_binding {
+                return Err(Error::Gpu(format!(
+                    "levels up to {max_level} on {} patches need a {} MB {what} buffer, over \
+                     the device's storage binding limit of {} MB",
+                    topo.patches,
+                    bytes / 1_000_000,
+                    self.max_binding / 1_000_000
+                )));
+            }
+        }
+        Ok(cap)
+    }
+
+    /// Records the tessellation with a level per edge into `encoder`, with nothing read
+    /// back: inner levels, the prefix sums that number the output
+    /// ([`crate::tess::stitch::StitchPlan::with_levels`]'s numbering exactly), the
+    /// samples, the triangles ([`crate::tess::layout`]'s pattern) and the indirect draw
+    /// arguments are all computed on the device. Buffers are sized for levels up to
+    /// `max_level` (levels above it are clamped to it) and reused while large enough;
+    /// call [`GpuTessellator::vertices`] and [`GpuTessellator::indices`] again after this.
+    /// Host levels are written with `queue.write_buffer`, so submit the encoder before
+    /// tessellating again. The exact counts stay on the device: the indirect arguments and
+    /// [`GpuTessellator::level_state`].
+    ///
+    /// Screen-space levels every frame, computed and used on the device:
+    ///
+    /// ```no_run
+    /// # fn demo(
+    /// #     device: &wgpu::Device,
+    /// #     queue: &wgpu::Queue,
+    /// #     tess: &mut g1tess::gpu::tessellator::GpuTessellator,
+    /// #     // LevelPass bindings: positions (vec4<f32> per vertex), edges (the two
+    /// #     // vertex ids of each adjacency edge), levels (u32 per edge, STORAGE).
+    /// #     positions: &wgpu::Buffer,
+    /// #     edges: &wgpu::Buffer,
+    /// #     levels: &wgpu::Buffer,
+    /// #     params: &wgpu::Buffer,
+    /// #     edge_count: u32,
+    /// #     view_proj: glam::DMat4,
+    /// # ) -> g1tess::Result<()> {
+    /// use g1tess::gpu::tessellator::LevelSource;
+    /// use g1tess::tess::adaptive::InnerRule;
+    /// use g1tess::tess::screen::ScreenView;
+    /// use g1tess::tess::screen_gpu::{LevelParams, LevelPass};
+    ///
+    /// let pass = LevelPass::new(device)?; // once
+    /// let max_level = 16;
+    /// // Every frame: levels from the camera, then the tessellation, in one encoder.
+    /// let view = ScreenView { view_proj, viewport: [1280.0, 720.0], target_px: 8.0, max_level };
+    /// let groups = LevelPass::groups(edge_count, device.limits().max_compute_workgroups_per_dimension);
+    /// let mut p = LevelParams::new(&view, edge_count);
+    /// p.groups_x = groups.0;
+    /// queue.write_buffer(params, 0, bytemuck::bytes_of(&p));
+    /// let mut encoder = device.create_command_encoder(&Default::default());
+    /// pass.record(device, &mut encoder, [params, positions, edges, levels], groups);
+    /// let source = LevelSource::Device { levels, rule: InnerRule::Max };
+    /// tess.tessellate_levels(device, queue, &mut encoder, source, max_level)?;
+    /// // ... a render pass: tess.draw(&mut pass) (draw_indexed_indirect) ...
+    /// queue.submit([encoder.finish()]);
+    /// # Ok(())
+    /// # }
+    /// ```
+    pub fn tessellate_levels(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        source: LevelSource<'_>,
+        max_level: u32,
+    ) -> Result<LevelCapacity> {
+        let cap = self.check_max_level(max_level)?;
+        let topo = &self.topology;
+        let (ne, np) = (topo.edges, topo.patches);
+        let rule = match source {
+            LevelSource::Device { levels, rule } => {
+                if levels.size() < 4 * ne as u64 {
+                    return Err(Error::Invalid(format!(
+                        "a level buffer of {} bytes for {ne} edges (4 bytes each)",
+                        levels.size()
+                    )));
+                }
+                match rule {
+                    InnerRule::Max => 0,
+                    InnerRule::Mean => 1,
+                    InnerRule::Min => 2,
+                }
+            }
+            LevelSource::Host(l) => {
+                if l.edges.len() != ne || l.inner.len() != np {
+                    return Err(Error::Invalid(format!(
+                        "{} edge and {} inner levels for {ne} edges and {np} patches",
+                        l.edges.len(),
+                        l.inner.len()
+                    )));
+                }
+                let bad = l.edges.iter().enumerate().map(|(e, &v)| ("edge", e, v));
+                let bad = bad.chain(l.inner.iter().enumerate().map(|(p, &v)| ("patch", p, v)));
+                if let Some((what, i, v)) = bad.into_iter().find(|t| t.2 == 0 || t.2 > max_level) {
+                    return Err(Error::Invalid(format!(
+                        "level {v} of {what} {i} is outside 1..={max_level}"
+                    )));
+                }
+                3
+            }
+        };
+        self.level_tess(device, max_level)?;
+        let grow = |buf: &mut wgpu::Buffer, bytes: u64, label, usage| {
+            if buf.size() < bytes {
+                *buf = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: padded(bytes),
+                    usage,
+                    mapped_at_creation: false,
+                });
+                true
+            } else {
+                false
+            }
+        };
+        let a = grow(
+            &mut self.vertices,
+            cap.vertices * VERTEX_BYTES,
+            "tess vertices",
+            Self::VERTEX_USAGE,
+        );
+        let b = grow(
+            &mut self.indices,
+            cap.indices * 4,
+            "tess indices",
+            Self::INDEX_USAGE,
+        );
+        if a || b {
+            self.group1 = Self::bind1(
+                device,
+                &self.layout1,
+                &self.tess_uniform,
+                &self.topo_buffer,
+                &self.vertices,
+                &self.indices,
+                &self.bounds,
+            );
+        }
+        let topo = &self.topology;
+        let lt = self.levels.as_ref().expect("built above");
+        let (px, py) = groups(np as u32, self.max_groups)?;
+        let (cx, cy) = groups(3 * np as u32, self.max_groups)?;
+        let pinfo = LV_STATE_HEAD as u32;
+        let block_off = pinfo + 4 * np as u32;
+        let int_off = block_off + topo.edge_blocks + 1;
+        let uniform = LvUniform {
+            patches: np as u32,
+            blocks: topo.edge_blocks,
+            edges: ne as u32,
+            max_level,
+            rule,
+            patch_groups_x: px,
+            max_groups: self.max_groups,
+            corner_records: topo.corner_records,
+            pinfo,
+            block_off,
+            int_off,
+            pt_off: int_off + np as u32,
+            tri_off: int_off + 2 * np as u32,
+            copy_groups_x: cx,
+            pad: [0; 2],
+        };
+        queue.write_buffer(&lt.uniform, 0, bytemuck::bytes_of(&uniform));
+        let levels = match source {
+            LevelSource::Device { levels, .. } => levels,
+            LevelSource::Host(l) => {
+                let data: Vec<u32> = l.edges.iter().chain(&l.inner).copied().collect();
+                queue.write_buffer(&lt.host_levels, 0, bytemuck::cast_slice(&data));
+                &lt.host_levels
+            }
+        };
+        let bufs = [
+            &lt.uniform,
+            &self.topo_buffer,
+            &self.vertices,
+            &self.indices,
+            &lt.statics,
+            levels,
+            &lt.state,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = bufs
+            .into_iter()
+            .enumerate()
+            .map(|(b, buf)| wgpu::BindGroupEntry {
+                binding: b as u32,
+                resource: buf.as_entire_binding(),
+            })
+            .collect();
+        let group1 = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("g1tess tessellate levels"),
+            layout: &lt.layout1,
+            entries: &entries,
+        });
+        let pass = |encoder: &mut wgpu::CommandEncoder,
+                    label: &str,
+                    pipeline: &wgpu::ComputePipeline,
+                    dispatch: Option<(u32, u32)>| {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &lt.group0, &[]);
+            pass.set_bind_group(1, &group1, &[]);
+            match dispatch {
+                Some((x, y)) => pass.dispatch_workgroups(x, y, 1),
+                None => pass.dispatch_workgroups_indirect(&lt.dispatch, 0),
+            }
+        };
+        // Each pass reads what the one before wrote.
+        pass(
+            encoder,
+            "g1tess levels per patch",
+            &lt.patch,
+            Some((px, py)),
+        );
+        pass(encoder, "g1tess levels scan", &lt.scan, Some((LV_SCANS, 1)));
+        pass(encoder, "g1tess levels finish", &lt.finish, Some((1, 1)));
+        encoder.copy_buffer_to_buffer(&lt.state, 4 * 9, &lt.dispatch, 0, 12);
+        encoder.copy_buffer_to_buffer(&lt.state, 4 * LV_STATE_DRAW as u64, &self.indirect, 0, 20);
+        pass(encoder, "g1tess levels samples", &lt.points, None);
+        pass(
+            encoder,
+            "g1tess levels triangles",
+            &lt.triangles,
+            Some((px, py)),
+        );
+        if topo.copied_blocks > 0 {
+            pass(
+                encoder,
+                "g1tess levels split normals",
+                &lt.copy,
+                Some((cx, cy)),
+            );
+        }
+        self.counts = None;
+        Ok(cap)
+    }
+
+    /// The state of the last per-edge tessellation (u32): totals at [`LV_STATE_TOTALS`],
+    /// draw arguments at [`LV_STATE_DRAW`], vertex records at [`LV_STATE_RECORDS`]; `None`
+    /// before the first.
+    pub fn level_state(&self) -> Option<&wgpu::Buffer> {
+        self.levels.as_ref().map(|l| &l.state)
+    }
+
     /// Records, after [`GpuTessellator::tessellate`] in the same submission, the extent of
     /// the surface along three directions into [`GpuTessellator::bounds`]: the largest
     /// `p · axes[k]` and the largest `−p · axes[k]` over the vertices, as order-preserving
@@ -966,9 +1556,11 @@ impl GpuTessellator {
         encoder: &mut wgpu::CommandEncoder,
         axes: [[f32; 3]; 3],
     ) -> Result<()> {
-        let counts = self
-            .counts
-            .ok_or_else(|| Error::Invalid("bounds of a surface not tessellated yet".into()))?;
+        let counts = self.counts.ok_or_else(|| {
+            Error::Invalid(
+                "bounds need a uniform tessellation (tessellate) recorded before them".into(),
+            )
+        })?;
         let (bx, by) = groups(counts.vertices, self.max_groups)?;
         self.uniform.bounds_count = counts.vertices;
         self.uniform.bounds_groups_x = bx;
