@@ -7,7 +7,7 @@
 // row_start and the group-0 bindings params (level, per), patch_data and grid_w.
 //
 // mirrors gpu::tessellator::record_of, gpu::tessellator::grid_triangle_index
-// mirrors eval::pattern::grid_triangles, tess::stitch::StitchPlan::local_ids
+// mirrors eval::pattern::grid_triangles
 //
 // Numbering (the one of tess::stitch::StitchPlan): vertex records are numbered in the order
 // they first appear when the patches are visited in order, and within a patch: corners 0, 1,
