@@ -134,28 +134,28 @@ fn obj_reads_back_exactly() {
         let path = dir().join(format!("{}.obj", mesh.name));
         let (w, _) = write(&mesh, 4, &path);
         let (pos, nrm, fp, fr) = read_obj(&path);
-        // The shortest decimal that reads back to the same f32: parsed as f64 it is not
-        // the f32 itself, but rounds to it (read as f32 by any reader).
-        let f32_back = |v: &[DVec3]| -> Vec<DVec3> {
+        // Each f32 sample is written as the shortest decimal of its exact f64 value: parsed
+        // as f64 it is the f32 itself (and read as f32 by any reader, too).
+        let widened = |v: &[DVec3]| -> Vec<DVec3> {
             v.iter()
                 .map(|p| DVec3::from(f32s(*p).map(f64::from)))
                 .collect()
         };
-        same(&f32_back(&pos), &w.positions, &mesh.name);
-        same(&f32_back(&nrm), &w.normals, &mesh.name);
-        // Shortest: no value has more than 9 significant digits (f32 needs at most 9).
+        assert_eq!(
+            widened(&pos),
+            pos,
+            "{}: positions are f32 values",
+            mesh.name
+        );
+        assert_eq!(widened(&nrm), nrm, "{}: normals are f32 values", mesh.name);
+        same(&pos, &w.positions, &mesh.name);
+        same(&nrm, &w.normals, &mesh.name);
+        // Shortest: every number is Rust's shortest round-trip text of the f64 it reads as.
         let text = std::fs::read_to_string(&path).unwrap();
         for line in text.lines().filter(|l| l.starts_with('v')) {
             for x in line.split(' ').skip(1) {
-                let digits = x
-                    .split(['e', 'E'])
-                    .next()
-                    .unwrap()
-                    .chars()
-                    .filter(char::is_ascii_digit)
-                    .collect::<String>();
-                let significant = digits.trim_start_matches('0').len();
-                assert!(significant <= 9, "{x} in {line}");
+                let back: f64 = x.parse().unwrap();
+                assert_eq!(format!("{back:?}"), x, "{x} in {line}");
             }
         }
         assert_eq!(fp, w.position_triangles());

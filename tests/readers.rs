@@ -867,21 +867,23 @@ fn every_writer_reads_back_to_the_same_mesh_and_statistics() {
     assert_eq!(m.triangles.len(), w.triangles.len());
     assert_eq!(corners(&m), want, "stl: positions bitwise");
     assert_eq!(stats(&m), stats(&facet_soup(&w)), "stl");
-    // OBJ: decimal text of the f32 samples, which reads back to the same f32 values.
+    // OBJ: decimal text of the f32 samples' exact values, read back bit for bit.
     let p = dir().join("rt.obj");
     write(&mesh, Scheme::G1, level, &p);
     let m = load(&p);
     assert_eq!(m.triangles.len(), w.triangles.len());
-    let as_f32 = |c: Vec<[DVec3; 3]>| -> Vec<[[u32; 3]; 3]> {
-        c.iter()
-            .map(|t| t.map(|p| p.to_array().map(|x| (x as f32).to_bits())))
-            .collect()
-    };
-    assert_eq!(
-        as_f32(corners(&m)),
-        as_f32(want.clone()),
-        "obj: positions as f32"
-    );
+    assert_eq!(corners(&m), want, "obj: positions bitwise");
+    // The OBJ reader numbers vertices in order of first use in the faces, the writer in
+    // order of first use in the patches: the same mesh, renumbered, so every statistic is
+    // the same except the std of cos, whose sum runs over the edges in another order
+    // (measured: 1.0656e-16 against 1.0649e-16; 1e-2 relative covers reordered f64 sums
+    // of 56,700 terms of size 1e-32).
+    let (mut got, mut expected) = (stats(&m), want_stats.clone());
+    let std = |v: &mut serde_json::Value| v["cos"].as_object_mut().unwrap().remove("std");
+    let (a, b) = (std(&mut got).unwrap(), std(&mut expected).unwrap());
+    assert_eq!(got, expected, "obj");
+    let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+    assert!((a - b).abs() <= 1e-2 * b, "obj: std of cos {a} against {b}");
 }
 
 /// `mesh` as an OBJ with its f64 values rounded to f32 (positions and per-corner normals,

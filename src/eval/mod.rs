@@ -53,8 +53,8 @@ pub trait Vector: Copy + Send + Sync + PartialEq + std::fmt::Debug + 'static {
     fn from_dvec3(v: DVec3) -> Self;
     /// The value in f32 (rounded once from f64; as it is for f32).
     fn to_f32(self) -> [f32; 3];
-    /// Appends " x y z", each the shortest decimal that reads back to the same value in
-    /// this precision (text formats).
+    /// Appends " x y z", each the shortest decimal that reads back, in f64, to exactly
+    /// this precision's value (text formats).
     fn write_text(self, out: &mut String);
     /// Evaluates `pattern` on `table` with `evaluator` in this precision.
     fn evaluate(
@@ -109,9 +109,13 @@ impl Vector for [f32; 3] {
     fn to_f32(self) -> [f32; 3] {
         self
     }
+    /// Each f32 written as the shortest decimal of its exact f64 value, so that a reader in
+    /// either precision gets the sample back bit for bit (g1tess reads text in f64: the
+    /// shortest f32 decimal, "0.1", would come back as another number than 0.1f32).
     fn write_text(self, out: &mut String) {
         use std::fmt::Write as _;
-        let _ = write!(out, " {:?} {:?} {:?}", self[0], self[1], self[2]);
+        let [x, y, z] = self.map(f64::from);
+        let _ = write!(out, " {x:?} {y:?} {z:?}");
     }
     fn evaluate(
         evaluator: &dyn Evaluator,

@@ -438,8 +438,8 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         let uvs = self.plan.has_uvs();
         if uvs {
             for a in out.new_attributes {
-                // Shortest decimals that read back to the same f32.
-                let _ = writeln!(t, "vt {:?} {:?}", a.uv[0], a.uv[1]);
+                // The f32 values exactly (see `Vector::write_text`).
+                let _ = writeln!(t, "vt {:?} {:?}", f64::from(a.uv[0]), f64::from(a.uv[1]));
                 flush(t, w)?;
             }
         }
