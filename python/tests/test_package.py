@@ -14,7 +14,8 @@ SPOT = str(DATA / "spot.obj")
 
 def read_ply(path):
     """Binary little-endian PLY as `g1tess tessellate` writes it: vertex x y z nx ny nz
-    (float), face list (uchar count, int indices). Parsed from its header."""
+    (float), then s t (float) when the input has texture coordinates, face list (uchar
+    count, int indices). Parsed from its header."""
     data = open(path, "rb").read()
     end = data.index(b"end_header\n") + len(b"end_header\n")
     header = data[:end].decode().splitlines()
@@ -22,13 +23,14 @@ def read_ply(path):
     nv = int(next(l for l in header if l.startswith("element vertex")).split()[2])
     nf = int(next(l for l in header if l.startswith("element face")).split()[2])
     props = [l.split()[-1] for l in header if l.startswith("property float")]
-    assert props == ["x", "y", "z", "nx", "ny", "nz"]
-    vert = np.frombuffer(data, "<f4", count=6 * nv, offset=end).reshape(nv, 6)
+    assert props in (["x", "y", "z", "nx", "ny", "nz"], ["x", "y", "z", "nx", "ny", "nz", "s", "t"])
+    k = len(props)
+    vert = np.frombuffer(data, "<f4", count=k * nv, offset=end).reshape(nv, k)
     faces = np.frombuffer(
-        data, np.dtype([("n", "u1"), ("i", "<i4", 3)]), count=nf, offset=end + 24 * nv
+        data, np.dtype([("n", "u1"), ("i", "<i4", 3)]), count=nf, offset=end + 4 * k * nv
     )
     assert (faces["n"] == 3).all()
-    return vert[:, :3], faces["i"], vert[:, 3:]
+    return vert[:, :3], faces["i"], vert[:, 3:6]
 
 
 def test_numpy_in_and_out():
