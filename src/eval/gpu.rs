@@ -410,6 +410,24 @@ fn dispatch_threads(
     queue.submit([encoder.finish()])
 }
 
+/// The basis (w, ∂w/∂s, ∂w/∂t of every control point) of `kind` at `points`, laid out as
+/// `grid_w` of `shaders/common.wgsl` reads it: column 3j + d holds derivative d of weight j
+/// at every point in order.
+pub(crate) fn basis_table<R: Real>(kind: PatchKind, points: &[[f64; 3]]) -> Vec<R> {
+    let per = points.len();
+    let stride = kind.stride();
+    let mut flat: Vec<R> = vec![R::of(0.0); per * stride * 3];
+    for (local, &b) in points.iter().enumerate() {
+        let w = kind.weights(b);
+        for j in 0..stride {
+            flat[(j * 3) * per + local] = R::of(w.w[j]);
+            flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
+            flat[(j * 3 + 2) * per + local] = R::of(w.wt[j]);
+        }
+    }
+    flat
+}
+
 /// Appends the patch data of patch `i` to `out` (layout in `shaders/common.wgsl` and
 /// [`crate::gpu::shaders::patch_vecs`]): the control points, geometry relative to corner 0;
 /// the flat normal; corner 0's low part (corner 0 − its rounding to `R`); the three corners
@@ -873,15 +891,7 @@ impl GpuEvaluator {
         } else if use_table {
             // The basis at every grid point, the same for every patch (computed once, as
             // the CPU backend does), laid out as `grid_w` of shaders/common.wgsl.
-            let mut flat: Vec<R> = vec![R::of(0.0); per * table.stride * 3];
-            for (local, b) in grid_barycentrics(level).into_iter().enumerate() {
-                let w = table.kind.weights(b);
-                for j in 0..table.stride {
-                    flat[(j * 3) * per + local] = R::of(w.w[j]);
-                    flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
-                    flat[(j * 3 + 2) * per + local] = R::of(w.wt[j]);
-                }
-            }
+            let flat: Vec<R> = basis_table(table.kind, &grid_barycentrics(level));
             queue.write_buffer(&buffers.grid_weights, 0, bytemuck::cast_slice(&flat));
             &pipes.grid_table
         } else {

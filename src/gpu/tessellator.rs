@@ -94,9 +94,7 @@
 
 use std::collections::HashMap;
 
-use glam::DVec3;
-
-use crate::eval::gpu::{Params, Real};
+use crate::eval::gpu::{basis_table, push_patch_data, Params, Real};
 use crate::eval::{grid_barycentrics, grid_len};
 use crate::mesh::creases::{normal_key, split_ends};
 use crate::mesh::{Adjacency, Mesh};
@@ -105,7 +103,7 @@ use crate::tess::adaptive::{InnerRule, Levels};
 use crate::tess::layout::MAX_LEVEL;
 use crate::{Error, Result};
 
-use super::shaders::{self, SLOT_CORNERS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO};
+use super::shaders;
 use super::Precision;
 
 /// `shaders/tessellate.wgsl`, appended (after [`tess_header`]) to the evaluation module of
@@ -614,31 +612,6 @@ fn storage_ty(read_only: bool) -> wgpu::BindingType {
     }
 }
 
-/// Appends patch `i`'s upload (`shaders/common.wgsl`: control points with the geometry
-/// relative to corner 0, the flat normal, corner 0's low part, the three corners rounded
-/// once) to `out`.
-fn push_patch_data<R: Real>(table: &PatchTable, i: usize, out: &mut Vec<R>) {
-    let push =
-        |out: &mut Vec<R>, v: DVec3| out.extend_from_slice(&[R::of(v.x), R::of(v.y), R::of(v.z)]);
-    let origin = table.corner(i, 0);
-    let geometry = table.kind.geometry();
-    for (j, p) in table.patch(i).iter().enumerate() {
-        push(out, if j < geometry { *p - origin } else { *p });
-    }
-    let rounded = |v: DVec3| DVec3::new(R::of(v.x).get(), R::of(v.y).get(), R::of(v.z).get());
-    let extra = [
-        (SLOT_FLAT_NORMAL, table.flat_normals[i]),
-        (SLOT_ORIGIN_LO, origin - rounded(origin)),
-        (SLOT_CORNERS, origin),
-        (SLOT_CORNERS + 1, table.corner(i, 1)),
-        (SLOT_CORNERS + 2, table.corner(i, 2)),
-    ];
-    for (slot, (expect, v)) in extra.into_iter().enumerate() {
-        debug_assert_eq!(slot, expect);
-        push(out, v);
-    }
-}
-
 fn patch_bytes<R: Real>(table: &PatchTable) -> Vec<u8> {
     let mut out: Vec<R> = Vec::with_capacity(table.len() * 3 * shaders::patch_vecs(table.kind));
     for i in 0..table.len() {
@@ -650,18 +623,7 @@ fn patch_bytes<R: Real>(table: &PatchTable) -> Vec<u8> {
 /// The basis of every grid point of `level`, laid out as `eval_table` of
 /// `shaders/common.wgsl` reads it.
 fn grid_weight_bytes<R: Real>(kind: PatchKind, level: u32) -> Vec<u8> {
-    let per = grid_len(level);
-    let stride = kind.stride();
-    let mut flat: Vec<R> = vec![R::of(0.0); per * stride * 3];
-    for (local, b) in grid_barycentrics(level).into_iter().enumerate() {
-        let w = kind.weights(b);
-        for j in 0..stride {
-            flat[(j * 3) * per + local] = R::of(w.w[j]);
-            flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
-            flat[(j * 3 + 2) * per + local] = R::of(w.wt[j]);
-        }
-    }
-    bytemuck::cast_slice(&flat).to_vec()
+    bytemuck::cast_slice(&basis_table::<R>(kind, &grid_barycentrics(level))).to_vec()
 }
 
 /// First point of the grid of level `l` in the per-edge basis table: the points of the
@@ -674,22 +636,10 @@ pub fn level_grid_base(l: u32) -> u64 {
 /// The basis of every point of the grids of levels 1..=`top`, level after level, laid out
 /// as `eval_table` of `shaders/common.wgsl` reads it (per = all the points).
 fn level_weight_bytes<R: Real>(kind: PatchKind, top: u32) -> Vec<u8> {
-    let per = level_grid_base(top + 1) as usize;
-    let stride = kind.stride();
-    let mut flat: Vec<R> = vec![R::of(0.0); per * stride * 3];
-    for l in 1..=top {
-        let base = level_grid_base(l) as usize;
-        for (g, b) in grid_barycentrics(l).into_iter().enumerate() {
-            let w = kind.weights(b);
-            let local = base + g;
-            for j in 0..stride {
-                flat[(j * 3) * per + local] = R::of(w.w[j]);
-                flat[(j * 3 + 1) * per + local] = R::of(w.ws[j]);
-                flat[(j * 3 + 2) * per + local] = R::of(w.wt[j]);
-            }
-        }
-    }
-    bytemuck::cast_slice(&flat).to_vec()
+    // Level l's grid starts at `level_grid_base(l)`: the grids of levels 1..=top in order.
+    let points: Vec<[f64; 3]> = (1..=top).flat_map(grid_barycentrics).collect();
+    debug_assert_eq!(points.len() as u64, level_grid_base(top + 1));
+    bytemuck::cast_slice(&basis_table::<R>(kind, &points)).to_vec()
 }
 
 /// Workgroups (x, y) for `count` threads, at most `max` per dimension.
