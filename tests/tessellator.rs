@@ -7,8 +7,6 @@
 //! Without a Vulkan adapter the GPU tests print a SKIP line and pass, unless CI=true: then
 //! they fail.
 
-use std::sync::Arc;
-
 use glam::DVec3;
 
 use g1tess::eval::cpu::CpuEvaluator;
@@ -24,54 +22,7 @@ use g1tess::tess::stitch::{stitch, StitchPlan, StitchedMesh};
 
 mod common;
 mod eval_cases;
-use eval_cases::{angle, load, normal_error, EPS32, EPS64, ROUNDING_FACTOR};
-
-fn ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
-}
-
-/// The shared context, or None (SKIP) without an adapter; with CI=true no adapter panics.
-fn context(test: &str) -> Option<Arc<GpuContext>> {
-    match GpuContext::shared() {
-        Ok(c) => Some(c),
-        Err(e) => {
-            assert!(!ci(), "{test}: CI=true and no GPU adapter: {e}");
-            eprintln!("\n======== SKIP {test}: no GPU adapter ({e}) ========\n");
-            None
-        }
-    }
-}
-
-/// An open box (a cube without its top, far from the origin) with a normal per face
-/// (creases at every box edge): 10 triangles, 4 boundary edges, 8 crease edges.
-fn open_box() -> Mesh {
-    let o = DVec3::new(100.0, -50.0, 20.0);
-    let mut positions = Vec::new();
-    for z in [0.0, 1.0] {
-        for y in [0.0, 1.0] {
-            for x in [0.0, 1.0] {
-                positions.push(o + DVec3::new(x, y, z));
-            }
-        }
-    }
-    // Outward quads (bottom, four sides), each as two triangles.
-    let quads = [
-        [0, 2, 3, 1],
-        [0, 1, 5, 4],
-        [1, 3, 7, 5],
-        [3, 2, 6, 7],
-        [2, 0, 4, 6],
-    ];
-    let triangles: Vec<[u32; 3]> = quads
-        .iter()
-        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-        .collect();
-    let opts = LoadOptions {
-        crease_angle: Some(45.0),
-        ..LoadOptions::default()
-    };
-    Mesh::from_soup("open box", &positions, &triangles, None, &opts).unwrap()
-}
+use eval_cases::{angle, context, load, normal_error, open_box, EPS32, EPS64, ROUNDING_FACTOR};
 
 fn fandisk() -> Mesh {
     let opts = LoadOptions {

@@ -4,10 +4,13 @@
 //! file that evaluates it.
 #![allow(dead_code)]
 
+use std::sync::Arc;
+
 use glam::DVec3;
 
 use g1tess::gpu::shaders::{self, ShaderFile};
-use g1tess::mesh::Mesh;
+use g1tess::gpu::GpuContext;
+use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::basis::Weights;
 use g1tess::patch::{PatchKind, PatchTable, Scheme};
 
@@ -125,4 +128,47 @@ pub fn evaluators() -> Vec<(String, Box<dyn g1tess::eval::Evaluator>)> {
         }
     }
     out
+}
+
+/// The shared context, or None (SKIP) without an adapter; with CI=true no adapter panics.
+pub fn context(test: &str) -> Option<Arc<GpuContext>> {
+    match GpuContext::shared() {
+        Ok(c) => Some(c),
+        Err(e) => {
+            assert!(!ci(), "{test}: CI=true and no GPU adapter: {e}");
+            eprintln!("\n======== SKIP {test}: no GPU adapter ({e}) ========\n");
+            None
+        }
+    }
+}
+
+/// An open box (a cube without its top, far from the origin) with a normal per face
+/// (creases at every box edge): 10 triangles, 4 boundary edges, 8 crease edges.
+pub fn open_box() -> Mesh {
+    let o = DVec3::new(100.0, -50.0, 20.0);
+    let mut positions = Vec::new();
+    for z in [0.0, 1.0] {
+        for y in [0.0, 1.0] {
+            for x in [0.0, 1.0] {
+                positions.push(o + DVec3::new(x, y, z));
+            }
+        }
+    }
+    // Outward quads (bottom, four sides), each as two triangles.
+    let quads = [
+        [0, 2, 3, 1],
+        [0, 1, 5, 4],
+        [1, 3, 7, 5],
+        [3, 2, 6, 7],
+        [2, 0, 4, 6],
+    ];
+    let triangles: Vec<[u32; 3]> = quads
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
+    let opts = LoadOptions {
+        crease_angle: Some(45.0),
+        ..LoadOptions::default()
+    };
+    Mesh::from_soup("open box", &positions, &triangles, None, &opts).unwrap()
 }
