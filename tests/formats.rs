@@ -167,8 +167,8 @@ fn obj_reads_back_exactly() {
         same(&pos64, &w64.positions, &mesh.name);
         same(&nrm64, &w64.normals, &mesh.name);
         assert_eq!(fp64, fp);
-        // The project's own reader (which renumbers vertices in order of first use) welds
-        // it back to a mesh with the same positions at every triangle corner.
+        // The project's own reader welds it back to a mesh with the same positions at every
+        // triangle corner.
         let back = Mesh::load(path64.to_str().unwrap(), &LoadOptions::default()).unwrap();
         assert_eq!(back.positions.len(), w.positions.len());
         let corners = |tris: &[[u32; 3]], pos: &[DVec3]| -> Vec<DVec3> {

@@ -562,8 +562,7 @@ fn line_endings_byte_order_mark_and_continuations() {
             &write_obj(&format!("endings{i}.obj"), &text),
             &LoadOptions::default(),
         );
-        // The last face, continued at the end of the file, is read too. (OBJ numbers the
-        // welded vertices by first use, the soup by input order: compare the corners.)
+        // The last face, continued at the end of the file, is read too.
         assert_eq!(corners(&m), corners(&reference), "case {i}");
         assert_eq!(m.adjacency().boundary, 0);
         // Line numbers count each ending once; a continued statement has its first line.

@@ -517,7 +517,7 @@ fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
         &positions,
         &mut tris,
         &mut (&mut tri_normals, &mut tri_uvs),
-        weld::Order::FirstUse,
+        weld::Order::Input,
         &mut report,
     )?;
     if tris.is_empty() {

@@ -6,8 +6,9 @@
 //! Every vertex maps to the first vertex of the input at its position; triangles that then
 //! repeat a vertex or have no area (collinear corners, or an area that underflows in f64:
 //! no normal) are dropped as degenerate, and so are the vertices no remaining triangle uses. The
-//! vertices kept are numbered in input order or in order of first use ([`Order`]; OBJ files
-//! use the latter, as they always have, since the patches' rounding follows vertex ids).
+//! vertices kept are numbered in input order or in order of first use ([`Order`]). Every
+//! reader numbers them in input order, so a mesh written and read back keeps its numbering,
+//! and with it the rounding of its patches, which follows vertex ids.
 //! Output-side welding (tessellated samples) is a
 //! different thing and lives with the writers.
 
