@@ -370,6 +370,66 @@ fn every_evaluating_command_refuses_work_over_the_memory_budget() {
 }
 
 #[test]
+fn an_instanced_gltf_scene_is_sized_by_what_it_instances_not_by_its_file() {
+    // One mesh of a 100 x 100 grid (10,201 vertices, 60,000 index entries, 280 KB) placed
+    // by 1,000 nodes: a 300 KB file that loads as 10.2 M vertices and 20 M triangles. Sized
+    // by the file (6 bytes per byte) it would pass a 1 GiB budget and then allocate
+    // gigabytes; counted from the scene it is refused before anything is read:
+    // 10,201,000 x 128 + 60,000,000 x 92 bytes + 32 MiB = 6.39 GiB.
+    let n = 100u32;
+    let mut bin = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            for x in [i as f32 / n as f32, j as f32 / n as f32, 0.0] {
+                bin.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+    }
+    let positions = bin.len();
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i;
+            for v in [a, a + 1, a + n + 2, a, a + n + 2, a + n + 1] {
+                bin.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cli_errors-instanced");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("grid.bin"), &bin).unwrap();
+    let nodes: Vec<String> = (0..1000)
+        .map(|k| format!(r#"{{"mesh":0,"translation":[{},0,0]}}"#, 2 * k))
+        .collect();
+    let scene: Vec<String> = (0..1000).map(|k| k.to_string()).collect();
+    let gltf = format!(
+        r#"{{"asset":{{"version":"2.0"}},
+        "buffers":[{{"uri":"grid.bin","byteLength":{}}}],
+        "bufferViews":[{{"buffer":0,"byteLength":{positions}}},
+                       {{"buffer":0,"byteOffset":{positions},"byteLength":{}}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":10201,"type":"VEC3",
+                       "min":[0,0,0],"max":[1,1,0]}},
+                     {{"bufferView":1,"componentType":5125,"count":60000,"type":"SCALAR"}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+        "nodes":[{}],"scenes":[{{"nodes":[{}]}}],"scene":0}}"#,
+        bin.len(),
+        bin.len() - positions,
+        nodes.join(","),
+        scene.join(",")
+    );
+    let path = dir.join("instanced.gltf");
+    std::fs::write(&path, gltf).unwrap();
+    let (code, err) = run_code(&["stats", path.to_str().unwrap(), "--max-memory", "1G"]);
+    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(
+        err.contains("instanced.gltf needs about 6.4 GiB (estimated)")
+            && err.contains("(--max-memory)"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn a_closed_standard_output_ends_quietly_without_a_panic() {
     // `g1tess tessellate … -o - | head -c 100`: the reader goes away; the writer must end
     // (SIGPIPE, as other Unix tools) rather than panic on the failed write.

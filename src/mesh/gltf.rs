@@ -294,6 +294,68 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
     soup.build(super::display_name(path), opts)
 }
 
+/// What loading a glTF file's default scene will hold, counted from its JSON alone (node
+/// instances of one mesh count once each): `(vertices, corners)`, corners being index
+/// entries (or vertices, for non-indexed primitives). A mesh instanced by many nodes makes
+/// a small file a large mesh, so a caller with a memory budget checks this before
+/// [`load_gltf`]. `None` when the JSON cannot be read or is inconsistent; the load itself
+/// then says what is wrong.
+pub fn scene_size(path: &Path) -> Option<(u64, u64)> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path).ok()?;
+    let len = f.metadata().ok()?.len();
+    let mut head = [0u8; 20];
+    let n = f.read(&mut head).ok()?;
+    let json = if n >= 4 && &head[..4] == b"glTF" {
+        // GLB: only the JSON chunk, the first one, whose length is declared at byte 12.
+        if n < 20 {
+            return None;
+        }
+        let clen = u64::from(u32::from_le_bytes([head[12], head[13], head[14], head[15]]));
+        if clen > len.saturating_sub(20) {
+            return None;
+        }
+        let mut j = vec![0u8; clen as usize];
+        f.read_exact(&mut j).ok()?;
+        j
+    } else {
+        std::fs::read(path).ok()?
+    };
+    let root: ::gltf::json::Root = serde_json::from_slice(&json).ok()?;
+    let scene = match root.scene {
+        Some(i) => root.scenes.get(i.value())?,
+        None => root.scenes.first()?,
+    };
+    let count = |i: usize| root.accessors.get(i).map(|a| a.count.0);
+    let mut seen = vec![false; root.nodes.len()];
+    let mut stack: Vec<usize> = scene.nodes.iter().map(|n| n.value()).collect();
+    let (mut vertices, mut corners) = (0u64, 0u64);
+    // Every node once at most (as the load requires), so the walk is bounded by the nodes.
+    while let Some(i) = stack.pop() {
+        if std::mem::replace(seen.get_mut(i)?, true) {
+            return None;
+        }
+        let node = &root.nodes[i];
+        stack.extend(node.children.iter().flatten().map(|c| c.value()));
+        let Some(m) = node.mesh else { continue };
+        for prim in &root.meshes.get(m.value())?.primitives {
+            let pos = prim
+                .attributes
+                .get(&::gltf::json::validation::Checked::Valid(
+                    ::gltf::json::mesh::Semantic::Positions,
+                ))
+                .and_then(|a| count(a.value()))?;
+            vertices = vertices.saturating_add(pos);
+            let c = match prim.indices {
+                Some(a) => count(a.value())?,
+                None => pos,
+            };
+            corners = corners.saturating_add(c);
+        }
+    }
+    Some((vertices, corners))
+}
+
 /// Error text of the gltf crate on one line, control characters escaped, cut to 300
 /// characters (a validation error lists every defect).
 fn one_line(s: &str) -> String {
