@@ -26,3 +26,23 @@ fn pn_normals(b: vec3<real>) -> Weights {
     }
     return out;
 }
+
+// The patch loop's sample (common.wgsl: LoopPoint, grid_patch_main) at grid point l: the
+// basis read from the uniform table grid_u, the normal vector as patch_normal takes it
+// (the field where the kind has one, else S_s × S_t).
+fn kind_loop_point(b: vec3<real>, l: u32) -> LoopPoint {
+    var p = vec3<real>(0.0);
+    var ds = vec3<real>(0.0);
+    var dt = vec3<real>(0.0);
+    for (var j = 0u; j < GEOMETRY; j++) {
+        let w = grid_u[l * STRIDE + j];
+        p += w.x * loop_cp[j];
+        ds += w.y * loop_cp[j];
+        dt += w.z * loop_cp[j];
+    }
+    var field = vec3<real>(0.0);
+    for (var j = GEOMETRY; j < STRIDE; j++) {
+        field += grid_u[l * STRIDE + j].x * loop_cp[j];
+    }
+    return LoopPoint(p, select(cross(ds, dt), field, GEOMETRY < STRIDE), real(1.0));
+}

@@ -356,12 +356,85 @@ fn points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     store(t, absolute(pt.patch_index, eval_weights(pt.patch_index, kind_weights(b)), corner_of_b(b)));
 }
 
+// The output of grid_patch_main seen as vec4s (the same buffer as `out`; only that entry
+// point uses it): a vector store costs drivers that store one SIMD lane at a time (lavapipe)
+// one pass over the lanes for its 4 values instead of one per value.
+@group(0) @binding(7) var<storage, read_write> out4: array<vec4<real>>;
+
+// A sample of the patch loop from the kind's file (kind_loop_point): the position relative
+// to the patch's first control point, and the vector whose direction is the normal, scale
+// times its length being the length patch_normal tests (the kinds' files say which).
+struct LoopPoint {
+    p: vec3<real>,
+    v: vec3<real>,
+    scale: real,
+}
+
+// The control points of grid_patch_main's patch (kind_loop_point reads them).
+var<private> loop_cp: array<vec3<real>, STRIDE>;
+
+// What grid_patch_main keeps of a patch besides its control points.
+struct LoopPatch {
+    fallback: vec3<real>,
+    hi: vec3<real>,
+    lo: vec3<real>,
+    c1: vec3<real>,
+    c2: vec3<real>,
+}
+
+// Sample at grid index l = (i, j) of the patch: absolute(), and patch_normal without
+// branches (the flat normal where the vector is unusable, the corners as uploaded).
+fn loop_sample(x: LoopPatch, l: u32, ij: vec2<u32>) -> Sample {
+    let n = params.level;
+    let q = kind_loop_point(grid_barycentric(n, ij), l);
+    let len = length(q.v);
+    let normal = select(x.fallback, q.v / len, usable(q.scale * len));
+    var pos = x.hi + (x.lo + q.p);
+    pos = select(pos, x.hi, l == 0u);
+    pos = select(pos, x.c1, l == n);
+    pos = select(pos, x.c2, l == params.per - 1u);
+    return Sample(pos, normal);
+}
+
+// The grid index after ij (rows of constant j, i increasing).
+fn next_ij(n: u32, ij: vec2<u32>) -> vec2<u32> {
+    let wrap = ij.x + ij.y >= n;
+    return select(vec2<u32>(ij.x + 1u, ij.y), vec2<u32>(0u, ij.y + 1u), wrap);
+}
+
+// store() through out4: sample t's six values one by one.
+fn store_one(t: u32, s: Sample) {
+    let o = t * 3u;
+    let m = (params.count + t) * 3u;
+    for (var c = 0u; c < 3u; c++) {
+        out4[(o + c) / 4u][(o + c) % 4u] = s.p[c];
+        out4[(m + c) / 4u][(m + c) % 4u] = s.n[c];
+    }
+}
+
+// Three vectors packed into the vec4s o, o + 1, o + 2.
+fn store_packed(o: u32, a: vec3<real>, b: vec3<real>, c: vec3<real>, d: vec3<real>) {
+    out4[o] = vec4<real>(a, b.x);
+    out4[o + 1u] = vec4<real>(b.yz, c.xy);
+    out4[o + 2u] = vec4<real>(c.z, d);
+}
+
+// store() of samples t .. t + 3, t and params.count multiples of 4: the four positions
+// fill the vec4s 3t/4 ..= 3t/4 + 2, the normals likewise after 3 count/4.
+fn store_quad(t: u32, a: Sample, b: Sample, c: Sample, d: Sample) {
+    store_packed(t / 4u * 3u, a.p, b.p, c.p, d.p);
+    store_packed((params.count + t) / 4u * 3u, a.n, b.n, c.n, d.n);
+}
+
 // The grid with one thread per patch: thread t evaluates every grid point of patch upload
-// first_local / per + t, its control points read once, the basis of each point from
-// grid_u (the same for every thread, so the driver's SIMD lanes share it). For drivers
-// that run invocations as SIMD lanes of a CPU (lavapipe), where each storage-buffer read
-// costs a loop over the lanes; GPUs run grid_table_main, one thread per sample. The
-// dispatch's samples are whole patches (count a multiple of per).
+// first_local / per + t, its control points read once, each point's sample from
+// kind_loop_point (Bézier kinds: the basis from grid_u, the same for every thread, so the
+// driver's SIMD lanes share it; G1: straight-line). For drivers that run invocations as
+// SIMD lanes of a CPU (lavapipe), where each storage-buffer access costs a loop over the
+// lanes; GPUs run grid_table_main, one thread per sample. The dispatch's samples are whole
+// patches (count a multiple of per). Where count is a multiple of 4, the samples from the
+// first multiple of 4 on are stored four at a time as vec4s (store_quad), the others one
+// by one.
 @compute @workgroup_size(WORKGROUP)
 fn grid_patch_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let t = thread_index(gid);
@@ -370,41 +443,49 @@ fn grid_patch_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // Threads past the last patch evaluate it again and store nothing.
     let valid = t < patches;
     let i = params.first_local / per + min(t, patches - 1u);
-    var cp: array<vec3<real>, STRIDE>;
     for (var j = 0u; j < STRIDE; j++) {
-        cp[j] = control_point(i, j);
+        loop_cp[j] = control_point(i, j);
     }
-    let fallback = flat_normal(i);
-    let hi = patch_vec(i, SLOT_CORNERS);
-    let lo = patch_vec(i, SLOT_ORIGIN_LO);
-    let c1 = patch_vec(i, SLOT_CORNERS + 1u);
-    let c2 = patch_vec(i, SLOT_CORNERS + 2u);
+    let x = LoopPatch(
+        flat_normal(i),
+        patch_vec(i, SLOT_CORNERS),
+        patch_vec(i, SLOT_ORIGIN_LO),
+        patch_vec(i, SLOT_CORNERS + 1u),
+        patch_vec(i, SLOT_CORNERS + 2u),
+    );
     let n = params.level;
-    for (var l = 0u; l < per; l++) {
-        var p = vec3<real>(0.0);
-        var ds = vec3<real>(0.0);
-        var dt = vec3<real>(0.0);
-        for (var j = 0u; j < GEOMETRY; j++) {
-            let w = grid_u[l * STRIDE + j];
-            p += w.x * cp[j];
-            ds += w.y * cp[j];
-            dt += w.z * cp[j];
-        }
-        var field = vec3<real>(0.0);
-        for (var j = GEOMETRY; j < STRIDE; j++) {
-            field += grid_u[l * STRIDE + j].x * cp[j];
-        }
-        // patch_normal without branches: the flat normal where the vector is unusable.
-        let v = select(cross(ds, dt), field, GEOMETRY < STRIDE);
-        let len = length(v);
-        let normal = select(fallback, v / len, usable(len));
-        // absolute(): the uploaded corner exactly at a corner (corner_of_local).
-        var pos = hi + (lo + p);
-        pos = select(pos, hi, l == 0u);
-        pos = select(pos, c1, l == n);
-        pos = select(pos, c2, l == per - 1u);
+    let first = t * per;
+    // Samples before the first quad: up to 3, or all of them when count is not a multiple
+    // of 4.
+    let head = select(per, min((4u - first % 4u) % 4u, per), params.count % 4u == 0u);
+    let quads_end = head + (per - head) / 4u * 4u;
+    var ij = vec2<u32>(0u);
+    var l = 0u;
+    for (; l < head; l++) {
+        let s = loop_sample(x, l, ij);
         if (valid) {
-            store(t * per + l, Sample(pos, normal));
+            store_one(first + l, s);
         }
+        ij = next_ij(n, ij);
+    }
+    for (; l < quads_end; l += 4u) {
+        let s0 = loop_sample(x, l, ij);
+        ij = next_ij(n, ij);
+        let s1 = loop_sample(x, l + 1u, ij);
+        ij = next_ij(n, ij);
+        let s2 = loop_sample(x, l + 2u, ij);
+        ij = next_ij(n, ij);
+        let s3 = loop_sample(x, l + 3u, ij);
+        ij = next_ij(n, ij);
+        if (valid) {
+            store_quad(first + l, s0, s1, s2, s3);
+        }
+    }
+    for (; l < per; l++) {
+        let s = loop_sample(x, l, ij);
+        if (valid) {
+            store_one(first + l, s);
+        }
+        ij = next_ij(n, ij);
     }
 }

@@ -434,10 +434,15 @@ fn tiny_chunks_split_dispatches_and_2d_grids_give_identical_results() {
         let mut split = make();
         split.max_binding_bytes = 300 << 10;
         split.max_workgroups_per_dim = 2;
+        // A dispatch smaller than a patch runs one thread per sample: compared with an
+        // unsplit run of that layout (G1's patch loop rounds differently).
+        let mut per_sample = make();
+        per_sample.patch_loop = false;
         // Bindings of 200 samples: no basis table fits, so the basis is computed in the
-        // shader; compared with an unsplit run of that path.
+        // shader, one thread per sample; compared with an unsplit run of that path.
         let mut in_shader = make();
         in_shader.max_grid_table_bytes = 0;
+        in_shader.patch_loop = false;
         let mut tiny_binding = make();
         tiny_binding.max_binding_bytes = (200 * 6 * precision.bytes()) as u64 + 8;
         let mesh = load("sphere320");
@@ -455,7 +460,8 @@ fn tiny_chunks_split_dispatches_and_2d_grids_give_identical_results() {
                 let b32 = run_all_f32(&tiny, &table, &pattern);
                 assert!(a32 == b32, "{precision} {scheme}: tiny f32 chunks differ");
                 let c = run_all(&split, &table, &pattern);
-                assert!(a == c, "{precision} {scheme}: split dispatches differ");
+                let a1 = run_all(&per_sample, &table, &pattern);
+                assert!(a1 == c, "{precision} {scheme}: split dispatches differ");
                 let d = run_all(&in_shader, &table, &pattern);
                 let e = run_all(&tiny_binding, &table, &pattern);
                 assert!(d == e, "{precision} {scheme}: tiny bindings differ");
@@ -464,10 +470,13 @@ fn tiny_chunks_split_dispatches_and_2d_grids_give_identical_results() {
     }
 }
 
-/// The grid's two thread layouts (one thread per sample, one per patch with the basis in a
-/// uniform table: lavapipe's default) and single- or double-buffered readback give bitwise
-/// the same samples, in f64 and f32 output, in both precisions; every layout is forced
-/// here, so each runs on any adapter.
+/// The grid's two thread layouts (one thread per sample, one per patch: lavapipe's
+/// default) and single- or double-buffered readback, in f64 and f32 output, in both
+/// precisions; every layout is forced here, so each runs on any adapter. The Bézier kinds'
+/// patch loop reads the same basis table and sums in the same order as one thread per
+/// sample: bitwise the same samples. G1's evaluates its basis straight-line in the shader
+/// (other roundings): against the f64 reference, as every grid. Buffering never changes a
+/// bit.
 #[test]
 fn patch_loop_and_double_buffering_give_identical_results() {
     for precision in [Precision::F32, Precision::F64] {
@@ -479,9 +488,11 @@ fn patch_loop_and_double_buffering_give_identical_results() {
             let mut g = GpuEvaluator::new(ctx.clone(), precision).unwrap();
             g.patch_loop = patch_loop;
             g.double_buffer = double_buffer;
-            // 48 patches of level 16 per chunk: 7 chunks on sphere320, so readback is
-            // double-buffered.
-            g.chunk_samples = 48 * grid_len(16);
+            // 47 patches of level 16 per chunk: 7 chunks on sphere320, so readback is
+            // double-buffered. per = 153 is odd, so the patch loop stores vec4s only in
+            // dispatches of a multiple of 4 patches: it splits each chunk into 44 + 3
+            // patches (the last, 38, into 36 + 2), the small ones stored value by value.
+            g.chunk_samples = 47 * grid_len(16);
             g
         };
         let per_sample = make(false, true);
@@ -490,23 +501,35 @@ fn patch_loop_and_double_buffering_give_identical_results() {
         let mesh = load("sphere320");
         for scheme in [Scheme::G1, Scheme::Flat, Scheme::PnNormals] {
             let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
-            // Level 16: G1's uniform table (153 points × 15 × 4 reals) fits 64 KiB in f32;
-            // in f64 only the smaller kinds' do (then both run one thread per sample).
+            // Level 16: the Bézier kinds' uniform tables fit 64 KiB in f32; in f64 only the
+            // smaller kinds' do (PN normals then runs one thread per sample); G1 needs none.
             let pattern = Pattern::Grid { level: 16 };
             let a = run_all(&per_sample, &table, &pattern);
             assert_eq!(a.0.len(), 320 * grid_len(16));
             let b = run_all(&patch_loop, &table, &pattern);
-            assert!(a == b, "{precision} {scheme}: patch loop differs");
             let c = run_all(&single, &table, &pattern);
             assert!(b == c, "{precision} {scheme}: single buffer differs");
             let a32 = run_all_f32(&per_sample, &table, &pattern);
             let b32 = run_all_f32(&patch_loop, &table, &pattern);
-            assert!(a32 == b32, "{precision} {scheme}: f32 patch loop differs");
             let c32 = run_all_f32(&single, &table, &pattern);
             assert!(
                 b32 == c32,
                 "{precision} {scheme}: f32 single buffer differs"
             );
+            if table.kind == PatchKind::Gregory {
+                for output in [Output::F64, Output::F32] {
+                    let (tp, tn, _, _) = output_tolerances(&patch_loop, output);
+                    compare_grid(&patch_loop, output, &table, 16).check(
+                        &format!("{precision} G1 patch loop, {output:?} output"),
+                        mesh.diagonal(),
+                        tp,
+                        tn,
+                    );
+                }
+            } else {
+                assert!(a == b, "{precision} {scheme}: patch loop differs");
+                assert!(a32 == b32, "{precision} {scheme}: f32 patch loop differs");
+            }
         }
     }
 }

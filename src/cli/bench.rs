@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::eval::cpu::{CpuEvaluator, F32Kernel, GridWeightsF32};
-use crate::eval::gpu::GpuEvaluator;
+use crate::eval::gpu::{CeilingShape, GpuEvaluator};
 use crate::eval::{grid_len, Evaluator, Pattern};
 use crate::gpu::{GpuContext, Precision};
 use crate::mesh::{LoadOptions, Mesh};
@@ -133,11 +133,18 @@ pub struct Row {
     pub gpu_to_f32_sink: Option<Rate>,
     /// The same with one output buffer (device and host take turns).
     pub gpu_to_f32_sink_single_buffer: Option<Rate>,
-    /// The minimal shader (24 bytes written per invocation, nothing read) over the same
-    /// number of samples: the most any evaluation shader can do on this device.
+    /// The minimal shader (`shaders/ceiling.wgsl`: 24 bytes written per sample, nothing
+    /// read) over the same number of samples, the faster of its two ways of storing them
+    /// (one sample per invocation stored value by value, or four stored as vec4s as
+    /// `grid_patch_main` does): the most any evaluation shader can do on this device.
     pub gpu_ceiling: Option<Rate>,
     /// gpu_dispatch_only ÷ gpu_ceiling (samples per second).
     pub gpu_ceiling_fraction: Option<f64>,
+    /// The minimal shader with one sample per invocation, stored value by value
+    /// (`ceiling_main`; the ceiling of earlier reports).
+    pub gpu_ceiling_per_sample: Option<Rate>,
+    /// gpu_dispatch_only ÷ gpu_ceiling_per_sample.
+    pub gpu_ceiling_per_sample_fraction: Option<f64>,
     /// gpu_dispatch_only ÷ cpu_f32_all_threads (samples per second), the same run.
     pub gpu_cpu_f32_fraction: Option<f64>,
 }
@@ -406,7 +413,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                         Ok(())
                     })?))
                 };
-                let (dispatch, readback, ceiling, sink2, sink1) = match &mut gpu {
+                let (dispatch, readback, (ceiling, ceiling1), sink2, sink1) = match &mut gpu {
                     Some(g) => {
                         // The first run builds the pipelines and warms the driver.
                         g.time_grid(&table, 1)?;
@@ -414,11 +421,15 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                             g.time_grid(&table, level)?;
                             Ok(())
                         })?;
-                        g.time_ceiling(1)?;
-                        let c = best_time(min, || {
-                            g.time_ceiling(samples)?;
-                            Ok(())
-                        })?;
+                        let ceiling = |shape| {
+                            g.time_ceiling(1, shape)?;
+                            best_time(min, || {
+                                g.time_ceiling(samples, shape)?;
+                                Ok(())
+                            })
+                        };
+                        let c1 = ceiling(CeilingShape::PerSample)?;
+                        let c4 = ceiling(CeilingShape::Quads)?;
                         let r = best_time(Duration::ZERO, || {
                             g.evaluate(&table, &Pattern::Grid { level }, &mut |c| {
                                 std::hint::black_box(c.positions.last());
@@ -444,12 +455,12 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                         (
                             Some(rate(d)),
                             Some(rate(r)),
-                            Some(rate(c)),
+                            (Some(rate(c1.min(c4))), Some(rate(c1))),
                             Some(rate(s2)),
                             Some(rate(s1)),
                         )
                     }
-                    None => (None, None, None, None, None),
+                    None => (None, None, (None, None), None, None),
                 };
                 let cpu_all_rate = rate(cpu_all);
                 rows.push(Row {
@@ -470,6 +481,10 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                     gpu_ceiling: ceiling,
                     gpu_ceiling_fraction: dispatch
                         .zip(ceiling)
+                        .map(|(d, c)| d.samples_per_s / c.samples_per_s),
+                    gpu_ceiling_per_sample: ceiling1,
+                    gpu_ceiling_per_sample_fraction: dispatch
+                        .zip(ceiling1)
                         .map(|(d, c)| d.samples_per_s / c.samples_per_s),
                     gpu_cpu_f32_fraction: dispatch
                         .map(|d| d.samples_per_s / cpu_all_rate.samples_per_s),
@@ -506,7 +521,7 @@ pub fn to_text(r: &BenchReport) -> String {
         "machine: {} · {} threads · {} · CPU kernel {}, {} samples per chunk\n\
          gpu: {}{}\n\
          memory write bandwidth ({} MiB buffer): {:.2} GB/s all threads, {:.2} GB/s 1 thread → roofline {:.1} M samples/s at 24 B/sample\n\n\
-         | mesh | scheme | level | samples | build ms | CPU f32 1 thr M/s (roof) | CPU f32 all M/s (roof) | CPU f32 all, whole output M/s (roof) | CPU f64 ref all M/s | GPU dispatch M/s (roof) | GPU +readback M/s (roof) | GPU → f32 sink M/s (1 buffer) | GPU ceiling M/s | dispatch ÷ ceiling | dispatch ÷ CPU f32 all |\n\
+         | mesh | scheme | level | samples | build ms | CPU f32 1 thr M/s (roof) | CPU f32 all M/s (roof) | CPU f32 all, whole output M/s (roof) | CPU f64 ref all M/s | GPU dispatch M/s (roof) | GPU +readback M/s (roof) | GPU → f32 sink M/s (1 buffer) | GPU ceiling M/s (per sample) | dispatch ÷ ceiling (per sample) | dispatch ÷ CPU f32 all |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         m.cpu,
         m.threads,
@@ -557,10 +572,25 @@ pub fn to_text(r: &BenchReport) -> String {
                 ),
                 _ => "–".into(),
             },
-            row.gpu_ceiling
-                .map(|r| format!("{:.1}", r.samples_per_s / 1e6))
-                .unwrap_or_else(|| "–".into()),
-            percent(row.gpu_ceiling_fraction),
+            match (row.gpu_ceiling, row.gpu_ceiling_per_sample) {
+                (Some(c), Some(c1)) => format!(
+                    "{:.1} ({:.1})",
+                    c.samples_per_s / 1e6,
+                    c1.samples_per_s / 1e6
+                ),
+                _ => "–".into(),
+            },
+            match (
+                row.gpu_ceiling_fraction,
+                row.gpu_ceiling_per_sample_fraction
+            ) {
+                (Some(_), Some(_)) => format!(
+                    "{} ({})",
+                    percent(row.gpu_ceiling_fraction),
+                    percent(row.gpu_ceiling_per_sample_fraction)
+                ),
+                _ => "–".into(),
+            },
             percent(row.gpu_cpu_f32_fraction),
         );
     }

@@ -96,9 +96,10 @@ pub struct Pipelines {
     pub precision: Precision,
     /// Whether wgpu's runtime checks were kept ([`shader_module`]).
     pub runtime_checks: bool,
-    /// Grid, one thread per patch, basis from a uniform table (`grid_patch_main`), with
-    /// its bind group layout ([`patch_loop_bind_group_layout`]); none where the device's
-    /// uniform bindings are smaller than [`shaders::UNIFORM_TABLE_BYTES`].
+    /// Grid, one thread per patch (`grid_patch_main`: the basis from a uniform table, G1's
+    /// evaluated in the shader), with its bind group layout
+    /// ([`patch_loop_bind_group_layout`]); none where the device's uniform bindings are
+    /// smaller than [`shaders::UNIFORM_TABLE_BYTES`].
     pub grid_patch: Option<(wgpu::BindGroupLayout, wgpu::ComputePipeline)>,
     /// Grid, basis computed in the shader.
     pub grid: wgpu::ComputePipeline,
@@ -141,8 +142,9 @@ pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
-/// The bind group layout of `grid_patch_main`: 0 params (uniform), 1 patch data, 3 output
-/// (storage), 5 the grid's basis ([`shaders::UNIFORM_TABLE_BYTES`], uniform).
+/// The bind group layout of `grid_patch_main`: 0 params (uniform), 1 patch data, 5 the
+/// grid's basis ([`shaders::UNIFORM_TABLE_BYTES`], uniform), 7 the output (storage, seen
+/// as vec4s).
 pub fn patch_loop_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
         binding,
@@ -160,8 +162,8 @@ pub fn patch_loop_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLay
         entries: &[
             entry(0, T::Uniform),
             entry(1, T::Storage { read_only: true }),
-            entry(3, T::Storage { read_only: false }),
             entry(5, T::Uniform),
+            entry(7, T::Storage { read_only: false }),
         ],
     })
 }
@@ -476,8 +478,8 @@ fn patch_loop_bind_group(
         entries: &[
             entry(0, &buffers.params),
             entry(1, &buffers.patch_data),
-            entry(3, out),
             entry(5, table),
+            entry(7, out),
         ],
     })
 }
@@ -555,6 +557,14 @@ fn uniform_table<R: Real>(kind: PatchKind, level: u32, out: &mut [R]) {
             out[o + 1] = R::of(w.ws[j]);
             out[o + 2] = R::of(w.wt[j]);
         }
+    }
+}
+
+fn gcd(a: usize, b: usize) -> usize {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
     }
 }
 
@@ -703,9 +713,11 @@ pub struct GpuEvaluator {
     /// Keep wgpu's runtime checks (bounds checks, loop bounding) in the shaders; off by
     /// default: the shaders are the crate's own ([`shader_module`]).
     pub shader_runtime_checks: bool,
-    /// Grids that fit the uniform basis table run one thread per patch
-    /// (`grid_patch_main`) instead of one per sample: the default on software adapters
-    /// (`DeviceType::Cpu`, e.g. lavapipe), whose SIMD lanes then share each basis read.
+    /// Grids run one thread per patch (`grid_patch_main`) instead of one per sample where
+    /// the kind's basis fits the uniform table, and G1 grids at every level (their basis
+    /// is evaluated in the shader): the default on software adapters (`DeviceType::Cpu`,
+    /// e.g. lavapipe), whose SIMD lanes then share each patch's reads and store four
+    /// samples as vec4s.
     pub patch_loop: bool,
     /// Grids read back through two output buffers, so the device computes dispatch k + 1
     /// while the results of dispatch k are handed to the consumer (default; off: one
@@ -849,15 +861,24 @@ impl GpuEvaluator {
         let mut out_samples = (patches_per_chunk * per).min(per_dispatch);
         let table_bytes = (per * table.stride * 3 * rb) as u64;
         let use_table = table_bytes <= self.max_grid_table_bytes.min(self.max_binding_bytes);
-        // One thread per patch: whole patches per dispatch, the basis in a uniform table.
+        // One thread per patch: whole patches per dispatch, the basis in a uniform table
+        // (G1 evaluates its basis in the shader: any level).
+        let uniform_fits = per * table.stride * 4 * rb <= shaders::UNIFORM_TABLE_BYTES;
+        // Patches per dispatch of the patch loop are multiples of `quad`, so that its
+        // sample count is a multiple of 4 (grid_patch_main then stores vec4s).
+        let quad = 4 / gcd(per, 4);
         let patch_loop = match &pipes.grid_patch {
             Some((layout, pipeline))
                 if self.patch_loop
-                    && use_table
-                    && per * table.stride * 4 * rb <= shaders::UNIFORM_TABLE_BYTES
+                    && ((use_table && uniform_fits) || table.kind == PatchKind::Gregory)
                     && out_samples >= per =>
             {
-                out_samples -= out_samples % per;
+                let patches = out_samples / per;
+                out_samples = if patches >= quad {
+                    (patches - patches % quad) * per
+                } else {
+                    patches * per
+                };
                 Some((layout, pipeline))
             }
             _ => None,
@@ -881,9 +902,11 @@ impl GpuEvaluator {
             mapped_at_creation: false,
         });
         let patch_bind_group = patch_loop.map(|(layout, _)| {
-            let mut flat: Vec<R> = vec![R::of(0.0); shaders::UNIFORM_TABLE_BYTES / rb];
-            uniform_table(table.kind, level, &mut flat);
-            queue.write_buffer(&patch_uniform, 0, bytemuck::cast_slice(&flat));
+            if use_table && uniform_fits && table.kind != PatchKind::Gregory {
+                let mut flat: Vec<R> = vec![R::of(0.0); shaders::UNIFORM_TABLE_BYTES / rb];
+                uniform_table(table.kind, level, &mut flat);
+                queue.write_buffer(&patch_uniform, 0, bytemuck::cast_slice(&flat));
+            }
             patch_loop_bind_group(device, layout, &buffers, &buffers.out, &patch_uniform)
         });
         let pipeline = if let Some((_, p)) = patch_loop {
@@ -906,7 +929,12 @@ impl GpuEvaluator {
             let total = count * per;
             let mut s0 = 0;
             while s0 < total {
-                let n = out_samples.min(total - s0);
+                let mut n = out_samples.min(total - s0);
+                // The patch loop: a dispatch of whole quads of patches, then the rest.
+                let patches = n / per;
+                if patch_loop.is_some() && patches > quad && patches % quad != 0 {
+                    n = (patches - patches % quad) * per;
+                }
                 jobs.push((first, count, s0, n));
                 s0 += n;
             }
@@ -1179,12 +1207,23 @@ impl GpuEvaluator {
     }
 }
 
+/// How the ceiling shader (`shaders/ceiling.wgsl`) stores its samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CeilingShape {
+    /// `ceiling_main`: one sample per invocation, its six values stored one by one.
+    PerSample,
+    /// `ceiling_quads_main`: four samples per invocation stored as six vec4s, as
+    /// `grid_patch_main` stores them.
+    Quads,
+}
+
 impl GpuEvaluator {
-    /// The device's ceiling for an evaluation: `samples` invocations of the minimal shader
-    /// (`shaders/ceiling.wgsl`: 24 bytes written per invocation from its index, nothing
-    /// read), dispatched in the chunks a grid uses, waiting for the device, nothing read
-    /// back. The pipeline is built before the clock starts.
-    pub fn time_ceiling(&self, samples: usize) -> Result<GridTiming> {
+    /// The device's ceiling for an evaluation: `samples` samples written by the minimal
+    /// shader (`shaders/ceiling.wgsl`: 24 bytes per sample from its index, nothing read) in
+    /// `shape`, dispatched in the chunks a grid uses (quads: rounded up to a multiple of 4
+    /// samples), waiting for the device, nothing read back. The pipeline is built before the
+    /// clock starts.
+    pub fn time_ceiling(&self, samples: usize, shape: CeilingShape) -> Result<GridTiming> {
         let (device, queue) = (&self.ctx.device, &self.ctx.queue);
         let source = shaders::ceiling_source();
         shaders::validate(&source, Precision::F32)
@@ -1195,24 +1234,47 @@ impl GpuEvaluator {
             source,
             self.shader_runtime_checks,
         );
+        let quads_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("g1tess ceiling, quads"),
+            entries: &[0, 7].map(|binding| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: if binding == 0 {
+                        wgpu::BufferBindingType::Uniform
+                    } else {
+                        wgpu::BufferBindingType::Storage { read_only: false }
+                    },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }),
+        });
+        let (layout, entry, per_thread) = match shape {
+            CeilingShape::PerSample => (&self.layout, "ceiling_main", 1),
+            CeilingShape::Quads => (&quads_layout, "ceiling_quads_main", 4),
+        };
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("g1tess ceiling"),
-            bind_group_layouts: &[Some(&self.layout)],
+            bind_group_layouts: &[Some(layout)],
             immediate_size: 0,
         });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some(shaders::CEILING.name),
             layout: Some(&pipeline_layout),
             module: &module,
-            entry_point: Some("ceiling_main"),
+            entry_point: Some(entry),
             compilation_options: Default::default(),
             cache: None,
         });
         let sample_bytes = OUT_REALS * 4;
+        let total = samples.next_multiple_of(per_thread);
         let per_dispatch = self
             .limit_samples(sample_bytes)?
             .min(self.chunk_samples.max(1))
-            .min(samples.max(1));
+            .min(total.max(1));
+        let per_dispatch = (per_dispatch - per_dispatch % per_thread).max(per_thread);
         let buffers = Buffers::new(
             device,
             &self.layout,
@@ -1221,21 +1283,43 @@ impl GpuEvaluator {
             (per_dispatch * sample_bytes) as u64,
             32,
         );
+        let quads_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("g1tess ceiling, quads"),
+            layout: &quads_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buffers.params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: buffers.out.as_entire_binding(),
+                },
+            ],
+        });
+        let bind_group = match shape {
+            CeilingShape::PerSample => &buffers.bind_group,
+            CeilingShape::Quads => &quads_bind_group,
+        };
         self.ctx.check()?;
         let start = Instant::now();
         let mut s0 = 0;
-        while s0 < samples {
-            let n = per_dispatch.min(samples - s0);
+        while s0 < total {
+            let n = per_dispatch.min(total - s0);
             let params = Params {
                 count: n as u32,
                 ..Default::default()
             };
-            dispatch(
+            dispatch_threads(
                 device,
                 queue,
                 &pipeline,
                 &buffers,
+                &buffers.out,
+                &buffers.staging,
+                bind_group,
                 params,
+                (n / per_thread) as u32,
                 self.max_workgroups_per_dim,
                 0,
             );

@@ -63,7 +63,8 @@ pub const GREGORY: ShaderFile = ShaderFile {
     source: include_str!("../../shaders/gregory.wgsl"),
 };
 
-/// The minimal shader `bench` times as the device's ceiling (entry point `ceiling_main`).
+/// The minimal shaders `bench` times as the device's ceiling (entry points `ceiling_main`,
+/// one sample per invocation, and `ceiling_quads_main`, four stored as vec4s).
 pub const CEILING: ShaderFile = ShaderFile {
     name: "ceiling.wgsl",
     source: include_str!("../../shaders/ceiling.wgsl"),
