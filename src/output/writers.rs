@@ -27,18 +27,16 @@
 //! PLY and glTF list every vertex before any triangle: their triangles are regenerated
 //! from the plan (topology only) after the vertices are written.
 //!
-//! Files go to the temporary file through one 1 MiB buffer, written from the thread that
-//! produces the bytes (large sequential writes whose source is still in that core's cache;
-//! handing blocks to a writer thread measured slower); progress is reported through
-//! [`Progress`], never drawn here.
+//! Files go to the temporary file in blocks of 4 MiB written by a thread of their own
+//! ([`PipedWriter`]): the thread that evaluates, stitches and encodes never waits for the
+//! copy into the page cache. Progress is reported through [`Progress`], never drawn here.
 
-use std::fs::File;
-use std::io::{self, BufWriter, Seek, SeekFrom, Write};
+use std::io::{self, Write};
 use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::atomic::write_atomic_with;
+use super::atomic::{write_atomic_piped, PipedWriter};
 use crate::eval::{grid_len, grid_triangles, Vector};
 use crate::progress::Progress;
 use crate::tess::stitch::{Needs, PatchOut, RecordAttributes, StitchPlan, StitchSink};
@@ -152,9 +150,9 @@ impl MeshFormat {
 trait FormatWriter<V> {
     /// What the format reads of each patch.
     fn needs(&self) -> Needs;
-    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()>;
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()>;
-    fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()>;
+    fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()>;
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()>;
+    fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()>;
 }
 
 /// Writes the stitched output of `plan` to `path` in `format`, atomically, from samples of
@@ -202,12 +200,12 @@ pub fn write_stitched<V: Vector>(
             max: [f32::NEG_INFINITY; 3],
         }),
     };
-    write_atomic_with(path, |w| {
+    write_atomic_piped(path, |w| {
         let io = |e: io::Error| Error::io(path, e);
         writer.begin(w).map_err(io)?;
         struct Adapter<'w, 'x, V> {
             writer: &'x mut dyn FormatWriter<V>,
-            w: &'w mut BufWriter<File>,
+            w: &'w mut PipedWriter,
             path: &'x Path,
             format: MeshFormat,
         }
@@ -293,7 +291,7 @@ type EncodeTriangles = dyn Fn(&[[u32; 3]], &mut Vec<u8>) + Sync;
 fn write_triangles(
     plan: &StitchPlan,
     progress: &dyn Progress,
-    w: &mut BufWriter<File>,
+    w: &mut PipedWriter,
     encode: &EncodeTriangles,
 ) -> io::Result<()> {
     let batch = face_batch(plan.level);
@@ -395,7 +393,7 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         MeshFormat::Obj.needs()
     }
 
-    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+    fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()> {
         writeln!(
             w,
             "# {}\n# stitched: {} positions (v), {} vertex normals (vn), {}{} triangles",
@@ -411,12 +409,12 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         )
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
         use std::fmt::Write as _;
         let t = &mut self.text;
         t.clear();
         // The text goes out every TEXT_FLUSH bytes: a patch at a high level holds no more.
-        let flush = |t: &mut String, w: &mut BufWriter<File>| -> io::Result<()> {
+        let flush = |t: &mut String, w: &mut PipedWriter| -> io::Result<()> {
             if t.len() >= TEXT_FLUSH {
                 w.write_all(t.as_bytes())?;
                 t.clear();
@@ -472,7 +470,7 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         w.write_all(t.as_bytes())
     }
 
-    fn finish(&mut self, _: &mut BufWriter<File>, _: &dyn Progress) -> io::Result<()> {
+    fn finish(&mut self, _: &mut PipedWriter, _: &dyn Progress) -> io::Result<()> {
         Ok(())
     }
 }
@@ -488,7 +486,7 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
         MeshFormat::Ply.needs()
     }
 
-    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+    fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()> {
         // PLY headers are ASCII lines.
         let title: String = self
             .title
@@ -521,7 +519,7 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
         )
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
         if self.plan.has_attributes() {
             for (r, a) in out.new_records.iter().zip(out.new_attributes) {
@@ -536,7 +534,7 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
         w.write_all(&self.buf)
     }
 
-    fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()> {
+    fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()> {
         write_triangles(self.plan, progress, w, &|tris, buf| {
             for t in tris {
                 let mut b = [3u8; 13];
@@ -560,7 +558,7 @@ impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
         MeshFormat::Stl.needs()
     }
 
-    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+    fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()> {
         // The header must not start with "solid" (ASCII STL).
         let mut header = [b' '; 80];
         let text = format!("binary STL from {}", self.title);
@@ -570,7 +568,7 @@ impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
         w.write_all(&(self.plan.triangles as u32).to_le_bytes())
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
         for t in out.grid_triangles {
             let p = t.map(|i| out.grid_positions[i as usize]);
@@ -586,7 +584,7 @@ impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
         w.write_all(&self.buf)
     }
 
-    fn finish(&mut self, _: &mut BufWriter<File>, _: &dyn Progress) -> io::Result<()> {
+    fn finish(&mut self, _: &mut PipedWriter, _: &dyn Progress) -> io::Result<()> {
         Ok(())
     }
 }
@@ -689,7 +687,7 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         MeshFormat::Glb.needs()
     }
 
-    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+    fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()> {
         let layout = glb_layout(self.plan, self.title);
         if layout.total > u32::MAX as u64 {
             return Err(io::Error::other("glTF binary over 4 GiB"));
@@ -705,7 +703,7 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         w.write_all(b"BIN\0")
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
         for (j, r) in out.new_records.iter().enumerate() {
             let p = r.position.to_f32();
@@ -721,7 +719,7 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         w.write_all(&self.buf)
     }
 
-    fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()> {
+    fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()> {
         write_triangles(self.plan, progress, w, &|tris, buf| {
             for t in tris {
                 for i in t {
@@ -733,9 +731,7 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         if json.len() as u64 > glb_layout(self.plan, self.title).json_bytes {
             return Err(io::Error::other("glTF JSON outgrew its reserved chunk"));
         }
-        w.seek(SeekFrom::Start(20))?;
-        w.write_all(json.as_bytes())?;
-        w.seek(SeekFrom::End(0))?;
+        w.write_at_end(20, json.into_bytes());
         Ok(())
     }
 }
