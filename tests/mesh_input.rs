@@ -1089,3 +1089,87 @@ fn long_lines_and_files_that_are_not_regular_are_refused() {
         .to_string();
     assert!(e.contains("dir.pn: not a regular file"), "{e}");
 }
+
+/// The OBJ reader reads plain `v`, `vn` and `f` statements through a shortcut and every
+/// other statement through its general path. The same file written so that no statement
+/// fits the shortcut (each line led by a blank, ended by a comment) must give the same mesh
+/// bit for bit: positions, triangles, corner normals and texture coordinates, and the load
+/// report; the forms the shortcut declines (extra values, signs, empty index parts) too.
+#[test]
+fn plain_and_general_statements_read_alike() {
+    let mut rng = common::Rng(0x05ee_d0b1);
+    let mut lines = Vec::new();
+    let n = 40;
+    for i in 0..n {
+        let (x, y) = ((i % 8) as f64, (i / 8) as f64);
+        // Long decimals (f32 values as f64 shortest forms), short ones, an exponent form,
+        // a signed zero.
+        let z = (rng.next_u64() % 1000) as f64 / 997.0;
+        let zf = z as f32 as f64;
+        let zs = match i % 4 {
+            0 => format!("{zf:?}"),
+            1 => format!("{z:.3}"),
+            2 => format!("{:e}", z),
+            _ => "-0.0".into(),
+        };
+        lines.push(format!("v {x} {y} {zs}"));
+        lines.push(format!("vn {} -0.5 {zs}", 0.125 * x));
+        lines.push(format!("vt {} {}", x / 8.0, y / 5.0));
+    }
+    // Every face form, quads and pentagons, explicit `+` and negative indices, an empty
+    // texture part, extra values after a vertex.
+    let v = |r: usize, c: usize| 8 * r + c + 1;
+    for r in 0..4 {
+        for c in 0..7 {
+            let (a, b, d, e) = (v(r, c), v(r, c + 1), v(r + 1, c + 1), v(r + 1, c));
+            lines.push(match (r + c) % 6 {
+                0 => format!("f {a} {b} {d} {e}"),
+                1 => format!("f {a}/{a} {b}/{b} {d}/{d}"),
+                2 => format!("f {a}//{a} {b}//{b} {d}//{d} {e}//{e}"),
+                3 => format!("f {a}/{a}/{a} {b}/{b}/{b} {d}/{d}/{d} {e}/{e}/{e}"),
+                4 => format!("f +{a} {b}/ {d}/{d}/"),
+                _ => format!("f {a}/{a}/{a}\t{b}/{b}/{b}  {d}/{d}/{d}"),
+            });
+            if (r + c) % 6 == 1 || (r + c) % 6 == 5 {
+                lines.push(format!("f {a} {d} {e}"));
+            }
+        }
+    }
+    lines.push(format!("v 1 2 3 0.5 0.5 0.5\nf -1 {} {}", v(0, 0), v(0, 1)));
+    let plain: String = lines.iter().map(|l| format!("{l}\n")).collect();
+    let general: String = lines
+        .iter()
+        .flat_map(|l| l.lines())
+        .map(|l| format!(" {l} # general\n"))
+        .collect();
+    let a = load_path(&write_obj("plain.obj", &plain), &LoadOptions::default());
+    let b = load_path(&write_obj("general.obj", &general), &LoadOptions::default());
+    let bits = |v: &[DVec3]| -> Vec<[u64; 3]> {
+        v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
+    };
+    // Triangles per face form (quads give two; forms 1 and 5 add a second face), and the
+    // last face.
+    let per_form = [2, 2, 2, 2, 1, 2];
+    let faces: usize = (0..4)
+        .flat_map(|r| (0..7).map(move |c| per_form[(r + c) % 6]))
+        .sum();
+    assert_eq!(a.triangles.len(), faces + 1);
+    assert_eq!(bits(&a.positions), bits(&b.positions));
+    assert_eq!(a.triangles, b.triangles);
+    let normals = |m: &Mesh| -> Vec<[u64; 3]> {
+        m.corner_normals
+            .iter()
+            .flatten()
+            .map(|n| n.to_array().map(f64::to_bits))
+            .collect()
+    };
+    assert_eq!(normals(&a), normals(&b));
+    assert_eq!(a.attributes.uvs, b.attributes.uvs);
+    assert_eq!(
+        format!("{:?}", a.load_report),
+        format!("{:?}", b.load_report)
+    );
+    // And the values are the text's: the first vertex's long decimal, exactly.
+    let z0 = ((common::Rng(0x05ee_d0b1).next_u64() % 1000) as f64 / 997.0) as f32 as f64;
+    assert!(a.positions.iter().any(|p| p.z.to_bits() == z0.to_bits()));
+}

@@ -289,6 +289,11 @@ struct DenseEdgeWeights {
     /// For each block of [`EDGE_LANES`] samples and each point of `idx`: `EDGE_LANES`
     /// values of w, ∂w/∂s, ∂w/∂t (padding samples 0).
     data: Vec<f64>,
+    /// For each block and each point of `idx`: which of w (bit 0), ∂w/∂s (bit 1) and
+    /// ∂w/∂t (bit 2) has a nonzero value in some sample of the block. The kernel skips
+    /// the others: their products are ±0 on a finite point, and adding ±0 to a sum that
+    /// started at +0 leaves it bitwise as it is (such a sum is never −0).
+    nonzero: Vec<u8>,
 }
 
 impl EdgeWeights {
@@ -316,17 +321,20 @@ impl EdgeWeights {
                     .filter(|&j| samples.iter().any(|s| s.terms().0.contains(&j)))
                     .collect();
                 let mut data = vec![0.0; blocks * idx.len() * 3 * EDGE_LANES];
+                let mut nonzero = vec![0u8; blocks * idx.len()];
                 for (i, s) in samples.iter().enumerate() {
                     let (blk, l) = (i / EDGE_LANES, i % EDGE_LANES);
                     for (k, &j) in idx.iter().enumerate() {
                         let o = (blk * idx.len() + k) * 3 * EDGE_LANES + l;
                         let j = j as usize;
-                        data[o] = s.full.w[j];
-                        data[o + EDGE_LANES] = s.full.ws[j];
-                        data[o + 2 * EDGE_LANES] = s.full.wt[j];
+                        let v = [s.full.w[j], s.full.ws[j], s.full.wt[j]];
+                        for (c, &x) in v.iter().enumerate() {
+                            data[o + c * EDGE_LANES] = x;
+                            nonzero[blk * idx.len() + k] |= u8::from(x != 0.0) << c;
+                        }
                     }
                 }
-                dense.push(DenseEdgeWeights { idx, data });
+                dense.push(DenseEdgeWeights { idx, data, nonzero });
             }
         }
         EdgeWeights {
@@ -420,30 +428,38 @@ fn edge_side_avx(
     for (blk, wb) in d.data.chunks_exact(terms * 3 * EDGE_LANES).enumerate() {
         let z = _mm256_setzero_pd();
         let [mut px, mut py, mut pz, mut sx, mut sy, mut sz, mut tx, mut ty, mut tz] = [z; 9];
-        for (&j, w3) in d.idx.iter().zip(wb.chunks_exact(3 * EDGE_LANES)) {
+        let nonzero = &d.nonzero[blk * terms..(blk + 1) * terms];
+        for ((&j, w3), &nz) in d
+            .idx
+            .iter()
+            .zip(wb.chunks_exact(3 * EDGE_LANES))
+            .zip(nonzero)
+        {
             let cj = c[j as usize];
-            // SAFETY: each load reads four f64 of the 12 in `w3`.
-            let (w, ws, wt) = unsafe {
-                (
-                    _mm256_loadu_pd(w3.as_ptr()),
-                    _mm256_loadu_pd(w3.as_ptr().add(EDGE_LANES)),
-                    _mm256_loadu_pd(w3.as_ptr().add(2 * EDGE_LANES)),
-                )
-            };
             let (cx, cy, cz) = (
                 _mm256_set1_pd(cj.x),
                 _mm256_set1_pd(cj.y),
                 _mm256_set1_pd(cj.z),
             );
-            px = _mm256_add_pd(px, _mm256_mul_pd(w, cx));
-            py = _mm256_add_pd(py, _mm256_mul_pd(w, cy));
-            pz = _mm256_add_pd(pz, _mm256_mul_pd(w, cz));
-            sx = _mm256_add_pd(sx, _mm256_mul_pd(ws, cx));
-            sy = _mm256_add_pd(sy, _mm256_mul_pd(ws, cy));
-            sz = _mm256_add_pd(sz, _mm256_mul_pd(ws, cz));
-            tx = _mm256_add_pd(tx, _mm256_mul_pd(wt, cx));
-            ty = _mm256_add_pd(ty, _mm256_mul_pd(wt, cy));
-            tz = _mm256_add_pd(tz, _mm256_mul_pd(wt, cz));
+            // SAFETY (each load): reads four f64 of the 12 in `w3`.
+            if nz & 1 != 0 {
+                let w = unsafe { _mm256_loadu_pd(w3.as_ptr()) };
+                px = _mm256_add_pd(px, _mm256_mul_pd(w, cx));
+                py = _mm256_add_pd(py, _mm256_mul_pd(w, cy));
+                pz = _mm256_add_pd(pz, _mm256_mul_pd(w, cz));
+            }
+            if nz & 2 != 0 {
+                let ws = unsafe { _mm256_loadu_pd(w3.as_ptr().add(EDGE_LANES)) };
+                sx = _mm256_add_pd(sx, _mm256_mul_pd(ws, cx));
+                sy = _mm256_add_pd(sy, _mm256_mul_pd(ws, cy));
+                sz = _mm256_add_pd(sz, _mm256_mul_pd(ws, cz));
+            }
+            if nz & 4 != 0 {
+                let wt = unsafe { _mm256_loadu_pd(w3.as_ptr().add(2 * EDGE_LANES)) };
+                tx = _mm256_add_pd(tx, _mm256_mul_pd(wt, cx));
+                ty = _mm256_add_pd(ty, _mm256_mul_pd(wt, cy));
+                tz = _mm256_add_pd(tz, _mm256_mul_pd(wt, cz));
+            }
         }
         // S_s × S_t as DVec3::cross, |·| as DVec3::length, then the division.
         let nx = _mm256_sub_pd(_mm256_mul_pd(sy, tz), _mm256_mul_pd(ty, sz));

@@ -10,7 +10,9 @@
 //! are kept relative to the block and resolved when the blocks are joined in order. Any
 //! defect sends the whole file through the same parser once more, sequentially with exact
 //! counts, which reports the first defect of the file with its line: errors cost a second
-//! pass, valid files do not.
+//! pass, valid files do not. Plain `v`, `vn` and `f` statements (what writers emit) are
+//! read in one pass over their bytes ([`Block::fast`]); anything else, defects included,
+//! goes through the general path, so results and messages do not depend on the shortcut.
 
 use std::path::Path;
 
@@ -61,6 +63,9 @@ struct Mode {
     base: Option<Counts>,
     /// The file's final counts, when a sequential pass checks forward references.
     totals: Option<Counts>,
+    /// Whether plain statements may take [`Block::fast`] (not while a sequential pass
+    /// checks forward references: that needs [`Block::index`]).
+    fast: bool,
 }
 
 /// Outcome of a pass: a parallel pass only learns that something is wrong.
@@ -93,6 +98,9 @@ impl Block {
 
     /// Parses one statement.
     fn statement(&mut self, path: &Path, mode: Mode, line: usize, stmt: &str) -> Result<()> {
+        if mode.fast && self.fast(stmt) {
+            return Ok(());
+        }
         let err = |msg: String| Error::parse(path, line, msg);
         let mut tok = Tokens::new(stmt);
         let Some(kw) = tok.next() else {
@@ -175,15 +183,7 @@ impl Block {
             match n {
                 0 => first = cur,
                 1 => {}
-                _ => {
-                    self.tris.push([first[0], prev[0], cur[0]]);
-                    self.tri_normals.push([first[1], prev[1], cur[1]]);
-                    let uv = [first[2], prev[2], cur[2]];
-                    if !self.tri_uvs.is_empty() || uv != [NONE; 3] {
-                        self.tri_uvs.resize(self.tris.len() - 1, [NONE; 3]);
-                        self.tri_uvs.push(uv);
-                    }
-                }
+                _ => self.push_triangle(first, prev, cur),
             }
             prev = cur;
             n += 1;
@@ -193,6 +193,111 @@ impl Block {
         }
         self.polygons += usize::from(n > 3);
         Ok(())
+    }
+
+    /// Appends the triangle of corners `a`, `b`, `c`, each (position, normal, texture
+    /// coordinate) index.
+    #[inline]
+    fn push_triangle(&mut self, a: [i64; 3], b: [i64; 3], c: [i64; 3]) {
+        self.tris.push([a[0], b[0], c[0]]);
+        self.tri_normals.push([a[1], b[1], c[1]]);
+        let uv = [a[2], b[2], c[2]];
+        if !self.tri_uvs.is_empty() || uv != [NONE; 3] {
+            self.tri_uvs.resize(self.tris.len() - 1, [NONE; 3]);
+            self.tri_uvs.push(uv);
+        }
+    }
+
+    /// The common statements in one pass over their bytes: `v` and `vn` with exactly three
+    /// plain numbers, `f` with up to [`FAST_CORNERS`] corners of positive indices, blanks
+    /// between tokens and nothing after them. Returns false, having changed nothing, for
+    /// anything else (another keyword, a comment, a value out of range, a defect), which
+    /// [`Block::statement`]'s general path then reads: results and errors are the same
+    /// whichever path reads a statement.
+    #[inline]
+    fn fast(&mut self, stmt: &str) -> bool {
+        match stmt.as_bytes() {
+            [b'v', b' ' | b'\t', ..] => {
+                let Some(p) = fast_numbers(&stmt[2..]) else {
+                    return false;
+                };
+                if p.iter().any(|x| x.abs() > normals::MAX_COORD) {
+                    return false;
+                }
+                self.positions.push(DVec3::from_array(p));
+            }
+            [b'v', b'n', b' ' | b'\t', ..] => {
+                let Some(n) =
+                    fast_numbers(&stmt[3..]).and_then(|n| normals::unit(DVec3::from_array(n)))
+                else {
+                    return false;
+                };
+                self.normals.push(n);
+            }
+            [b'f', b' ' | b'\t', rest @ ..] => {
+                let mut corners = [[NONE; 3]; FAST_CORNERS];
+                let mut n = 0;
+                let mut i = 0;
+                loop {
+                    while i < rest.len() && is_blank(rest[i]) {
+                        i += 1;
+                    }
+                    if i == rest.len() {
+                        break;
+                    }
+                    if n == FAST_CORNERS {
+                        return false;
+                    }
+                    // v, v/vt, v//vn or v/vt/vn, each a positive index.
+                    let mut idx = [NONE; 3];
+                    for slot in [V, VT, VN] {
+                        let start = i;
+                        let mut k = 0i64;
+                        while i < rest.len() && rest[i].is_ascii_digit() && i - start < 18 {
+                            k = k * 10 + i64::from(rest[i] - b'0');
+                            i += 1;
+                        }
+                        if i > start {
+                            if k == 0 {
+                                return false;
+                            }
+                            idx[slot] = k - 1;
+                        } else if slot == V {
+                            return false;
+                        }
+                        if slot == VN || i == rest.len() || rest[i] != b'/' {
+                            break;
+                        }
+                        i += 1;
+                    }
+                    if i < rest.len() && !is_blank(rest[i]) {
+                        return false;
+                    }
+                    if idx[VT] == NONE && idx[VN] == NONE && i > 0 && rest[i - 1] == b'/' {
+                        return false;
+                    }
+                    corners[n] = [idx[V], idx[VN], idx[VT]];
+                    n += 1;
+                }
+                if n < 3 {
+                    return false;
+                }
+                for c in &corners[..n] {
+                    // (position, normal, texture coordinate) into max_abs's V, VN, VT.
+                    for (e, slot) in c.iter().zip([V, VN, VT]) {
+                        if *e != NONE {
+                            self.max_abs[slot] = self.max_abs[slot].max(*e);
+                        }
+                    }
+                }
+                for k in 2..n {
+                    self.push_triangle(corners[0], corners[k - 1], corners[k]);
+                }
+                self.polygons += usize::from(n > 3);
+            }
+            _ => return false,
+        }
+        true
     }
 
     /// Resolves index text `s` of kind `slot` in corner `c`.
@@ -254,6 +359,53 @@ impl Block {
                 Ok(r - REL)
             }
         }
+    }
+}
+
+/// Corners a face may have for [`Block::fast`].
+const FAST_CORNERS: usize = 8;
+
+/// The blanks between tokens.
+#[inline]
+fn is_blank(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\x0b' | b'\x0c')
+}
+
+/// Exactly three finite numbers separated by blanks, nothing else (see [`Block::fast`]).
+#[inline]
+fn fast_numbers(s: &str) -> Option<[f64; 3]> {
+    let b = s.as_bytes();
+    let mut out = [0.0; 3];
+    let mut i = 0;
+    for x in &mut out {
+        while i < b.len() && is_blank(b[i]) {
+            i += 1;
+        }
+        let start = i;
+        while i < b.len() && matches!(b[i], b'0'..=b'9' | b'.' | b'-' | b'+' | b'e' | b'E') {
+            i += 1;
+        }
+        if i == start || (i < b.len() && !is_blank(b[i])) {
+            return None;
+        }
+        // ASCII bytes: `start` and `i` are character boundaries.
+        *x = fast_f64(s.get(start..i)?)?;
+        if !x.is_finite() {
+            return None;
+        }
+    }
+    b[i..].iter().all(|&c| is_blank(c)).then_some(out)
+}
+
+/// A number as [`text::parse_f64`] reads it: straight to the standard library's parser
+/// when the text is too long for the shortcut of `parse_f64` (more than 15 significant
+/// digits: the shortest decimals of f32 and f64 values, mostly), which would scan it twice.
+#[inline]
+fn fast_f64(s: &str) -> Option<f64> {
+    if s.len() > 17 {
+        s.parse().ok()
+    } else {
+        text::parse_f64(s)
     }
 }
 
@@ -391,6 +543,7 @@ fn pass(path: &Path, parallel: bool, totals: Option<Counts>) -> std::result::Res
                     let mode = Mode {
                         base: None,
                         totals: None,
+                        fast: true,
                     };
                     let mut b = Block::new();
                     let text = std::str::from_utf8(piece).ok()?;
@@ -417,6 +570,7 @@ fn pass(path: &Path, parallel: bool, totals: Option<Counts>) -> std::result::Res
                 let mode = Mode {
                     base: Some(raw.counts()),
                     totals,
+                    fast: totals.is_none(),
                 };
                 let mut b = Block::new();
                 lines += text::statements(path, text, first_line + lines, true, |line, s| {

@@ -213,6 +213,39 @@ where
         f(&mut w)?;
         return w.flush().map_err(io);
     }
+    replace_atomically(path, |file| {
+        let mut w = BufWriter::with_capacity(1 << 20, file);
+        f(&mut w)?;
+        w.into_inner().map_err(|e| io(e.into_error()))
+    })
+}
+
+/// [`write_atomic_with`] through a [`PipedWriter`]: the writes to the file (the copy into
+/// the page cache) happen on a thread of their own, in large blocks, while `f` goes on
+/// producing. For a producer that is itself the bottleneck (a surface evaluated and
+/// encoded as it is written). The same temporary file, fsync and rename.
+pub fn write_atomic_piped<F>(path: &Path, f: F) -> Result<()>
+where
+    F: FnOnce(&mut PipedWriter) -> Result<()>,
+{
+    let io = |e: std::io::Error| Error::io(path, e);
+    if is_stdout(path) {
+        let mut w = PipedWriter::direct(stdout_file(path)?);
+        f(&mut w)?;
+        return w.finish().map(drop).map_err(io);
+    }
+    replace_atomically(path, |file| {
+        let mut w = PipedWriter::spawn(file);
+        f(&mut w)?;
+        w.finish().map_err(io)
+    })
+}
+
+/// Writes the target of `path` through a temporary file: `write` gets the new file and
+/// gives it back written; then fsync and rename. On any failure the temporary file is
+/// removed.
+fn replace_atomically(path: &Path, write: impl FnOnce(File) -> Result<File>) -> Result<()> {
+    let io = |e: std::io::Error| Error::io(path, e);
     let target = resolve_output(path)?;
     let dir = match target.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -235,12 +268,11 @@ where
     let result = (|| {
         let file = File::create(&tmp).map_err(io)?;
         let writeback = EarlyWriteback::start(&file);
-        let mut w = BufWriter::with_capacity(1 << 20, file);
-        let written = f(&mut w);
+        let written = write(file);
         drop(writeback);
-        written?;
-        w.flush().map_err(io)?;
-        w.get_ref().sync_all().map_err(io)?;
+        let file = written?;
+        file.sync_all().map_err(io)?;
+        drop(file);
         std::fs::rename(&tmp, &target).map_err(io)
     })();
     if result.is_err() {
@@ -248,6 +280,191 @@ where
     }
     unregister(&tmp);
     result
+}
+
+/// Bytes per block a [`PipedWriter`] hands to its thread (one `write` each): small enough
+/// that the blocks in flight stay in the cache (larger blocks measured more system time
+/// for the same bytes), large enough that the calls are few.
+const PIPE_BLOCK: usize = 512 << 10;
+/// Blocks in flight at most: one being filled, one queued, one being written, one handed
+/// back.
+const PIPE_BLOCKS: usize = 4;
+
+/// A writer whose bytes reach the file from a thread of its own: `write` copies into a
+/// block of [`PIPE_BLOCK`] bytes, a full block goes to the thread, which writes it whole
+/// and hands it back for reuse, so at most [`PIPE_BLOCKS`] blocks (2 MiB) exist. The
+/// thread's first error comes back from the next `write` (or [`PipedWriter::finish`]),
+/// after which nothing more is written. Writes at given offsets
+/// ([`PipedWriter::write_at_end`]) wait for the end of the stream.
+pub struct PipedWriter {
+    buf: Vec<u8>,
+    inner: Option<Inner>,
+    /// (offset, bytes) written after the stream.
+    at_end: Vec<(u64, Vec<u8>)>,
+}
+
+enum Inner {
+    /// Blocks written from the calling thread (standard output, or no thread available).
+    Direct(File),
+    Thread {
+        tx: std::sync::mpsc::SyncSender<Vec<u8>>,
+        back: std::sync::mpsc::Receiver<Vec<u8>>,
+        thread: std::thread::JoinHandle<std::io::Result<File>>,
+        blocks: usize,
+    },
+}
+
+impl PipedWriter {
+    /// Writes from the calling thread, in blocks.
+    pub fn direct(file: File) -> PipedWriter {
+        PipedWriter {
+            buf: Vec::with_capacity(PIPE_BLOCK),
+            inner: Some(Inner::Direct(file)),
+            at_end: Vec::new(),
+        }
+    }
+
+    /// Writes from a new thread (from the calling one where no thread can be started).
+    pub fn spawn(file: File) -> PipedWriter {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(1);
+        let (back_tx, back) = std::sync::mpsc::channel::<Vec<u8>>();
+        let Ok(writer) = file.try_clone() else {
+            return PipedWriter::direct(file);
+        };
+        let spawned = std::thread::Builder::new()
+            .name("g1tess-writer".into())
+            .spawn(move || -> std::io::Result<File> {
+                let mut file = writer;
+                for block in rx {
+                    file.write_all(&block)?;
+                    // The producer may be gone (an error of its own): then the block drops.
+                    let _ = back_tx.send(block);
+                }
+                Ok(file)
+            });
+        match spawned {
+            Ok(thread) => {
+                drop(file);
+                PipedWriter {
+                    buf: Vec::with_capacity(PIPE_BLOCK),
+                    inner: Some(Inner::Thread {
+                        tx,
+                        back,
+                        thread,
+                        blocks: 1,
+                    }),
+                    at_end: Vec::new(),
+                }
+            }
+            Err(_) => PipedWriter::direct(file),
+        }
+    }
+
+    /// Writes `bytes` at `offset` of the file once the stream is written (a header whose
+    /// content is known only at the end); the stream must reach past them.
+    pub fn write_at_end(&mut self, offset: u64, bytes: Vec<u8>) {
+        self.at_end.push((offset, bytes));
+    }
+
+    /// The thread's error, once it has stopped taking blocks.
+    fn thread_error(&mut self) -> std::io::Error {
+        match self.inner.take() {
+            Some(Inner::Thread { tx, thread, .. }) => {
+                drop(tx);
+                match thread.join() {
+                    Ok(Err(e)) => e,
+                    _ => std::io::Error::other("the writing thread stopped"),
+                }
+            }
+            _ => std::io::Error::other("the writing thread stopped"),
+        }
+    }
+
+    /// Hands the filled block on.
+    fn send(&mut self) -> std::io::Result<()> {
+        if self.buf.is_empty() {
+            return Ok(());
+        }
+        match &mut self.inner {
+            Some(Inner::Direct(file)) => {
+                file.write_all(&self.buf)?;
+                self.buf.clear();
+                Ok(())
+            }
+            Some(Inner::Thread {
+                tx, back, blocks, ..
+            }) => {
+                let full = std::mem::take(&mut self.buf);
+                let next = if tx.send(full).is_err() {
+                    None
+                } else {
+                    match back.try_recv() {
+                        Ok(b) => Some(b),
+                        Err(_) if *blocks < PIPE_BLOCKS => {
+                            *blocks += 1;
+                            Some(Vec::with_capacity(PIPE_BLOCK))
+                        }
+                        Err(_) => back.recv().ok(),
+                    }
+                };
+                if let Some(mut b) = next {
+                    b.clear();
+                    self.buf = b;
+                    return Ok(());
+                }
+                Err(self.thread_error())
+            }
+            None => Err(std::io::Error::other("the writing thread stopped")),
+        }
+    }
+
+    /// Writes what is left, waits for the thread, writes the bytes given to
+    /// [`PipedWriter::write_at_end`], and gives the file back (not yet synced).
+    pub fn finish(mut self) -> std::io::Result<File> {
+        use std::io::{Seek, SeekFrom};
+        self.send()?;
+        let mut file = match self.inner.take() {
+            Some(Inner::Direct(file)) => file,
+            Some(Inner::Thread { tx, thread, .. }) => {
+                drop(tx);
+                thread
+                    .join()
+                    .map_err(|_| std::io::Error::other("the writing thread stopped"))??
+            }
+            None => return Err(std::io::Error::other("the writing thread stopped")),
+        };
+        for (offset, bytes) in std::mem::take(&mut self.at_end) {
+            file.seek(SeekFrom::Start(offset))?;
+            file.write_all(&bytes)?;
+        }
+        Ok(file)
+    }
+}
+
+impl Write for PipedWriter {
+    fn write(&mut self, data: &[u8]) -> std::io::Result<usize> {
+        if self.buf.len() >= PIPE_BLOCK {
+            self.send()?;
+        }
+        let n = data.len().min(PIPE_BLOCK - self.buf.len());
+        self.buf.extend_from_slice(&data[..n]);
+        Ok(n)
+    }
+
+    /// Hands the bytes so far on (to the thread, which writes them soon).
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.send()
+    }
+}
+
+impl Drop for PipedWriter {
+    /// Stops the thread (after an error, say), writing what it was given.
+    fn drop(&mut self) {
+        if let Some(Inner::Thread { tx, thread, .. }) = self.inner.take() {
+            drop(tx);
+            let _ = thread.join();
+        }
+    }
 }
 
 /// Creates `dir` and its parents.

@@ -23,7 +23,7 @@ use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
 use crate::patch::repair::{repair, RepairReport};
-use crate::patch::validity::{count_builder, PatchCounts};
+use crate::patch::validity::{check_patch, PatchCounts, Verdict};
 use crate::patch::{PatchBuilder, PatchTable, Scheme, SchemeOptions};
 use crate::{Error, Result};
 
@@ -398,6 +398,8 @@ struct Batch {
     /// Fallbacks of the first builds, and crease edges, of the chunk.
     fallbacks: usize,
     creases: usize,
+    /// Validity verdicts of the first builds (builder only).
+    verdicts: PatchCounts,
 }
 
 impl Batch {
@@ -421,6 +423,7 @@ impl Batch {
             copy: Vec::new(),
             fallbacks: 0,
             creases: 0,
+            verdicts: PatchCounts::default(),
         }
     }
 
@@ -445,6 +448,7 @@ impl Batch {
         self.again.clear();
         self.copy.clear();
         self.fallbacks = 0;
+        self.verdicts = PatchCounts::default();
         if self.edges.is_empty() {
             for &t in done {
                 slot[t as usize] = BUILT;
@@ -484,6 +488,8 @@ impl Batch {
             }
             b.table_of_into(&self.fresh, counted, &mut self.table)?;
             self.fallbacks = self.table.fallbacks;
+            // Each triangle's patch is certified once, where it is first built.
+            self.verdicts = certify(&self.table, 0..counted);
             // Patches are built the same wherever they are built: copies are bitwise those.
             let stride = self.table.stride;
             for &(t, s) in &self.copy {
@@ -570,7 +576,7 @@ fn run(
     patches: Patches<'_, '_>,
     evaluator: &dyn Evaluator,
     chunk_edges: usize,
-) -> Result<(Continuity, usize)> {
+) -> Result<(Continuity, usize, PatchCounts)> {
     let chunk_edges = chunk_edges.max(1);
     let triangles = &mesh.triangles;
     if triangles.len() >= AGAIN as usize {
@@ -587,6 +593,7 @@ fn run(
         Patches::Builder(_) => vec![NEVER; triangles.len()],
     };
     let mut fallbacks = 0;
+    let mut verdicts = PatchCounts::default();
     let mut current = Batch::new(patches, chunk_edges);
     let mut next = Batch::new(patches, chunk_edges);
     let empty = current.table.clone();
@@ -594,6 +601,7 @@ fn run(
     while !current.edges.is_empty() {
         crease_edges += current.creases;
         fallbacks += current.fallbacks;
+        verdicts = merge(verdicts, current.verdicts);
         let mut prepared = Ok(());
         let evaluated = rayon::in_place_scope(|s| {
             let (next, slot, done, prev) = (&mut next, &mut slot, &current.fresh, &current.table);
@@ -616,9 +624,39 @@ fn run(
                 .filter(|&t| slot[t as usize] == NEVER)
                 .collect();
             fallbacks += b.fallbacks_of(&never) + b.prepared_fallbacks();
+            // Their patches are certified here, a bounded chunk at a time.
+            let mut table = b.empty_table();
+            for chunk in never.chunks(1 << 16) {
+                b.table_of_into(chunk, 0, &mut table)?;
+                verdicts = merge(verdicts, certify(&table, 0..chunk.len()));
+            }
         }
     }
-    Ok((fold.finish(crease_edges), fallbacks))
+    Ok((fold.finish(crease_edges), fallbacks, verdicts))
+}
+
+/// The validity verdicts of patches `range` of `table`, counted (in parallel).
+fn certify(table: &PatchTable, range: std::ops::Range<usize>) -> PatchCounts {
+    range
+        .into_par_iter()
+        .map(|i| {
+            let mut c = PatchCounts::default();
+            match check_patch(table, i) {
+                Verdict::Valid => c.valid = 1,
+                Verdict::Folded { .. } => c.folded = 1,
+                Verdict::Undecided => c.undecided = 1,
+            }
+            c
+        })
+        .reduce(PatchCounts::default, merge)
+}
+
+fn merge(a: PatchCounts, b: PatchCounts) -> PatchCounts {
+    PatchCounts {
+        valid: a.valid + b.valid,
+        folded: a.folded + b.folded,
+        undecided: a.undecided + b.undecided,
+    }
 }
 
 /// Continuity statistics of `table` over the interior edges of `mesh`, evaluated by
@@ -681,6 +719,19 @@ impl<'m> EdgeStats<'m> {
         builder: &PatchBuilder<'_>,
         evaluator: &dyn Evaluator,
     ) -> Result<(Continuity, usize)> {
+        self.continuity_certified(builder, evaluator)
+            .map(|(c, fallbacks, _)| (c, fallbacks))
+    }
+
+    /// [`EdgeStats::continuity`] and the validity verdicts of every patch
+    /// ([`crate::patch::validity`]), each patch certified where the statistics build it
+    /// first: the counts of [`crate::patch::validity::count_builder`] without building
+    /// the patches a second time.
+    pub fn continuity_certified(
+        &self,
+        builder: &PatchBuilder<'_>,
+        evaluator: &dyn Evaluator,
+    ) -> Result<(Continuity, usize, PatchCounts)> {
         if !std::ptr::eq(builder.mesh(), self.mesh) {
             return Err(Error::Invalid(
                 "statistics: the patch builder belongs to another mesh".into(),
@@ -704,7 +755,7 @@ impl<'m> EdgeStats<'m> {
         evaluator: &dyn Evaluator,
     ) -> Result<StatsReport> {
         let builder = PatchBuilder::new(self.mesh, scheme, opts)?;
-        let (c, fallbacks) = self.continuity(&builder, evaluator)?;
+        let (c, fallbacks, patches) = self.continuity_certified(&builder, evaluator)?;
         let mut report = StatsReport::new(
             self.mesh,
             self.counts(),
@@ -713,7 +764,7 @@ impl<'m> EdgeStats<'m> {
             c,
             evaluator.describe(),
         );
-        report.patches = count_builder(&builder)?;
+        report.patches = patches;
         Ok(report)
     }
 }
@@ -748,7 +799,7 @@ pub fn stats_report(
         (index, builder)
     });
     let builder = builder?;
-    let (c, fallbacks) = stats.continuity(&builder, evaluator)?;
+    let (c, fallbacks, patches) = stats.continuity_certified(&builder, evaluator)?;
     let mut report = StatsReport::new(
         mesh,
         stats.counts(),
@@ -757,7 +808,7 @@ pub fn stats_report(
         c,
         evaluator.describe(),
     );
-    report.patches = count_builder(&builder)?;
+    report.patches = patches;
     Ok(report)
 }
 

@@ -27,18 +27,16 @@
 //! PLY and glTF list every vertex before any triangle: their triangles are regenerated
 //! from the plan (topology only) after the vertices are written.
 //!
-//! Files go to the temporary file through one 1 MiB buffer, written from the thread that
-//! produces the bytes (large sequential writes whose source is still in that core's cache;
-//! handing blocks to a writer thread measured slower); progress is reported through
-//! [`Progress`], never drawn here.
+//! Files go to the temporary file in blocks of 4 MiB written by a thread of their own
+//! ([`PipedWriter`]): the thread that evaluates, stitches and encodes never waits for the
+//! copy into the page cache. Progress is reported through [`Progress`], never drawn here.
 
-use std::fs::File;
-use std::io::{self, BufWriter, Seek, SeekFrom, Write};
+use std::io::{self, Write};
 use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::atomic::write_atomic_with;
+use super::atomic::{write_atomic_piped, PipedWriter};
 use crate::eval::{grid_len, grid_triangles, Vector};
 use crate::progress::Progress;
 use crate::tess::stitch::{Needs, PatchOut, RecordAttributes, StitchPlan, StitchSink};
@@ -152,9 +150,9 @@ impl MeshFormat {
 trait FormatWriter<V> {
     /// What the format reads of each patch.
     fn needs(&self) -> Needs;
-    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()>;
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()>;
-    fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()>;
+    fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()>;
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()>;
+    fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()>;
 }
 
 /// Writes the stitched output of `plan` to `path` in `format`, atomically, from samples of
@@ -202,12 +200,12 @@ pub fn write_stitched<V: Vector>(
             max: [f32::NEG_INFINITY; 3],
         }),
     };
-    write_atomic_with(path, |w| {
+    write_atomic_piped(path, |w| {
         let io = |e: io::Error| Error::io(path, e);
         writer.begin(w).map_err(io)?;
         struct Adapter<'w, 'x, V> {
             writer: &'x mut dyn FormatWriter<V>,
-            w: &'w mut BufWriter<File>,
+            w: &'w mut PipedWriter,
             path: &'x Path,
             format: MeshFormat,
         }
@@ -264,6 +262,16 @@ fn check_finite<V: Vector>(format: MeshFormat, path: &Path, out: &PatchOut<'_, V
             out.patch + 1
         )))
     };
+    // The common case first, without a branch per value (this runs on the thread that
+    // feeds the file, for every sample); only then is the first offender looked for.
+    let obj = format == MeshFormat::Obj;
+    if all_finite(out.new_positions.iter().copied(), obj)
+        && all_finite(out.grid_positions.iter().copied(), obj)
+        && all_finite(out.new_records.iter().map(|r| r.position), obj)
+        && (format == MeshFormat::Stl || all_finite(out.new_records.iter().map(|r| r.normal), obj))
+    {
+        return Ok(());
+    }
     let positions = out
         .new_positions
         .iter()
@@ -284,6 +292,19 @@ fn check_finite<V: Vector>(format: MeshFormat, path: &Path, out: &PatchOut<'_, V
     Ok(())
 }
 
+/// Whether every value is finite as written: in its own precision for OBJ (`obj`), in f32
+/// otherwise ([`check_finite`]'s rule), with no early exit.
+#[inline]
+fn all_finite<V: Vector>(values: impl Iterator<Item = V>, obj: bool) -> bool {
+    if obj {
+        values.fold(true, |ok, v| ok & v.to_dvec3().is_finite())
+    } else {
+        values.fold(true, |ok, v| {
+            ok & v.to_f32().iter().fold(true, |o, x| o & x.is_finite())
+        })
+    }
+}
+
 /// Appends the bytes of one patch's triangles (record ids) to a buffer.
 type EncodeTriangles = dyn Fn(&[[u32; 3]], &mut Vec<u8>) + Sync;
 
@@ -293,7 +314,7 @@ type EncodeTriangles = dyn Fn(&[[u32; 3]], &mut Vec<u8>) + Sync;
 fn write_triangles(
     plan: &StitchPlan,
     progress: &dyn Progress,
-    w: &mut BufWriter<File>,
+    w: &mut PipedWriter,
     encode: &EncodeTriangles,
 ) -> io::Result<()> {
     let batch = face_batch(plan.level);
@@ -395,7 +416,7 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         MeshFormat::Obj.needs()
     }
 
-    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+    fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()> {
         writeln!(
             w,
             "# {}\n# stitched: {} positions (v), {} vertex normals (vn), {}{} triangles",
@@ -411,12 +432,12 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         )
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
         use std::fmt::Write as _;
         let t = &mut self.text;
         t.clear();
         // The text goes out every TEXT_FLUSH bytes: a patch at a high level holds no more.
-        let flush = |t: &mut String, w: &mut BufWriter<File>| -> io::Result<()> {
+        let flush = |t: &mut String, w: &mut PipedWriter| -> io::Result<()> {
             if t.len() >= TEXT_FLUSH {
                 w.write_all(t.as_bytes())?;
                 t.clear();
@@ -472,7 +493,7 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         w.write_all(t.as_bytes())
     }
 
-    fn finish(&mut self, _: &mut BufWriter<File>, _: &dyn Progress) -> io::Result<()> {
+    fn finish(&mut self, _: &mut PipedWriter, _: &dyn Progress) -> io::Result<()> {
         Ok(())
     }
 }
@@ -488,7 +509,7 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
         MeshFormat::Ply.needs()
     }
 
-    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+    fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()> {
         // PLY headers are ASCII lines.
         let title: String = self
             .title
@@ -521,7 +542,7 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
         )
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
         if self.plan.has_attributes() {
             for (r, a) in out.new_records.iter().zip(out.new_attributes) {
@@ -536,7 +557,7 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
         w.write_all(&self.buf)
     }
 
-    fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()> {
+    fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()> {
         write_triangles(self.plan, progress, w, &|tris, buf| {
             for t in tris {
                 let mut b = [3u8; 13];
@@ -560,7 +581,7 @@ impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
         MeshFormat::Stl.needs()
     }
 
-    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+    fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()> {
         // The header must not start with "solid" (ASCII STL).
         let mut header = [b' '; 80];
         let text = format!("binary STL from {}", self.title);
@@ -570,7 +591,7 @@ impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
         w.write_all(&(self.plan.triangles as u32).to_le_bytes())
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
         for t in out.grid_triangles {
             let p = t.map(|i| out.grid_positions[i as usize]);
@@ -586,7 +607,7 @@ impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
         w.write_all(&self.buf)
     }
 
-    fn finish(&mut self, _: &mut BufWriter<File>, _: &dyn Progress) -> io::Result<()> {
+    fn finish(&mut self, _: &mut PipedWriter, _: &dyn Progress) -> io::Result<()> {
         Ok(())
     }
 }
@@ -689,7 +710,7 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         MeshFormat::Glb.needs()
     }
 
-    fn begin(&mut self, w: &mut BufWriter<File>) -> io::Result<()> {
+    fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()> {
         let layout = glb_layout(self.plan, self.title);
         if layout.total > u32::MAX as u64 {
             return Err(io::Error::other("glTF binary over 4 GiB"));
@@ -705,7 +726,7 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         w.write_all(b"BIN\0")
     }
 
-    fn patch(&mut self, w: &mut BufWriter<File>, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
         self.buf.clear();
         for (j, r) in out.new_records.iter().enumerate() {
             let p = r.position.to_f32();
@@ -721,7 +742,7 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         w.write_all(&self.buf)
     }
 
-    fn finish(&mut self, w: &mut BufWriter<File>, progress: &dyn Progress) -> io::Result<()> {
+    fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()> {
         write_triangles(self.plan, progress, w, &|tris, buf| {
             for t in tris {
                 for i in t {
@@ -733,9 +754,7 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         if json.len() as u64 > glb_layout(self.plan, self.title).json_bytes {
             return Err(io::Error::other("glTF JSON outgrew its reserved chunk"));
         }
-        w.seek(SeekFrom::Start(20))?;
-        w.write_all(json.as_bytes())?;
-        w.seek(SeekFrom::End(0))?;
+        w.write_at_end(20, json.into_bytes());
         Ok(())
     }
 }
