@@ -45,8 +45,15 @@
 //!    three groups is tried; the one with the fewest uncertified patches around its vertex
 //!    (then the smallest shortfall) is kept when it lowers their number, or keeps it with
 //!    a shortfall at least 10 % smaller. The edges made creases are counted in the report.
-//! 6. Rounds repeat while something improves (at most 96). Patches left uncertified are
-//!    reported, not hidden.
+//! 6. Rounds repeat while something improves (at most 96).
+//! 7. As little as needed: each moved normal whose patches around are all certified goes
+//!    back to its input value, or 3/4, 1/2 or 1/4 of the way (3/4 at most for a cut's
+//!    groups), largest change first, where those patches stay certified; then each cut,
+//!    latest first, is undone (both groups back to the input normal) where the certificate
+//!    counts no more uncertified patches around it.
+//!
+//! Patches left uncertified are reported, not hidden. The report counts the interior edges
+//! that became creases (their uses now disagree on an end's normal).
 //!
 //! The search builds the G1 patches it scores one triangle at a time, with the crease
 //! curves of their own edges only ([`super::g1::edge_curve`], bitwise those of the whole
@@ -472,7 +479,8 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     let mut touched: HashSet<u32> = HashSet::new();
     let mut changed: HashSet<u32> = HashSet::new();
     let mut splits = 0;
-    let mut cut_edges: HashSet<[u32; 2]> = HashSet::new();
+    let mut in_cuts: HashSet<u32> = HashSet::new();
+    let mut cuts: Vec<[u32; 2]> = Vec::new();
     let twins = if scheme == Scheme::G1 {
         twins(mesh)
     } else {
@@ -661,14 +669,89 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 }
                 touched.insert(cut.groups[0]);
                 touched.insert(cut.groups[1]);
+                in_cuts.extend(cut.groups);
+                cuts.push(cut.groups);
                 splits += 1;
-                cut_edges.extend(cut.edges);
                 improved = true;
             }
         }
         bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
         if !improved {
             break;
+        }
+    }
+    // Last, as little as needed: each moved normal (largest change first) goes back to its
+    // input value, or 3/4, 1/2 or 1/4 of the way there, where every patch around it stays
+    // certified.
+    let mut moved: Vec<(f64, u32)> = touched
+        .iter()
+        .map(|&g| {
+            (
+                angle_deg(groups.normal(mesh, g), groups.normal(&work, g)),
+                g,
+            )
+        })
+        .filter(|&(a, _)| a > 0.0)
+        .collect();
+    moved.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    for &(_, g) in &moved {
+        let (n0, cur) = (groups.normal(mesh, g), groups.normal(&work, g));
+        let mut ring: Vec<u32> = groups.triangles_around(g).collect();
+        ring.sort_unstable();
+        ring.dedup();
+        let was = ring
+            .iter()
+            .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+            .count();
+        if was > 0 {
+            // Around a patch still uncertified the search's normals stay: they are the
+            // best it found for that patch's neighbourhood.
+            continue;
+        }
+        // A cut group goes at most 3/4 of the way (all the way would give both of its
+        // groups one normal, undoing the cut, which the next pass decides).
+        let ws: &[f64] = if in_cuts.contains(&g) {
+            &[0.75, 0.5, 0.25]
+        } else {
+            &[1.0, 0.75, 0.5, 0.25]
+        };
+        for &w in ws {
+            let mut sink = Vec::new();
+            set_group(&mut work, &groups, g, towards(cur, n0, w), &mut sink);
+            let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
+            if v.iter().filter(|x| **x != Verdict::Valid).count() <= was {
+                for (i, &r) in ring.iter().enumerate() {
+                    verdicts[r as usize] = v[i];
+                }
+                break;
+            }
+            set_group(&mut work, &groups, g, cur, &mut sink);
+        }
+    }
+    // And each cut, latest first, is undone (both groups back to their input normal, the
+    // creases gone) where the certificate then counts no more uncertified patches.
+    for [g, h] in cuts.iter().rev() {
+        let n0 = groups.normal(mesh, *g);
+        let old = [groups.normal(&work, *g), groups.normal(&work, *h)];
+        let mut ring: Vec<u32> = groups.triangles_around(*g).collect();
+        ring.sort_unstable();
+        ring.dedup();
+        let was = ring
+            .iter()
+            .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+            .count();
+        let mut sink = Vec::new();
+        set_group(&mut work, &groups, *g, n0, &mut sink);
+        set_group(&mut work, &groups, *h, n0, &mut sink);
+        let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
+        if v.iter().filter(|x| **x != Verdict::Valid).count() <= was {
+            for (i, &r) in ring.iter().enumerate() {
+                verdicts[r as usize] = v[i];
+            }
+            splits -= 1;
+        } else {
+            set_group(&mut work, &groups, *g, old[0], &mut sink);
+            set_group(&mut work, &groups, *h, old[1], &mut sink);
         }
     }
     let after = verdicts.iter().fold(PatchCounts::default(), add);
@@ -720,7 +803,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         max_normal_change_deg: max_angle,
         max_distance,
         groups_split: splits,
-        edges_made_creases: cut_edges.len(),
+        edges_made_creases: new_creases(mesh, &work),
         left_on_flipped_triangles: flipped,
         rounds,
     };
@@ -731,11 +814,10 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     }))
 }
 
-/// A cut of one vertex's normal group into two: the groups, the crease edges it made (as
-/// sorted vertex pairs), the triangles around the vertex and their new verdicts.
+/// A cut of one vertex's normal group into two: the groups, the triangles around the
+/// vertex and their new verdicts.
 struct Cut {
     groups: [u32; 2],
-    edges: Vec<[u32; 2]>,
     ring: Vec<u32>,
     verdicts: Vec<Verdict>,
 }
@@ -797,8 +879,8 @@ fn best_cut(
     grid: &[[f64; 3]],
 ) -> Result<Option<Cut>> {
     let nf = faces[t];
-    // (uncertified, badness, group, corners of the second run, cut edges)
-    type Candidate = (usize, f64, u32, Vec<u32>, Vec<[u32; 2]>);
+    // (uncertified, badness, group, corners of the second run)
+    type Candidate = (usize, f64, u32, Vec<u32>);
     let mut best: Option<Candidate> = None;
     for k in 0..3 {
         let g = groups.of_corner[3 * t + k];
@@ -809,7 +891,6 @@ fn best_cut(
         let Some((order, closed)) = fan_order(work, &cs) else {
             continue;
         };
-        let v = groups.vertex[g as usize];
         let mut ring: Vec<u32> = groups.triangles_around(g).collect();
         ring.sort_unstable();
         ring.dedup();
@@ -819,30 +900,23 @@ fn best_cut(
             .count();
         let b0 = badness(&ring_table(work, scheme, opts, &ring, twins)?, grid);
         let n = order.len();
-        // The edge from the vertex to the vertex before corner i's (between fan
-        // positions i and i + 1).
-        let edge_after = |i: usize| {
-            let c = order[i] as usize;
-            let w = work.triangles[c / 3][(c % 3 + 2) % 3];
-            [v.min(w), v.max(w)]
-        };
-        let mut runs: Vec<(Vec<u32>, Vec<[u32; 2]>)> = Vec::new();
+        // The second run of each cut (the first is the rest of the fan): between fan
+        // positions i and i + 1 and between j and j + 1 where the fan closes, after i
+        // where it is open.
+        let mut runs: Vec<Vec<u32>> = Vec::new();
         if closed {
             for i in 0..n {
                 for j in i + 1..n {
-                    runs.push((
-                        order[i + 1..=j].to_vec(),
-                        vec![edge_after(i), edge_after(j)],
-                    ));
+                    runs.push(order[i + 1..=j].to_vec());
                 }
             }
         } else {
             for i in 0..n - 1 {
-                runs.push((order[i + 1..].to_vec(), vec![edge_after(i)]));
+                runs.push(order[i + 1..].to_vec());
             }
         }
         let old = groups.normal(work, g);
-        for (run, edges) in runs {
+        for run in runs {
             let h = groups.split(g, &run);
             let mut sink = Vec::new();
             for x in [g, h] {
@@ -865,11 +939,11 @@ fn best_cut(
             // nothing).
             let helps = bad < was || (bad == was && b < 0.9 * b0);
             if helps && best.as_ref().is_none_or(|x| (bad, b) < (x.0, x.1)) {
-                best = Some((bad, b, g, run, edges));
+                best = Some((bad, b, g, run));
             }
         }
     }
-    let Some((_, _, g, run, edges)) = best else {
+    let Some((_, _, g, run)) = best else {
         return Ok(None);
     };
     let h = groups.split(g, &run);
@@ -888,7 +962,6 @@ fn best_cut(
     let verdicts = verdicts_of(work, scheme, opts, &ring, twins)?;
     Ok(Some(Cut {
         groups: [g, h],
-        edges,
         ring,
         verdicts,
     }))
@@ -901,6 +974,22 @@ fn set_group(work: &mut Mesh, groups: &Groups, g: u32, n: DVec3, tris: &mut Vec<
         work.corner_normals[c as usize / 3][c as usize % 3] = n;
     }
     tris.extend(groups.triangles_around(g));
+}
+
+/// Interior edges (two uses) of `work` whose uses disagree on an end's normal, and did not
+/// in `mesh` (same triangles).
+fn new_creases(mesh: &Mesh, work: &Mesh) -> usize {
+    let crease = |m: &Mesh, e: &crate::mesh::adjacency::EdgeRef<'_>| {
+        let [u0, u1] = [e.use_at(0), e.use_at(1)];
+        e.v.iter().any(|&v| {
+            normal_key(crate::mesh::creases::use_normal(m, u0, v))
+                != normal_key(crate::mesh::creases::use_normal(m, u1, v))
+        })
+    };
+    EdgeIndex::new(&work.triangles)
+        .edges()
+        .filter(|e| e.is_interior() && crease(work, e) && !crease(mesh, e))
+        .count()
 }
 
 /// Angle between unit vectors in degrees (atan2 of |a × b| and a · b: accurate at small
