@@ -217,6 +217,23 @@ fn bunny_verdicts_are_counted_exactly() {
 }
 
 #[test]
+fn suzanne_verdicts_are_decided_by_the_deeper_subdivision() {
+    // Suzanne's G1 patches (deterministic counts): 8 that the first subdivision budget
+    // leaves undecided are decided by the second, deeper one (all certified); the 76
+    // folds come with witnesses.
+    let suzanne = common::load("suzanne.obj");
+    let t = PatchTable::build(&suzanne, Scheme::G1, &SchemeOptions::default()).unwrap();
+    assert_eq!(
+        count(&t),
+        PatchCounts {
+            valid: 892,
+            folded: 76,
+            undecided: 0
+        }
+    );
+}
+
+#[test]
 fn repair_leaves_a_valid_mesh_bit_for_bit() {
     let mesh = common::load("torus200");
     let plain = SchemeOptions::default();
