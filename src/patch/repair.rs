@@ -19,7 +19,16 @@
 //! Method: a local search under the certificate of [`super::validity`]:
 //! 1. Every patch gets its verdict. If all are certified valid, nothing changes at all (the
 //!    mesh and every patch stay bit for bit as they were).
-//! 2. First pass: every normal group at a corner of an uncertified patch whose normal faces
+//! 2. G1: a triangle whose face normal turns away (negative cosine) from every other
+//!    triangle at each of its three corners folds the input itself; no normal shared with
+//!    them serves it, and normals of its own alone would make its two crease curves at a
+//!    corner run along one crease line. Each of its vertices' fans is cut in three: the
+//!    triangle, with its own face normal, and two runs of the others, each with the central
+//!    normal of its faces turned perpendicular to the triangle's edge it meets; the crease
+//!    direction n_f × N is then that edge at both of its ends, so the triangle's boundary
+//!    curves are straight and its patch flat ([`isolate_sliver`]). Kept where the
+//!    certificate counts fewer uncertified patches around; those groups stay as they are.
+//! 3. Then every normal group at a corner of an uncertified patch whose normal faces
 //!    its own triangles by less than a cosine of 0.1 (smallest n_f · N over their face
 //!    normals n_f) gets its *central normal*, the direction with the largest smallest cosine
 //!    to those face normals (the axis of their smallest enclosing cone, by the
@@ -27,7 +36,7 @@
 //!    corner with end tangents in the plane of N, J has the sign of n_f · N (for tangents
 //!    that are the chords projected on that plane, J = |u × v| (n_f · N)² with the
 //!    patch's normal ±N by the sign of n_f · N).
-//! 3. For each patch that is not certified, a few moves are tried: each group of its three
+//! 4. For each patch that is not certified, a few moves are tried: each group of its three
 //!    corners moved 1/16, 1/8, 1/4, 1/2, 3/4 or all of the way (normalised linear blend)
 //!    towards (a) the group's central normal, (b) the patch's face normal, (c) the mean of
 //!    the patch's three corner normals; the three groups together towards the face normal;
@@ -36,17 +45,17 @@
 //!    the scaled Jacobian J/(|S_s| |S_t|) (the measure of curved finite-element meshing)
 //!    below 0.05 on a grid of level 6 over the patches around the moved groups: the only
 //!    patches those normals change.
-//! 4. The best move is kept when it lowers that shortfall and the certificate finds no
+//! 5. The best move is kept when it lowers that shortfall and the certificate finds no
 //!    more uncertified patches around it than before; otherwise nothing moves.
-//! 5. Where no move helps, the fan of triangles of one of the patch's corner groups is cut
+//! 6. Where no move helps, the fan of triangles of one of the patch's corner groups is cut
 //!    into two runs of neighbours, along two of its edges (one at a boundary vertex), each
 //!    run with the central normal of its own faces: a new crease at that vertex, whose
 //!    edges get the shared crease curve of [`super::g1::crease_curve`]. Every cut of the
 //!    three groups is tried; the one with the fewest uncertified patches around its vertex
 //!    (then the smallest shortfall) is kept when it lowers their number, or keeps it with
 //!    a shortfall at least 10 % smaller. The edges made creases are counted in the report.
-//! 6. Rounds repeat while something improves (at most 96).
-//! 7. As little as needed: each moved normal whose patches around are all certified goes
+//! 7. Rounds repeat while something improves (at most 96).
+//! 8. As little as needed: each moved normal whose patches around are all certified goes
 //!    back to its input value, or 3/4, 1/2 or 1/4 of the way (3/4 at most for a cut's
 //!    groups), largest change first, where those patches stay certified; then each cut,
 //!    latest first, is undone (both groups back to the input normal) where the certificate
@@ -126,6 +135,10 @@ pub struct RepairReport {
     /// Normal groups cut in two (a new crease at their vertex) where no move of one
     /// normal helps.
     pub groups_split: usize,
+    /// Triangles that turn away from every other triangle at each of their corners (folds
+    /// of the input), given their own face normal and straight crease edges
+    /// ([`isolate_sliver`]); their corners' normal change counts in the largest.
+    pub slivers_isolated: usize,
     /// Interior edges that the cuts made creases (left out of the G1 statistics, which
     /// measure the smooth edges; their two patches still share the edge's curve).
     pub edges_made_creases: usize,
@@ -331,6 +344,8 @@ struct Groups {
     vertex: Vec<u32>,
     /// Groups of each vertex.
     at_vertex: Vec<Vec<u32>>,
+    /// Groups whose normal no later step changes (those of [`isolate_sliver`]).
+    frozen: HashSet<u32>,
 }
 
 impl Groups {
@@ -386,6 +401,7 @@ impl Groups {
             list,
             vertex,
             at_vertex,
+            frozen: HashSet::new(),
         }
     }
 
@@ -480,6 +496,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     let mut changed: HashSet<u32> = HashSet::new();
     let mut splits = 0;
     let mut in_cuts: HashSet<u32> = HashSet::new();
+    let mut slivers = 0;
     let mut cuts: Vec<[u32; 2]> = Vec::new();
     let twins = if scheme == Scheme::G1 {
         twins(mesh)
@@ -487,7 +504,26 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         Vec::new()
     };
     let grid = grid_points(BADNESS_LEVEL);
-    // First, every normal group at a corner of an uncertified patch that does not face
+    if scheme == Scheme::G1 {
+        for &t in &bad {
+            if let Some(gs) = isolate_sliver(
+                &mut work,
+                &mut groups,
+                t,
+                &faces,
+                (scheme, opts, &twins),
+                &mut verdicts,
+                &mut changed,
+                &grid,
+            )? {
+                touched.extend(gs);
+                splits += 6;
+                slivers += 1;
+            }
+        }
+        bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
+    }
+    // Then, every normal group at a corner of an uncertified patch that does not face
     // all of its own triangles by a margin (smallest cosine to their face normals below
     // 0.1) gets its central normal, where that faces them better: the corner condition
     // n_f · N > 0 of every patch around it, which no later move can do without.
@@ -495,7 +531,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     for &t in &bad {
         for k in 0..3 {
             let g = groups.of_corner[3 * t as usize + k];
-            if !seen.insert(g) {
+            if !seen.insert(g) || groups.frozen.contains(&g) {
                 continue;
             }
             let f: Vec<DVec3> = groups
@@ -545,7 +581,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             // Candidate moves: one group at a time, then the patch's three groups together
             // towards its face normal.
             let mut candidates: Vec<Vec<(u32, DVec3)>> = Vec::new();
-            for &g in &own {
+            for &g in own.iter().filter(|g| !groups.frozen.contains(g)) {
                 let cur = groups.normal(&work, g);
                 let f: Vec<DVec3> = groups
                     .corners(g)
@@ -563,6 +599,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             for w in WEIGHTS {
                 candidates.push(
                     own.iter()
+                        .filter(|g| !groups.frozen.contains(g))
                         .map(|&g| (g, towards(groups.normal(&work, g), faces[tri], w)))
                         .collect(),
                 );
@@ -573,7 +610,10 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             let sets: [&[usize]; 4] = [&[0, 1], &[1, 2], &[2, 0], &[0, 1, 2]];
             for set in sets {
                 let gs: Vec<u32> = set.iter().map(|&k| own[k]).collect();
-                if gs.iter().any(|g| gs.iter().filter(|h| *h == g).count() > 1) {
+                if gs
+                    .iter()
+                    .any(|g| gs.iter().filter(|h| *h == g).count() > 1 || groups.frozen.contains(g))
+                {
                     continue;
                 }
                 let f: Vec<DVec3> = gs
@@ -694,7 +734,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         .filter(|&(a, _)| a > 0.0)
         .collect();
     moved.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    for &(_, g) in &moved {
+    for &(_, g) in moved.iter().filter(|(_, g)| !groups.frozen.contains(g)) {
         let (n0, cur) = (groups.normal(mesh, g), groups.normal(&work, g));
         let mut ring: Vec<u32> = groups.triangles_around(g).collect();
         ring.sort_unstable();
@@ -803,6 +843,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         max_normal_change_deg: max_angle,
         max_distance,
         groups_split: splits,
+        slivers_isolated: slivers,
         edges_made_creases: new_creases(mesh, &work),
         left_on_flipped_triangles: flipped,
         rounds,
@@ -812,6 +853,145 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         changed,
         report,
     }))
+}
+
+/// Isolates an uncertified G1 patch whose triangle turns away from every other triangle at
+/// each of its three corners (negative cosine between their face normals: a fold of the
+/// input itself, as a sliver lying backwards in a scanned surface). No normal shared with
+/// the triangles around can serve it, and with normals of its own alone its two crease
+/// curves at a corner would run along one crease line. So each of its vertices' fans is cut
+/// in three: the triangle, with its own face normal, and two runs of the others, the one
+/// across each of its edges there with the central normal of its faces turned
+/// perpendicular to that edge. Then the crease direction n_f × N along each of its edges is
+/// the edge itself at both ends, its three boundary curves are straight and its patch is
+/// flat. The cut between the two runs is placed, at each vertex, where the patches around
+/// it (the triangle's excepted) have the fewest uncertified and then the smallest
+/// [`badness`]. Kept where the certificate counts fewer uncertified patches around the
+/// triangle's vertices; its groups are then left alone by every later step. Returns
+/// whether it was kept.
+#[allow(clippy::too_many_arguments)]
+fn isolate_sliver(
+    work: &mut Mesh,
+    groups: &mut Groups,
+    t: u32,
+    faces: &[DVec3],
+    (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
+    verdicts: &mut [Verdict],
+    changed: &mut HashSet<u32>,
+    grid: &[[f64; 3]],
+) -> Result<Option<[u32; 9]>> {
+    let tri_t = work.triangles[t as usize];
+    let nf = faces[t as usize];
+    let mut plans = Vec::new();
+    for k in 0..3 {
+        let c = 3 * t + k as u32;
+        let g = groups.of_corner[c as usize];
+        let cs = groups.corners(g).to_vec();
+        if groups.frozen.contains(&g)
+            || cs.len() < 3
+            || cs
+                .iter()
+                .any(|&x| x != c && faces[x as usize / 3].dot(nf) >= 0.0)
+        {
+            return Ok(None);
+        }
+        let Some((order, true)) = fan_order(work, &cs) else {
+            return Ok(None);
+        };
+        let Some(at) = order.iter().position(|&x| x == c) else {
+            return Ok(None);
+        };
+        let mut order = order;
+        order.rotate_left(at);
+        let v = tri_t[k];
+        let edge =
+            |w: u32| (work.positions[w as usize] - work.positions[v as usize]).normalize_or_zero();
+        // order[1] is across the edge to the vertex before the corner, the last one across
+        // the edge to the vertex after it.
+        plans.push((g, order, edge(tri_t[(k + 2) % 3]), edge(tri_t[(k + 1) % 3])));
+    }
+    let mut ring: Vec<u32> = plans
+        .iter()
+        .flat_map(|(g, ..)| groups.triangles_around(*g))
+        .collect();
+    ring.sort_unstable();
+    ring.dedup();
+    let was = ring
+        .iter()
+        .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+        .count();
+    let perp = |n: DVec3, e: DVec3| (n - n.dot(e) * e).try_normalize().unwrap_or(n);
+    let central_of = |groups: &Groups, corners: &[u32], fallback: DVec3| {
+        let f: Vec<DVec3> = corners.iter().map(|&c| faces[c as usize / 3]).collect();
+        let _ = groups;
+        central(&f, fallback)
+    };
+    let mut made = Vec::new();
+    let mut sink = Vec::new();
+    for (g, order, e1, e2) in &plans {
+        let g = *g;
+        let old = groups.normal(work, g);
+        let ht = groups.split(g, &order[..1]);
+        set_group(work, groups, ht, nf, &mut sink);
+        let around: Vec<u32> = {
+            let mut r: Vec<u32> = groups.triangles_around(g).filter(|&x| x != t).collect();
+            r.sort_unstable();
+            r.dedup();
+            r
+        };
+        let n = order.len();
+        let mut best: Option<(usize, f64, usize)> = None;
+        for j in 1..n - 1 {
+            let hb = groups.split(g, &order[j + 1..]);
+            let na = perp(central_of(groups, &order[1..=j], old), *e1);
+            let nb = perp(central_of(groups, &order[j + 1..], old), *e2);
+            set_group(work, groups, g, na, &mut sink);
+            set_group(work, groups, hb, nb, &mut sink);
+            let table = ring_table(work, scheme, opts, &around, twins)?;
+            let bad = (0..around.len())
+                .filter(|&i| check_patch(&table, i) != Verdict::Valid)
+                .count();
+            let b = badness(&table, grid);
+            groups.unsplit(g, hb);
+            if best.is_none_or(|x| (bad, b) < (x.0, x.1)) {
+                best = Some((bad, b, j));
+            }
+        }
+        let Some((_, _, j)) = best else {
+            groups.unsplit(g, ht);
+            set_group(work, groups, g, old, &mut sink);
+            break;
+        };
+        let hb = groups.split(g, &order[j + 1..]);
+        let na = perp(central_of(groups, &order[1..=j], old), *e1);
+        let nb = perp(central_of(groups, &order[j + 1..], old), *e2);
+        set_group(work, groups, g, na, &mut sink);
+        set_group(work, groups, hb, nb, &mut sink);
+        made.push((g, ht, hb, old));
+    }
+    let v = if made.len() == 3 {
+        verdicts_of(work, scheme, opts, &ring, twins)?
+    } else {
+        Vec::new()
+    };
+    if made.len() == 3 && v.iter().filter(|x| **x != Verdict::Valid).count() < was {
+        for (i, &r) in ring.iter().enumerate() {
+            verdicts[r as usize] = v[i];
+            changed.insert(r);
+        }
+        let mut out = [0u32; 9];
+        for (i, &(g, ht, hb, _)) in made.iter().enumerate() {
+            groups.frozen.extend([g, ht, hb]);
+            out[3 * i..3 * i + 3].copy_from_slice(&[g, ht, hb]);
+        }
+        return Ok(Some(out));
+    }
+    for &(g, ht, hb, old) in made.iter().rev() {
+        groups.unsplit(g, hb);
+        groups.unsplit(g, ht);
+        set_group(work, groups, g, old, &mut sink);
+    }
+    Ok(None)
 }
 
 /// A cut of one vertex's normal group into two: the groups, the triangles around the
@@ -885,7 +1065,7 @@ fn best_cut(
     for k in 0..3 {
         let g = groups.of_corner[3 * t + k];
         let cs = groups.corners(g).to_vec();
-        if cs.len() < 2 {
+        if cs.len() < 2 || groups.frozen.contains(&g) {
             continue;
         }
         let Some((order, closed)) = fan_order(work, &cs) else {
