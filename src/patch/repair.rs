@@ -54,7 +54,10 @@
 //!    three groups is tried; the one with the fewest uncertified patches around its vertex
 //!    (then the smallest shortfall) is kept when it lowers their number, or keeps it with
 //!    a shortfall at least 10 % smaller. The edges made creases are counted in the report.
-//! 7. Rounds repeat while something improves (at most 96).
+//! 7. Rounds repeat while something improves (at most 96). A G1 patch still uncertified
+//!    then gets the isolation of step 2 whatever its neighbours' orientation (its own face
+//!    normal, straight crease edges, the fans around cut in three), kept where the
+//!    certificate counts fewer uncertified patches around.
 //! 8. As little as needed: each moved normal whose patches around are all certified goes
 //!    back to its input value, or 3/4, 1/2 or 1/4 of the way (3/4 at most for a cut's
 //!    groups), largest change first, where those patches stay certified; then each cut,
@@ -515,6 +518,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 &mut verdicts,
                 &mut changed,
                 &grid,
+                false,
             )? {
                 touched.extend(gs);
                 splits += 6;
@@ -720,6 +724,30 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             break;
         }
     }
+    // Where the search leaves a G1 patch uncertified, the same isolation as for a
+    // triangle turned away from everything around it, kept where it certifies more.
+    if scheme == Scheme::G1 {
+        for &t in &bad.clone() {
+            if verdicts[t as usize] == Verdict::Valid {
+                continue;
+            }
+            if let Some(gs) = isolate_sliver(
+                &mut work,
+                &mut groups,
+                t,
+                &faces,
+                (scheme, opts, &twins),
+                &mut verdicts,
+                &mut changed,
+                &grid,
+                true,
+            )? {
+                touched.extend(gs);
+                splits += 6;
+                slivers += 1;
+            }
+        }
+    }
     // Last, as little as needed: each moved normal (largest change first) goes back to its
     // input value, or 3/4, 1/2 or 1/4 of the way there, where every patch around it stays
     // certified.
@@ -868,7 +896,8 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
 /// it (the triangle's excepted) have the fewest uncertified and then the smallest
 /// [`badness`]. Kept where the certificate counts fewer uncertified patches around the
 /// triangle's vertices; its groups are then left alone by every later step. Returns
-/// whether it was kept.
+/// its groups, where it was kept. With `any`, a patch is isolated whatever the orientation
+/// of the triangles around it (the last resort for what the search leaves uncertified).
 #[allow(clippy::too_many_arguments)]
 fn isolate_sliver(
     work: &mut Mesh,
@@ -879,6 +908,7 @@ fn isolate_sliver(
     verdicts: &mut [Verdict],
     changed: &mut HashSet<u32>,
     grid: &[[f64; 3]],
+    any: bool,
 ) -> Result<Option<[u32; 9]>> {
     let tri_t = work.triangles[t as usize];
     let nf = faces[t as usize];
@@ -889,9 +919,10 @@ fn isolate_sliver(
         let cs = groups.corners(g).to_vec();
         if groups.frozen.contains(&g)
             || cs.len() < 3
-            || cs
-                .iter()
-                .any(|&x| x != c && faces[x as usize / 3].dot(nf) >= 0.0)
+            || (!any
+                && cs
+                    .iter()
+                    .any(|&x| x != c && faces[x as usize / 3].dot(nf) >= 0.0))
         {
             return Ok(None);
         }
