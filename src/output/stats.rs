@@ -1001,10 +1001,12 @@ impl StatsReport {
         if let Some(r) = &self.repair {
             out.push_str(&format!(
                 "\nfold repair: {} vertices touched ({} corners), largest normal change \
-                 {:.3}°, surface moved at most {:.3e}; before {} folded, {} undecided",
+                 {:.3}°, {} edges made creases, surface moved at most {:.3e}; before {} \
+                 folded, {} undecided",
                 r.vertices_touched,
                 r.corners_changed,
                 r.max_normal_change_deg,
+                r.edges_made_creases,
                 r.max_distance,
                 r.before.folded,
                 r.before.undecided

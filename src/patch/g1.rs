@@ -20,7 +20,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::{SchemeOptions, TriangleBuilder};
-use crate::mesh::adjacency::EdgeIndex;
+use crate::mesh::adjacency::{EdgeIndex, EdgeUse};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::Mesh;
 use crate::Result;
@@ -266,6 +266,32 @@ impl TriangleBuilder for G1Builder<'_> {
     }
 }
 
+/// The shared curve of the interior edge `v` (`v[0] < v[1]`, running from `v[0]` to `v[1]`)
+/// used by `uses` (in increasing half-edge order, as [`EdgeIndex`] gives them) when it is a
+/// crease edge (its uses disagree on an end's normal), or `None`.
+pub fn edge_curve(
+    mesh: &Mesh,
+    v: [u32; 2],
+    uses: [EdgeUse; 2],
+    fallbacks: &mut usize,
+) -> Option<[DVec3; 4]> {
+    let [u0, u1] = uses;
+    let [a, b] = v;
+    let split =
+        v.map(|v| normal_key(use_normal(mesh, u0, v)) != normal_key(use_normal(mesh, u1, v)));
+    if !(split[0] || split[1]) {
+        return None;
+    }
+    Some(crease_curve(
+        mesh.positions[a as usize],
+        mesh.positions[b as usize],
+        [use_normal(mesh, u0, a), use_normal(mesh, u1, a)],
+        [use_normal(mesh, u0, b), use_normal(mesh, u1, b)],
+        split,
+        fallbacks,
+    ))
+}
+
 /// The G1 scheme prepared for `mesh`: crease edges (split normals at an end, see
 /// [`crate::mesh::creases`]) get one shared [`crease_curve`], built here once.
 pub fn prepare<'a>(mesh: &'a Mesh, _: &SchemeOptions) -> Result<Box<dyn TriangleBuilder + 'a>> {
@@ -274,20 +300,10 @@ pub fn prepare<'a>(mesh: &'a Mesh, _: &SchemeOptions) -> Result<Box<dyn Triangle
     let index = EdgeIndex::new(&mesh.triangles);
     for e in index.edges().filter(|e| e.is_interior()) {
         let [u0, u1] = [e.use_at(0), e.use_at(1)];
-        let [a, b] = e.v;
-        let split =
-            e.v.map(|v| normal_key(use_normal(mesh, u0, v)) != normal_key(use_normal(mesh, u1, v)));
-        if !(split[0] || split[1]) {
+        let [a, _] = e.v;
+        let Some(curve) = edge_curve(mesh, e.v, [u0, u1], &mut fallbacks) else {
             continue;
-        }
-        let curve = crease_curve(
-            mesh.positions[a as usize],
-            mesh.positions[b as usize],
-            [use_normal(mesh, u0, a), use_normal(mesh, u1, a)],
-            [use_normal(mesh, u0, b), use_normal(mesh, u1, b)],
-            split,
-            &mut fallbacks,
-        );
+        };
         for u in [u0, u1] {
             let from = mesh.triangles[u.triangle as usize][u.local as usize];
             let c = if from == a {

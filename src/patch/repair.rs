@@ -9,28 +9,67 @@
 //! *normal group* (the corners of one vertex that carry bitwise the same normal) to one new
 //! value: smooth edges stay smooth, creases stay creases.
 //!
-//! Method: a local search, one normal group at a time, under the certificate of
-//! [`super::validity`]:
+//! Boundary tangent lengths were measured as a repair and not kept: on every patch that the
+//! certificate refuses on the bunny and on Suzanne (before and after this repair), scaling
+//! the Walton–Meek arms of all, or of any one, of its three curves by 0.8 down to 0.1 leaves
+//! it folded or undecided. A scaled arm keeps its direction, and the folds sit at or near a
+//! corner, where the sign of J is set by the directions of the two end tangents, that is by
+//! the normals.
+//!
+//! Method: a local search under the certificate of [`super::validity`]:
 //! 1. Every patch gets its verdict. If all are certified valid, nothing changes at all (the
 //!    mesh and every patch stay bit for bit as they were).
-//! 2. For each patch that is not certified, every group of its three corners is tried at
-//!    a few new normals: its present normal moved 1/16, 1/8, 1/4, 1/2, 3/4 or all of the
-//!    way (normalised linear blend) towards (a) the group's *central normal*, the
-//!    direction with the largest smallest cosine to the face normals of the group's
-//!    triangles (the axis of their smallest enclosing cone, by the Bădoiu–Clarkson
-//!    iteration on the unit sphere), (b) the patch's own face normal, (c) the mean of the
-//!    patch's three corner normals. A trial is scored by the shortfall of the scaled
-//!    Jacobian J/(|S_s| |S_t|) (the measure of curved finite-element meshing) below 0.05
-//!    on a grid of level 6 over the patches around the group: the only patches that
-//!    group's normal changes.
-//! 3. The best trial is kept when it lowers that shortfall and the certificate finds no
-//!    more uncertified patches around the group than before; otherwise nothing moves.
-//! 4. Where no move helps and the faces around a corner's group fit in no open hemisphere
-//!    (no single normal can face them all, as at a flipped input triangle), the group is
-//!    split in two by the side its faces turn to (a new crease at that vertex), kept only
-//!    where the certificate counts fewer uncertified patches.
-//! 5. Rounds repeat while something improves (at most 96). Patches left uncertified are
-//!    reported, not hidden.
+//! 2. G1: a triangle whose face normal turns away (negative cosine) from every other
+//!    triangle at each of its three corners folds the input itself; no normal shared with
+//!    them serves it, and normals of its own alone would make its two crease curves at a
+//!    corner run along one crease line. Each of its vertices' fans is cut in three: the
+//!    triangle, with its own face normal, and two runs of the others, each with the central
+//!    normal of its faces turned perpendicular to the triangle's edge it meets; the crease
+//!    direction n_f × N is then that edge at both of its ends, so the triangle's boundary
+//!    curves are straight and its patch flat ([`isolate_sliver`]). Kept where the
+//!    certificate counts fewer uncertified patches around; those groups stay as they are.
+//! 3. Then every normal group at a corner of an uncertified patch whose normal faces
+//!    its own triangles by less than a cosine of 0.1 (smallest n_f · N over their face
+//!    normals n_f) gets its *central normal*, the direction with the largest smallest cosine
+//!    to those face normals (the axis of their smallest enclosing cone, by the
+//!    Bădoiu–Clarkson iteration on the unit sphere), where that faces them better. At a
+//!    corner with end tangents in the plane of N, J has the sign of n_f · N (for tangents
+//!    that are the chords projected on that plane, J = |u × v| (n_f · N)² with the
+//!    patch's normal ±N by the sign of n_f · N).
+//! 4. For each patch that is not certified, a few moves are tried: each group of its three
+//!    corners moved 1/16, 1/8, 1/4, 1/2, 3/4 or all of the way (normalised linear blend)
+//!    towards (a) the group's central normal, (b) the patch's face normal, (c) the mean of
+//!    the patch's three corner normals; the three groups together towards the face normal;
+//!    two or three of its groups together towards the central normal of all their faces (a
+//!    sliver's close corners need nearly one normal). A move is scored by the shortfall of
+//!    the scaled Jacobian J/(|S_s| |S_t|) (the measure of curved finite-element meshing)
+//!    below 0.05 on a grid of level 6 over the patches around the moved groups: the only
+//!    patches those normals change.
+//! 5. The best move is kept when it lowers that shortfall and the certificate finds no
+//!    more uncertified patches around it than before; otherwise nothing moves.
+//! 6. Where no move helps, the fan of triangles of one of the patch's corner groups is cut
+//!    into two runs of neighbours, along two of its edges (one at a boundary vertex), each
+//!    run with the central normal of its own faces: a new crease at that vertex, whose
+//!    edges get the shared crease curve of [`super::g1::crease_curve`]. Every cut of the
+//!    three groups is tried; the one with the fewest uncertified patches around its vertex
+//!    (then the smallest shortfall) is kept when it lowers their number, or keeps it with
+//!    a shortfall at least 10 % smaller. The edges made creases are counted in the report.
+//! 7. Rounds repeat while something improves (at most 96). A G1 patch still uncertified
+//!    then gets the isolation of step 2 whatever its neighbours' orientation (its own face
+//!    normal, straight crease edges, the fans around cut in three), kept where the
+//!    certificate counts fewer uncertified patches around.
+//! 8. As little as needed: each moved normal whose patches around are all certified goes
+//!    back to its input value, or 3/4, 1/2 or 1/4 of the way (3/4 at most for a cut's
+//!    groups), largest change first, where those patches stay certified; then each cut,
+//!    latest first, is undone (both groups back to the input normal) where the certificate
+//!    counts no more uncertified patches around it.
+//!
+//! Patches left uncertified are reported, not hidden. The report counts the interior edges
+//! that became creases (their uses now disagree on an end's normal).
+//!
+//! The search builds the G1 patches it scores one triangle at a time, with the crease
+//! curves of their own edges only ([`super::g1::edge_curve`], bitwise those of the whole
+//! mesh's [`super::g1::prepare`]).
 //!
 //! The report gives the number of vertices touched, the largest angle between a new and an
 //! input normal, and the largest distance between the repaired and the unrepaired surface
@@ -60,6 +99,7 @@ use serde::Serialize;
 
 use super::validity::{check_patch, check_table, PatchCounts, Verdict};
 use super::{PatchBuilder, PatchTable, Scheme, SchemeOptions, TriangleBuilder};
+use crate::mesh::adjacency::{EdgeIndex, EdgeUse};
 use crate::mesh::creases::normal_key;
 use crate::mesh::Mesh;
 use crate::Result;
@@ -70,6 +110,9 @@ const WEIGHTS: [f64; 6] = [1.0 / 16.0, 1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0, 3.0 / 4.
 const MAX_ROUNDS: usize = 96;
 /// Scaled Jacobian the search aims at everywhere (a margin above 0, the fold).
 const MARGIN: f64 = 0.05;
+/// Smallest cosine between a group's normal and its faces' normals below which the first
+/// pass gives the group its central normal.
+const PREPASS_MARGIN: f64 = 0.1;
 /// Grid level of the search's measure ([`badness`]).
 const BADNESS_LEVEL: u32 = 6;
 /// Grid level at which the repaired and unrepaired surfaces are compared.
@@ -92,9 +135,16 @@ pub struct RepairReport {
     /// Largest distance between the repaired and the unrepaired surface at equal
     /// parameters (grid of level 8 on every changed patch).
     pub max_distance: f64,
-    /// Normal groups split in two (a new crease at their vertex) where no single normal
-    /// can serve every face around it.
+    /// Normal groups cut in two (a new crease at their vertex) where no move of one
+    /// normal helps.
     pub groups_split: usize,
+    /// Triangles that turn away from every other triangle at each of their corners (folds
+    /// of the input), given their own face normal and straight crease edges
+    /// ([`isolate_sliver`]); their corners' normal change counts in the largest.
+    pub slivers_isolated: usize,
+    /// Interior edges that the cuts made creases (left out of the G1 statistics, which
+    /// measure the smooth edges; their two patches still share the edge's curve).
+    pub edges_made_creases: usize,
     /// Patches left uncertified whose own triangle turns away from the triangles around
     /// it (negative cosine between its face normal and the mean face normal of the
     /// triangles sharing a corner with it): folds of the input mesh itself.
@@ -109,7 +159,7 @@ impl RepairReport {
         format!(
             "{mesh}: {scheme} fold repair: {} folded and {} undecided patches before, {} \
              folded and {} undecided after; {} vertices touched ({} corners), largest \
-             normal change {:.3}°, surface moved at most {:.3e}",
+             normal change {:.3}°, {} edges made creases, surface moved at most {:.3e}",
             self.before.folded,
             self.before.undecided,
             self.after.folded,
@@ -117,6 +167,7 @@ impl RepairReport {
             self.vertices_touched,
             self.corners_changed,
             self.max_normal_change_deg,
+            self.edges_made_creases,
             self.max_distance
         )
     }
@@ -296,6 +347,8 @@ struct Groups {
     vertex: Vec<u32>,
     /// Groups of each vertex.
     at_vertex: Vec<Vec<u32>>,
+    /// Groups whose normal no later step changes (those of [`isolate_sliver`]).
+    frozen: HashSet<u32>,
 }
 
 impl Groups {
@@ -351,6 +404,7 @@ impl Groups {
             list,
             vertex,
             at_vertex,
+            frozen: HashSet::new(),
         }
     }
 
@@ -370,6 +424,17 @@ impl Groups {
             self.of_corner[c as usize] = new;
         }
         new
+    }
+
+    /// Undoes the last [`Self::split`] of `g` into `h`.
+    fn unsplit(&mut self, g: u32, h: u32) {
+        let moved = self.list.pop().unwrap_or_default();
+        self.vertex.pop();
+        self.at_vertex[self.vertex[g as usize] as usize].retain(|&x| x != h);
+        for &c in &moved {
+            self.of_corner[c as usize] = g;
+        }
+        self.list[g as usize].extend_from_slice(&moved);
     }
 
     /// The triangles whose patch a new normal of group `g` may change: every triangle at
@@ -433,9 +498,71 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     let mut touched: HashSet<u32> = HashSet::new();
     let mut changed: HashSet<u32> = HashSet::new();
     let mut splits = 0;
-    // G1 without creases builds a patch from its triangle alone (no shared crease curves).
-    let mut simple = scheme == Scheme::G1 && groups.vertex.len() == mesh.positions.len();
+    let mut in_cuts: HashSet<u32> = HashSet::new();
+    let mut slivers = 0;
+    let mut cuts: Vec<[u32; 2]> = Vec::new();
+    let twins = if scheme == Scheme::G1 {
+        twins(mesh)
+    } else {
+        Vec::new()
+    };
     let grid = grid_points(BADNESS_LEVEL);
+    if scheme == Scheme::G1 {
+        for &t in &bad {
+            if let Some(gs) = isolate_sliver(
+                &mut work,
+                &mut groups,
+                t,
+                &faces,
+                (scheme, opts, &twins),
+                &mut verdicts,
+                &mut changed,
+                &grid,
+                false,
+            )? {
+                touched.extend(gs);
+                splits += 6;
+                slivers += 1;
+            }
+        }
+        bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
+    }
+    // Then, every normal group at a corner of an uncertified patch that does not face
+    // all of its own triangles by a margin (smallest cosine to their face normals below
+    // 0.1) gets its central normal, where that faces them better: the corner condition
+    // n_f · N > 0 of every patch around it, which no later move can do without.
+    let mut seen = HashSet::new();
+    for &t in &bad {
+        for k in 0..3 {
+            let g = groups.of_corner[3 * t as usize + k];
+            if !seen.insert(g) || groups.frozen.contains(&g) {
+                continue;
+            }
+            let f: Vec<DVec3> = groups
+                .corners(g)
+                .iter()
+                .map(|&c| faces[c as usize / 3])
+                .collect();
+            let cur = groups.normal(&work, g);
+            let margin = |n: DVec3| f.iter().map(|x| x.dot(n)).fold(f64::INFINITY, f64::min);
+            let c = central(&f, cur);
+            if margin(cur) < PREPASS_MARGIN && margin(c) > margin(cur) {
+                let mut ring = Vec::new();
+                set_group(&mut work, &groups, g, c, &mut ring);
+                ring.sort_unstable();
+                ring.dedup();
+                let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
+                for (i, &r) in ring.iter().enumerate() {
+                    verdicts[r as usize] = v[i];
+                    changed.insert(r);
+                }
+                touched.insert(g);
+            }
+        }
+    }
+    bad = (0..verdicts.len() as u32)
+        .filter(|&t| verdicts[t as usize] != Verdict::Valid)
+        .collect();
     let mut rounds = 0;
     while !bad.is_empty() && rounds < MAX_ROUNDS {
         rounds += 1;
@@ -458,7 +585,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             // Candidate moves: one group at a time, then the patch's three groups together
             // towards its face normal.
             let mut candidates: Vec<Vec<(u32, DVec3)>> = Vec::new();
-            for &g in &own {
+            for &g in own.iter().filter(|g| !groups.frozen.contains(g)) {
                 let cur = groups.normal(&work, g);
                 let f: Vec<DVec3> = groups
                     .corners(g)
@@ -476,9 +603,36 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             for w in WEIGHTS {
                 candidates.push(
                     own.iter()
+                        .filter(|g| !groups.frozen.contains(g))
                         .map(|&g| (g, towards(groups.normal(&work, g), faces[tri], w)))
                         .collect(),
                 );
+            }
+            // Two or three of its groups together towards the central normal of all their
+            // faces (a sliver's close corners need nearly the same normal: their curves to
+            // the far corner must not cross).
+            let sets: [&[usize]; 4] = [&[0, 1], &[1, 2], &[2, 0], &[0, 1, 2]];
+            for set in sets {
+                let gs: Vec<u32> = set.iter().map(|&k| own[k]).collect();
+                if gs
+                    .iter()
+                    .any(|g| gs.iter().filter(|h| *h == g).count() > 1 || groups.frozen.contains(g))
+                {
+                    continue;
+                }
+                let f: Vec<DVec3> = gs
+                    .iter()
+                    .flat_map(|&g| groups.corners(g))
+                    .map(|&c| faces[c as usize / 3])
+                    .collect();
+                let target = central(&f, faces[tri]);
+                for w in WEIGHTS {
+                    candidates.push(
+                        gs.iter()
+                            .map(|&g| (g, towards(groups.normal(&work, g), target, w)))
+                            .collect(),
+                    );
+                }
             }
             for moves in candidates {
                 if moves
@@ -493,7 +647,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                     .collect();
                 ring.sort_unstable();
                 ring.dedup();
-                let now = badness(&ring_table(&work, scheme, opts, &ring, simple)?, &grid);
+                let now = badness(&ring_table(&work, scheme, opts, &ring, &twins)?, &grid);
                 let old: Vec<(u32, DVec3)> = moves
                     .iter()
                     .map(|&(g, _)| (g, groups.normal(&work, g)))
@@ -502,7 +656,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 for &(g, n) in &moves {
                     set_group(&mut work, &groups, g, n, &mut sink);
                 }
-                let b = badness(&ring_table(&work, scheme, opts, &ring, simple)?, &grid);
+                let b = badness(&ring_table(&work, scheme, opts, &ring, &twins)?, &grid);
                 for &(g, n) in old.iter().rev() {
                     set_group(&mut work, &groups, g, n, &mut sink);
                 }
@@ -522,7 +676,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 }
                 ring.sort_unstable();
                 ring.dedup();
-                let v = verdicts_of(&work, scheme, opts, &ring, simple)?;
+                let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
                 let was = ring
                     .iter()
                     .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
@@ -540,44 +694,132 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 }
                 touched.extend(moves.iter().map(|&(g, _)| g));
                 improved = true;
-            } else if let Some(split) = split_group(&mut work, &mut groups, tri, &faces) {
-                // No normal of one group serves every face around it: the faces that turn
-                // away from this patch get their own normal (a new crease at the vertex),
-                // kept only where the certificate says it helps.
-                let (g, h, old) = split;
-                let mut ring: Vec<u32> = groups.triangles_around(g).collect();
-                ring.sort_unstable();
-                ring.dedup();
-                let v = verdicts_of(&work, scheme, opts, &ring, false)?;
-                let was = ring
-                    .iter()
-                    .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
-                    .count();
-                if v.iter().filter(|x| **x != Verdict::Valid).count() < was {
-                    for (i, &r) in ring.iter().enumerate() {
-                        verdicts[r as usize] = v[i];
-                        changed.insert(r);
-                    }
-                    touched.insert(g);
-                    touched.insert(h);
-                    splits += 1;
-                    simple = false;
-                    improved = true;
-                } else {
-                    let moved: Vec<u32> = groups.corners(h).to_vec();
-                    groups.list[g as usize].extend_from_slice(&moved);
-                    groups.list[h as usize].clear();
-                    for &c in &moved {
-                        groups.of_corner[c as usize] = g;
-                    }
-                    let mut sink = Vec::new();
-                    set_group(&mut work, &groups, g, old, &mut sink);
+            } else if let Some(cut) = best_cut(
+                &mut work,
+                &mut groups,
+                tri,
+                &faces,
+                (scheme, opts, &twins),
+                &verdicts,
+                &grid,
+            )? {
+                // No move of one normal helps: the fan of one corner's vertex is cut along
+                // one or two of its edges into two groups, each with its own normal (a new
+                // crease there), kept only where the certificate counts fewer uncertified
+                // patches.
+                for (&r, &v) in cut.ring.iter().zip(&cut.verdicts) {
+                    verdicts[r as usize] = v;
+                    changed.insert(r);
                 }
+                touched.insert(cut.groups[0]);
+                touched.insert(cut.groups[1]);
+                in_cuts.extend(cut.groups);
+                cuts.push(cut.groups);
+                splits += 1;
+                improved = true;
             }
         }
         bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
         if !improved {
             break;
+        }
+    }
+    // Where the search leaves a G1 patch uncertified, the same isolation as for a
+    // triangle turned away from everything around it, kept where it certifies more.
+    if scheme == Scheme::G1 {
+        for &t in &bad.clone() {
+            if verdicts[t as usize] == Verdict::Valid {
+                continue;
+            }
+            if let Some(gs) = isolate_sliver(
+                &mut work,
+                &mut groups,
+                t,
+                &faces,
+                (scheme, opts, &twins),
+                &mut verdicts,
+                &mut changed,
+                &grid,
+                true,
+            )? {
+                touched.extend(gs);
+                splits += 6;
+                slivers += 1;
+            }
+        }
+    }
+    // Last, as little as needed: each moved normal (largest change first) goes back to its
+    // input value, or 3/4, 1/2 or 1/4 of the way there, where every patch around it stays
+    // certified.
+    let mut moved: Vec<(f64, u32)> = touched
+        .iter()
+        .map(|&g| {
+            (
+                angle_deg(groups.normal(mesh, g), groups.normal(&work, g)),
+                g,
+            )
+        })
+        .filter(|&(a, _)| a > 0.0)
+        .collect();
+    moved.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    for &(_, g) in moved.iter().filter(|(_, g)| !groups.frozen.contains(g)) {
+        let (n0, cur) = (groups.normal(mesh, g), groups.normal(&work, g));
+        let mut ring: Vec<u32> = groups.triangles_around(g).collect();
+        ring.sort_unstable();
+        ring.dedup();
+        let was = ring
+            .iter()
+            .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+            .count();
+        if was > 0 {
+            // Around a patch still uncertified the search's normals stay: they are the
+            // best it found for that patch's neighbourhood.
+            continue;
+        }
+        // A cut group goes at most 3/4 of the way (all the way would give both of its
+        // groups one normal, undoing the cut, which the next pass decides).
+        let ws: &[f64] = if in_cuts.contains(&g) {
+            &[0.75, 0.5, 0.25]
+        } else {
+            &[1.0, 0.75, 0.5, 0.25]
+        };
+        for &w in ws {
+            let mut sink = Vec::new();
+            set_group(&mut work, &groups, g, towards(cur, n0, w), &mut sink);
+            let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
+            if v.iter().filter(|x| **x != Verdict::Valid).count() <= was {
+                for (i, &r) in ring.iter().enumerate() {
+                    verdicts[r as usize] = v[i];
+                }
+                break;
+            }
+            set_group(&mut work, &groups, g, cur, &mut sink);
+        }
+    }
+    // And each cut, latest first, is undone (both groups back to their input normal, the
+    // creases gone) where the certificate then counts no more uncertified patches.
+    for [g, h] in cuts.iter().rev() {
+        let n0 = groups.normal(mesh, *g);
+        let old = [groups.normal(&work, *g), groups.normal(&work, *h)];
+        let mut ring: Vec<u32> = groups.triangles_around(*g).collect();
+        ring.sort_unstable();
+        ring.dedup();
+        let was = ring
+            .iter()
+            .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+            .count();
+        let mut sink = Vec::new();
+        set_group(&mut work, &groups, *g, n0, &mut sink);
+        set_group(&mut work, &groups, *h, n0, &mut sink);
+        let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
+        if v.iter().filter(|x| **x != Verdict::Valid).count() <= was {
+            for (i, &r) in ring.iter().enumerate() {
+                verdicts[r as usize] = v[i];
+            }
+            splits -= 1;
+        } else {
+            set_group(&mut work, &groups, *g, old[0], &mut sink);
+            set_group(&mut work, &groups, *h, old[1], &mut sink);
         }
     }
     let after = verdicts.iter().fold(PatchCounts::default(), add);
@@ -629,6 +871,8 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         max_normal_change_deg: max_angle,
         max_distance,
         groups_split: splits,
+        slivers_isolated: slivers,
+        edges_made_creases: new_creases(mesh, &work),
         left_on_flipped_triangles: flipped,
         rounds,
     };
@@ -639,48 +883,299 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     }))
 }
 
-/// Splits the group of a corner of triangle `t` whose faces fit in no open hemisphere
-/// around their central normal: the corners whose face turns away from `t`'s face
-/// (negative cosine) form a new group; both get the central normal of their own faces.
-/// Returns (the group, the new group, the group's normal before).
-fn split_group(
+/// Isolates an uncertified G1 patch whose triangle turns away from every other triangle at
+/// each of its three corners (negative cosine between their face normals: a fold of the
+/// input itself, as a sliver lying backwards in a scanned surface). No normal shared with
+/// the triangles around can serve it, and with normals of its own alone its two crease
+/// curves at a corner would run along one crease line. So each of its vertices' fans is cut
+/// in three: the triangle, with its own face normal, and two runs of the others, the one
+/// across each of its edges there with the central normal of its faces turned
+/// perpendicular to that edge. Then the crease direction n_f × N along each of its edges is
+/// the edge itself at both ends, its three boundary curves are straight and its patch is
+/// flat. The cut between the two runs is placed, at each vertex, where the patches around
+/// it (the triangle's excepted) have the fewest uncertified and then the smallest
+/// [`badness`]. Kept where the certificate counts fewer uncertified patches around the
+/// triangle's vertices; its groups are then left alone by every later step. Returns
+/// its groups, where it was kept. With `any`, a patch is isolated whatever the orientation
+/// of the triangles around it (the last resort for what the search leaves uncertified).
+#[allow(clippy::too_many_arguments)]
+fn isolate_sliver(
+    work: &mut Mesh,
+    groups: &mut Groups,
+    t: u32,
+    faces: &[DVec3],
+    (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
+    verdicts: &mut [Verdict],
+    changed: &mut HashSet<u32>,
+    grid: &[[f64; 3]],
+    any: bool,
+) -> Result<Option<[u32; 9]>> {
+    let tri_t = work.triangles[t as usize];
+    let nf = faces[t as usize];
+    let mut plans = Vec::new();
+    for k in 0..3 {
+        let c = 3 * t + k as u32;
+        let g = groups.of_corner[c as usize];
+        let cs = groups.corners(g).to_vec();
+        if groups.frozen.contains(&g)
+            || cs.len() < 3
+            || (!any
+                && cs
+                    .iter()
+                    .any(|&x| x != c && faces[x as usize / 3].dot(nf) >= 0.0))
+        {
+            return Ok(None);
+        }
+        let Some((order, true)) = fan_order(work, &cs) else {
+            return Ok(None);
+        };
+        let Some(at) = order.iter().position(|&x| x == c) else {
+            return Ok(None);
+        };
+        let mut order = order;
+        order.rotate_left(at);
+        let v = tri_t[k];
+        let edge =
+            |w: u32| (work.positions[w as usize] - work.positions[v as usize]).normalize_or_zero();
+        // order[1] is across the edge to the vertex before the corner, the last one across
+        // the edge to the vertex after it.
+        plans.push((g, order, edge(tri_t[(k + 2) % 3]), edge(tri_t[(k + 1) % 3])));
+    }
+    let mut ring: Vec<u32> = plans
+        .iter()
+        .flat_map(|(g, ..)| groups.triangles_around(*g))
+        .collect();
+    ring.sort_unstable();
+    ring.dedup();
+    let was = ring
+        .iter()
+        .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+        .count();
+    let perp = |n: DVec3, e: DVec3| (n - n.dot(e) * e).try_normalize().unwrap_or(n);
+    let central_of = |groups: &Groups, corners: &[u32], fallback: DVec3| {
+        let f: Vec<DVec3> = corners.iter().map(|&c| faces[c as usize / 3]).collect();
+        let _ = groups;
+        central(&f, fallback)
+    };
+    let mut made = Vec::new();
+    let mut sink = Vec::new();
+    for (g, order, e1, e2) in &plans {
+        let g = *g;
+        let old = groups.normal(work, g);
+        let ht = groups.split(g, &order[..1]);
+        set_group(work, groups, ht, nf, &mut sink);
+        let around: Vec<u32> = {
+            let mut r: Vec<u32> = groups.triangles_around(g).filter(|&x| x != t).collect();
+            r.sort_unstable();
+            r.dedup();
+            r
+        };
+        let n = order.len();
+        let mut best: Option<(usize, f64, usize)> = None;
+        for j in 1..n - 1 {
+            let hb = groups.split(g, &order[j + 1..]);
+            let na = perp(central_of(groups, &order[1..=j], old), *e1);
+            let nb = perp(central_of(groups, &order[j + 1..], old), *e2);
+            set_group(work, groups, g, na, &mut sink);
+            set_group(work, groups, hb, nb, &mut sink);
+            let table = ring_table(work, scheme, opts, &around, twins)?;
+            let bad = (0..around.len())
+                .filter(|&i| check_patch(&table, i) != Verdict::Valid)
+                .count();
+            let b = badness(&table, grid);
+            groups.unsplit(g, hb);
+            if best.is_none_or(|x| (bad, b) < (x.0, x.1)) {
+                best = Some((bad, b, j));
+            }
+        }
+        let Some((_, _, j)) = best else {
+            groups.unsplit(g, ht);
+            set_group(work, groups, g, old, &mut sink);
+            break;
+        };
+        let hb = groups.split(g, &order[j + 1..]);
+        let na = perp(central_of(groups, &order[1..=j], old), *e1);
+        let nb = perp(central_of(groups, &order[j + 1..], old), *e2);
+        set_group(work, groups, g, na, &mut sink);
+        set_group(work, groups, hb, nb, &mut sink);
+        made.push((g, ht, hb, old));
+    }
+    let v = if made.len() == 3 {
+        verdicts_of(work, scheme, opts, &ring, twins)?
+    } else {
+        Vec::new()
+    };
+    if made.len() == 3 && v.iter().filter(|x| **x != Verdict::Valid).count() < was {
+        for (i, &r) in ring.iter().enumerate() {
+            verdicts[r as usize] = v[i];
+            changed.insert(r);
+        }
+        let mut out = [0u32; 9];
+        for (i, &(g, ht, hb, _)) in made.iter().enumerate() {
+            groups.frozen.extend([g, ht, hb]);
+            out[3 * i..3 * i + 3].copy_from_slice(&[g, ht, hb]);
+        }
+        return Ok(Some(out));
+    }
+    for &(g, ht, hb, old) in made.iter().rev() {
+        groups.unsplit(g, hb);
+        groups.unsplit(g, ht);
+        set_group(work, groups, g, old, &mut sink);
+    }
+    Ok(None)
+}
+
+/// A cut of one vertex's normal group into two: the groups, the triangles around the
+/// vertex and their new verdicts.
+struct Cut {
+    groups: [u32; 2],
+    ring: Vec<u32>,
+    verdicts: Vec<Verdict>,
+}
+
+/// The corners of group `g` in fan order around its vertex (counter-clockwise: each
+/// triangle's edge to the vertex before it is the next one's edge to the vertex after),
+/// and whether the fan closes; `None` where the corners form no single fan (non-manifold,
+/// or several sheets meeting at the vertex).
+fn fan_order(mesh: &Mesh, corners: &[u32]) -> Option<(Vec<u32>, bool)> {
+    let after = |c: u32| mesh.triangles[c as usize / 3][(c as usize % 3 + 1) % 3];
+    let before = |c: u32| mesh.triangles[c as usize / 3][(c as usize % 3 + 2) % 3];
+    let mut by_after: HashMap<u32, u32> = HashMap::new();
+    for &c in corners {
+        if by_after.insert(after(c), c).is_some() {
+            return None;
+        }
+    }
+    let succ = |c: u32| by_after.get(&before(c)).copied();
+    let has_pred: HashSet<u32> = corners.iter().filter_map(|&c| succ(c)).collect();
+    let start = corners
+        .iter()
+        .copied()
+        .find(|c| !has_pred.contains(c))
+        .unwrap_or(corners[0]);
+    let mut order = vec![start];
+    let mut closed = false;
+    let mut c = start;
+    while let Some(n) = succ(c) {
+        if n == start {
+            closed = true;
+            break;
+        }
+        if order.len() >= corners.len() {
+            return None;
+        }
+        order.push(n);
+        c = n;
+    }
+    (order.len() == corners.len()).then_some((order, closed))
+}
+
+/// The best cut of the normal group of a corner of triangle `t`, applied to `work` and
+/// `groups`, or `None` (nothing changed) where no cut lowers the number of uncertified
+/// patches around the vertex. A cut splits the group's fan of triangles into two runs of
+/// neighbours (along two of its edges where the fan closes around the vertex, along one
+/// where the vertex is on a boundary); each run gets the central normal of its faces, so
+/// both fit their own triangles. A cut helps when it leaves fewer uncertified patches around
+/// its vertex, or as many with a [`badness`] at least 10 % smaller; among all helping cuts
+/// of the three corners' groups, the one with the fewest uncertified patches wins (then the
+/// smallest badness).
+#[allow(clippy::too_many_arguments)]
+fn best_cut(
     work: &mut Mesh,
     groups: &mut Groups,
     t: usize,
     faces: &[DVec3],
-) -> Option<(u32, u32, DVec3)> {
+    (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
+    verdicts: &[Verdict],
+    grid: &[[f64; 3]],
+) -> Result<Option<Cut>> {
     let nf = faces[t];
+    // (uncertified, badness, group, corners of the second run)
+    type Candidate = (usize, f64, u32, Vec<u32>);
+    let mut best: Option<Candidate> = None;
     for k in 0..3 {
         let g = groups.of_corner[3 * t + k];
         let cs = groups.corners(g).to_vec();
-        let f: Vec<DVec3> = cs.iter().map(|&c| faces[c as usize / 3]).collect();
-        let m = central(&f, nf);
-        if f.iter().all(|x| x.dot(m) > 0.0) {
+        if cs.len() < 2 || groups.frozen.contains(&g) {
             continue;
         }
-        let away: Vec<u32> = cs
-            .iter()
-            .copied()
-            .filter(|&c| faces[c as usize / 3].dot(nf) < 0.0)
-            .collect();
-        if away.is_empty() || away.len() == cs.len() {
+        let Some((order, closed)) = fan_order(work, &cs) else {
             continue;
+        };
+        let mut ring: Vec<u32> = groups.triangles_around(g).collect();
+        ring.sort_unstable();
+        ring.dedup();
+        let was = ring
+            .iter()
+            .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+            .count();
+        let b0 = badness(&ring_table(work, scheme, opts, &ring, twins)?, grid);
+        let n = order.len();
+        // The second run of each cut (the first is the rest of the fan): between fan
+        // positions i and i + 1 and between j and j + 1 where the fan closes, after i
+        // where it is open.
+        let mut runs: Vec<Vec<u32>> = Vec::new();
+        if closed {
+            for i in 0..n {
+                for j in i + 1..n {
+                    runs.push(order[i + 1..=j].to_vec());
+                }
+            }
+        } else {
+            for i in 0..n - 1 {
+                runs.push(order[i + 1..].to_vec());
+            }
         }
         let old = groups.normal(work, g);
-        let h = groups.split(g, &away);
-        let mut sink = Vec::new();
-        for x in [g, h] {
-            let f: Vec<DVec3> = groups
-                .corners(x)
-                .iter()
-                .map(|&c| faces[c as usize / 3])
-                .collect();
-            let n = central(&f, nf);
-            set_group(work, groups, x, n, &mut sink);
+        for run in runs {
+            let h = groups.split(g, &run);
+            let mut sink = Vec::new();
+            for x in [g, h] {
+                let f: Vec<DVec3> = groups
+                    .corners(x)
+                    .iter()
+                    .map(|&c| faces[c as usize / 3])
+                    .collect();
+                set_group(work, groups, x, central(&f, nf), &mut sink);
+            }
+            let table = ring_table(work, scheme, opts, &ring, twins)?;
+            let bad = (0..ring.len())
+                .filter(|&i| check_patch(&table, i) != Verdict::Valid)
+                .count();
+            let b = badness(&table, grid);
+            groups.unsplit(g, h);
+            set_group(work, groups, g, old, &mut sink);
+            // Fewer uncertified patches, or as many and a clearly smaller shortfall (a
+            // patch with two bad corners needs a cut at each: the first alone certifies
+            // nothing).
+            let helps = bad < was || (bad == was && b < 0.9 * b0);
+            if helps && best.as_ref().is_none_or(|x| (bad, b) < (x.0, x.1)) {
+                best = Some((bad, b, g, run));
+            }
         }
-        return Some((g, h, old));
     }
-    None
+    let Some((_, _, g, run)) = best else {
+        return Ok(None);
+    };
+    let h = groups.split(g, &run);
+    let mut sink = Vec::new();
+    for x in [g, h] {
+        let f: Vec<DVec3> = groups
+            .corners(x)
+            .iter()
+            .map(|&c| faces[c as usize / 3])
+            .collect();
+        set_group(work, groups, x, central(&f, nf), &mut sink);
+    }
+    let mut ring: Vec<u32> = groups.triangles_around(g).collect();
+    ring.sort_unstable();
+    ring.dedup();
+    let verdicts = verdicts_of(work, scheme, opts, &ring, twins)?;
+    Ok(Some(Cut {
+        groups: [g, h],
+        ring,
+        verdicts,
+    }))
 }
 
 /// Sets the normal of every corner of group `g` to `n`, listing the triangles whose patch
@@ -692,22 +1187,52 @@ fn set_group(work: &mut Mesh, groups: &Groups, g: u32, n: DVec3, tris: &mut Vec<
     tris.extend(groups.triangles_around(g));
 }
 
+/// Interior edges (two uses) of `work` whose uses disagree on an end's normal, and did not
+/// in `mesh` (same triangles).
+fn new_creases(mesh: &Mesh, work: &Mesh) -> usize {
+    let crease = |m: &Mesh, e: &crate::mesh::adjacency::EdgeRef<'_>| {
+        let [u0, u1] = [e.use_at(0), e.use_at(1)];
+        e.v.iter().any(|&v| {
+            normal_key(crate::mesh::creases::use_normal(m, u0, v))
+                != normal_key(crate::mesh::creases::use_normal(m, u1, v))
+        })
+    };
+    EdgeIndex::new(&work.triangles)
+        .edges()
+        .filter(|e| e.is_interior() && crease(work, e) && !crease(mesh, e))
+        .count()
+}
+
 /// Angle between unit vectors in degrees (atan2 of |a × b| and a · b: accurate at small
 /// angles too).
 fn angle_deg(a: DVec3, b: DVec3) -> f64 {
     a.cross(b).length().atan2(a.dot(b)).to_degrees()
 }
 
-/// The patches of `tris` on `work` (`simple`: G1 on a mesh without creases, built
-/// triangle by triangle without preparing the whole mesh).
+/// For each half-edge 3t + k of an edge used by exactly two triangles, the other use's
+/// half-edge; `u32::MAX` otherwise.
+fn twins(mesh: &Mesh) -> Vec<u32> {
+    let index = EdgeIndex::new(&mesh.triangles);
+    let mut tw = vec![u32::MAX; 3 * mesh.triangles.len()];
+    for e in index.edges().filter(|e| e.is_interior()) {
+        tw[e.half_edges[0] as usize] = e.half_edges[1];
+        tw[e.half_edges[1] as usize] = e.half_edges[0];
+    }
+    tw
+}
+
+/// The patches of `tris` on `work`. G1 (`twins` from [`twins`]) builds them here, with
+/// the crease curves of their own edges only ([`super::g1::edge_curve`], as
+/// [`super::g1::prepare`] builds them for the whole mesh: bitwise the same patches);
+/// other schemes are prepared for the whole mesh.
 fn ring_table(
     work: &Mesh,
     scheme: Scheme,
     opts: &SchemeOptions,
     tris: &[u32],
-    simple: bool,
+    twins: &[u32],
 ) -> Result<PatchTable> {
-    if !simple {
+    if scheme != Scheme::G1 {
         return PatchBuilder::new(work, scheme, opts)?.table_of(tris, 0);
     }
     let mut points = Vec::with_capacity(tris.len() * 18);
@@ -716,10 +1241,27 @@ fn ring_table(
     for &t in tris {
         let tri = work.triangles[t as usize];
         let q = tri.map(|v| work.positions[v as usize]);
-        points.extend_from_slice(&super::g1::patch_points(
+        let curves = std::array::from_fn(|k| {
+            let h = 3 * t + k as u32;
+            let o = twins[h as usize];
+            if o == u32::MAX {
+                return None;
+            }
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            let v = [a.min(b), a.max(b)];
+            let uses = [h.min(o), h.max(o)].map(EdgeUse::from_half_edge);
+            let c = super::g1::edge_curve(work, v, uses, &mut fallbacks)?;
+            Some(if a == v[0] {
+                c
+            } else {
+                [c[3], c[2], c[1], c[0]]
+            })
+        });
+        points.extend_from_slice(&super::g1::patch_points_with_curves(
             q,
             work.corner_normals[t as usize],
             tri,
+            curves,
             &mut fallbacks,
         ));
         flat_normals.push(crate::mesh::normals::face_normal(q));
@@ -740,9 +1282,9 @@ fn verdicts_of(
     scheme: Scheme,
     opts: &SchemeOptions,
     tris: &[u32],
-    simple: bool,
+    twins: &[u32],
 ) -> Result<Vec<Verdict>> {
-    let table = ring_table(work, scheme, opts, tris, simple)?;
+    let table = ring_table(work, scheme, opts, tris, twins)?;
     Ok((0..tris.len()).map(|i| check_patch(&table, i)).collect())
 }
 

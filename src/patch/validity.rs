@@ -17,7 +17,9 @@
 //! - **valid**, proved: on a cell (a subtriangle of the domain) the Bernstein coefficients
 //!   of J bound it from below (convex hull property); a cell whose lower bound is positive
 //!   is certified, an undecided cell is split into four (midpoint subdivision) down to
-//!   [`MAX_DEPTH`] levels or [`MAX_CELLS`] cells per patch;
+//!   [`MAX_DEPTH`] levels or [`MAX_CELLS`] cells per patch, and for the few patches that
+//!   leaves undecided once more, down to [`DEEP_DEPTH`] levels or [`DEEP_CELLS`] cells (the
+//!   common case pays nothing for it);
 //! - **folded**, with a witness (s, t) where the f64 evaluation of the patch itself
 //!   ([`PatchTable::eval`]) gives J < 0 by more than its rounding;
 //! - **undecided** otherwise (never a guess).
@@ -65,7 +67,7 @@ pub enum Verdict {
     /// J < 0 at (s, t) (b = (1 − s − t, s, t)), by direct f64 evaluation of the patch:
     /// `jacobian` is J there.
     Folded { s: f64, t: f64, jacobian: f64 },
-    /// Neither proved nor refuted within [`MAX_DEPTH`] and [`MAX_CELLS`].
+    /// Neither proved nor refuted within [`DEEP_DEPTH`] and [`DEEP_CELLS`].
     Undecided,
 }
 
@@ -547,11 +549,26 @@ fn quick_gregory(c: &[DVec3], nref: DVec3) -> bool {
     jmin - (ps * r + r * pt + r * r) - tol > 0.0
 }
 
-/// The verdict on patch `i` of `table`.
+/// The verdict on patch `i` of `table`: within [`MAX_DEPTH`] and [`MAX_CELLS`], and for
+/// the few patches that leaves undecided, once more within [`DEEP_DEPTH`] and
+/// [`DEEP_CELLS`].
 pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
     if table.kind == PatchKind::Gregory && quick_gregory(table.patch(i), table.flat_normals[i]) {
         return Verdict::Valid;
     }
+    match check_within(table, i, MAX_DEPTH, MAX_CELLS) {
+        Verdict::Undecided => check_within(table, i, DEEP_DEPTH, DEEP_CELLS),
+        v => v,
+    }
+}
+
+/// Depth of the second, deeper subdivision of a patch left undecided.
+pub const DEEP_DEPTH: u32 = 18;
+/// Most cells of the second subdivision.
+pub const DEEP_CELLS: usize = 1 << 16;
+
+/// [`check_patch`] by subdivision down to `max_depth` levels or `max_cells` cells.
+fn check_within(table: &PatchTable, i: usize, max_depth: u32, max_cells: usize) -> Verdict {
     let witness = |b: [f64; 3]| -> Option<Verdict> {
         let (j, scale) = jacobian(table, i, b);
         // Below −1e-12 |S_s| |S_t|: far beyond the rounding of the evaluation.
@@ -577,7 +594,7 @@ pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
         if lower > 0.0 {
             continue;
         }
-        let leaf = depth >= MAX_DEPTH || cells + stack.len() + 4 > MAX_CELLS;
+        let leaf = depth >= max_depth || cells + stack.len() + 4 > max_cells;
         // Witnesses (two evaluations of the patch) are looked for where the polynomial part
         // itself fails, deep in the subdivision and at a last cell; elsewhere the cell only
         // needs a smaller remainder, which its children get.
