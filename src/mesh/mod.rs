@@ -912,6 +912,54 @@ pub(crate) mod text {
         Some(if neg { -v } else { v })
     }
 
+    /// The blanks between tokens.
+    #[inline]
+    pub fn is_blank(b: u8) -> bool {
+        matches!(b, b' ' | b'\t' | b'\x0b' | b'\x0c')
+    }
+
+    /// Exactly `N` finite numbers separated by blanks, nothing else: the one-pass reading
+    /// of the plain statements of OBJ and `.pn` files. `None` for anything else (another
+    /// form, a comment, a defect), which the readers' general paths then read, so results
+    /// and errors do not depend on it.
+    #[inline]
+    pub fn plain_numbers<const N: usize>(s: &str) -> Option<[f64; N]> {
+        let b = s.as_bytes();
+        let mut out = [0.0; N];
+        let mut i = 0;
+        for x in &mut out {
+            while i < b.len() && is_blank(b[i]) {
+                i += 1;
+            }
+            let start = i;
+            while i < b.len() && matches!(b[i], b'0'..=b'9' | b'.' | b'-' | b'+' | b'e' | b'E') {
+                i += 1;
+            }
+            if i == start || (i < b.len() && !is_blank(b[i])) {
+                return None;
+            }
+            // ASCII bytes: `start` and `i` are character boundaries.
+            *x = plain_f64(s.get(start..i)?)?;
+            if !x.is_finite() {
+                return None;
+            }
+        }
+        b[i..].iter().all(|&c| is_blank(c)).then_some(out)
+    }
+
+    /// A number as [`parse_f64`] reads it: straight to the standard library's parser when
+    /// the text is too long for the shortcut of `parse_f64` (more than 15 significant
+    /// digits: the shortest decimals of f32 and f64 values, mostly), which would scan it
+    /// twice.
+    #[inline]
+    fn plain_f64(s: &str) -> Option<f64> {
+        if s.len() > 17 {
+            s.parse().ok()
+        } else {
+            parse_f64(s)
+        }
+    }
+
     /// Parses a decimal integer like `str::parse::<i64>`.
     #[inline]
     pub fn parse_i64(s: &str) -> Option<i64> {

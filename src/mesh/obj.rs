@@ -218,7 +218,7 @@ impl Block {
     fn fast(&mut self, stmt: &str) -> bool {
         match stmt.as_bytes() {
             [b'v', b' ' | b'\t', ..] => {
-                let Some(p) = fast_numbers(&stmt[2..]) else {
+                let Some(p) = text::plain_numbers::<3>(&stmt[2..]) else {
                     return false;
                 };
                 if p.iter().any(|x| x.abs() > normals::MAX_COORD) {
@@ -227,8 +227,8 @@ impl Block {
                 self.positions.push(DVec3::from_array(p));
             }
             [b'v', b'n', b' ' | b'\t', ..] => {
-                let Some(n) =
-                    fast_numbers(&stmt[3..]).and_then(|n| normals::unit(DVec3::from_array(n)))
+                let Some(n) = text::plain_numbers::<3>(&stmt[3..])
+                    .and_then(|n| normals::unit(DVec3::from_array(n)))
                 else {
                     return false;
                 };
@@ -239,7 +239,7 @@ impl Block {
                 let mut n = 0;
                 let mut i = 0;
                 loop {
-                    while i < rest.len() && is_blank(rest[i]) {
+                    while i < rest.len() && text::is_blank(rest[i]) {
                         i += 1;
                     }
                     if i == rest.len() {
@@ -270,7 +270,7 @@ impl Block {
                         }
                         i += 1;
                     }
-                    if i < rest.len() && !is_blank(rest[i]) {
+                    if i < rest.len() && !text::is_blank(rest[i]) {
                         return false;
                     }
                     if idx[VT] == NONE && idx[VN] == NONE && i > 0 && rest[i - 1] == b'/' {
@@ -364,50 +364,6 @@ impl Block {
 
 /// Corners a face may have for [`Block::fast`].
 const FAST_CORNERS: usize = 8;
-
-/// The blanks between tokens.
-#[inline]
-fn is_blank(b: u8) -> bool {
-    matches!(b, b' ' | b'\t' | b'\x0b' | b'\x0c')
-}
-
-/// Exactly three finite numbers separated by blanks, nothing else (see [`Block::fast`]).
-#[inline]
-fn fast_numbers(s: &str) -> Option<[f64; 3]> {
-    let b = s.as_bytes();
-    let mut out = [0.0; 3];
-    let mut i = 0;
-    for x in &mut out {
-        while i < b.len() && is_blank(b[i]) {
-            i += 1;
-        }
-        let start = i;
-        while i < b.len() && matches!(b[i], b'0'..=b'9' | b'.' | b'-' | b'+' | b'e' | b'E') {
-            i += 1;
-        }
-        if i == start || (i < b.len() && !is_blank(b[i])) {
-            return None;
-        }
-        // ASCII bytes: `start` and `i` are character boundaries.
-        *x = fast_f64(s.get(start..i)?)?;
-        if !x.is_finite() {
-            return None;
-        }
-    }
-    b[i..].iter().all(|&c| is_blank(c)).then_some(out)
-}
-
-/// A number as [`text::parse_f64`] reads it: straight to the standard library's parser
-/// when the text is too long for the shortcut of `parse_f64` (more than 15 significant
-/// digits: the shortest decimals of f32 and f64 values, mostly), which would scan it twice.
-#[inline]
-fn fast_f64(s: &str) -> Option<f64> {
-    if s.len() > 17 {
-        s.parse().ok()
-    } else {
-        text::parse_f64(s)
-    }
-}
 
 /// `N` numbers from the statement's tokens (more are ignored), finite.
 fn numbers<const N: usize>(
