@@ -235,6 +235,13 @@ fn devices_and_endless_lines_are_refused_in_one_line() {
     // /dev/zero never ends and holds no newline: refused before reading, exit 1.
     let err = fails(&["stats", "/dev/zero"]);
     assert!(err.contains("/dev/zero: not a regular file"), "{err}");
+    // The same through a link named like a glTF file: the memory estimate, which reads a
+    // glTF scene's JSON before the load, leaves it to the loader's refusal.
+    let link = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cli_errors-zero.gltf");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+    let err = fails(&["stats", link.to_str().unwrap()]);
+    assert!(err.contains("zero.gltf: not a regular file"), "{err}");
     let p = tmp("zeros.obj", &"\0".repeat(3 << 20));
     let err = fails(&["stats", p.to_str().unwrap()]);
     assert!(

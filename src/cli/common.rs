@@ -414,10 +414,11 @@ pub fn load_need(spec: &str) -> u64 {
         .map(|m| m.len().saturating_mul(factor).saturating_add(LOAD_OVERHEAD))
         .unwrap_or(0);
     let path = std::path::Path::new(spec);
-    if matches!(
-        crate::mesh::InputFormat::detect(path),
-        Ok(crate::mesh::InputFormat::Gltf)
-    ) {
+    let gltf = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"));
+    if gltf {
         // Nodes may instance one mesh many times: count what the scene holds.
         if let Some((vertices, corners)) = crate::mesh::gltf::scene_size(path) {
             let need = vertices

@@ -303,7 +303,12 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
 pub fn scene_size(path: &Path) -> Option<(u64, u64)> {
     use std::io::Read;
     let mut f = std::fs::File::open(path).ok()?;
-    let len = f.metadata().ok()?.len();
+    let meta = f.metadata().ok()?;
+    // A device or pipe is not read here (the load refuses it with its own error).
+    if !meta.is_file() {
+        return None;
+    }
+    let len = meta.len();
     let mut head = [0u8; 20];
     let n = f.read(&mut head).ok()?;
     let json = if n >= 4 && &head[..4] == b"glTF" {
@@ -319,7 +324,9 @@ pub fn scene_size(path: &Path) -> Option<(u64, u64)> {
         f.read_exact(&mut j).ok()?;
         j
     } else {
-        std::fs::read(path).ok()?
+        let mut j = head[..n].to_vec();
+        f.take(len).read_to_end(&mut j).ok()?;
+        j
     };
     let root: ::gltf::json::Root = serde_json::from_slice(&json).ok()?;
     let scene = match root.scene {

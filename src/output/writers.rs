@@ -27,7 +27,7 @@
 //! PLY and glTF list every vertex before any triangle: their triangles are regenerated
 //! from the plan (topology only) after the vertices are written.
 //!
-//! Files go to the temporary file in blocks of 4 MiB written by a thread of their own
+//! Files go to the temporary file in blocks of 512 KiB written by a thread of their own
 //! ([`PipedWriter`]): the thread that evaluates, stitches and encodes never waits for the
 //! copy into the page cache. Progress is reported through [`Progress`], never drawn here.
 

@@ -106,6 +106,9 @@ use crate::Result;
 
 /// Fractions of the way to a target a normal may move, tried smallest first.
 const WEIGHTS: [f64; 6] = [1.0 / 16.0, 1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0, 3.0 / 4.0, 1.0];
+/// Largest closed fan whose every two-run cut [`best_cut`] tries (n(n − 1)/2 of them);
+/// larger fans are cut as if open (n − 1 cuts).
+const MAX_CLOSED_CUT_FAN: usize = 32;
 /// Most rounds before the repair gives up on what is left.
 const MAX_ROUNDS: usize = 96;
 /// Scaled Jacobian the search aims at everywhere (a margin above 0, the fold).
@@ -952,9 +955,8 @@ fn isolate_sliver(
         .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
         .count();
     let perp = |n: DVec3, e: DVec3| (n - n.dot(e) * e).try_normalize().unwrap_or(n);
-    let central_of = |groups: &Groups, corners: &[u32], fallback: DVec3| {
+    let central_of = |corners: &[u32], fallback: DVec3| {
         let f: Vec<DVec3> = corners.iter().map(|&c| faces[c as usize / 3]).collect();
-        let _ = groups;
         central(&f, fallback)
     };
     let mut made = Vec::new();
@@ -974,8 +976,8 @@ fn isolate_sliver(
         let mut best: Option<(usize, f64, usize)> = None;
         for j in 1..n - 1 {
             let hb = groups.split(g, &order[j + 1..]);
-            let na = perp(central_of(groups, &order[1..=j], old), *e1);
-            let nb = perp(central_of(groups, &order[j + 1..], old), *e2);
+            let na = perp(central_of(&order[1..=j], old), *e1);
+            let nb = perp(central_of(&order[j + 1..], old), *e2);
             set_group(work, groups, g, na, &mut sink);
             set_group(work, groups, hb, nb, &mut sink);
             let table = ring_table(work, scheme, opts, &around, twins)?;
@@ -994,8 +996,8 @@ fn isolate_sliver(
             break;
         };
         let hb = groups.split(g, &order[j + 1..]);
-        let na = perp(central_of(groups, &order[1..=j], old), *e1);
-        let nb = perp(central_of(groups, &order[j + 1..], old), *e2);
+        let na = perp(central_of(&order[1..=j], old), *e1);
+        let nb = perp(central_of(&order[j + 1..], old), *e2);
         set_group(work, groups, g, na, &mut sink);
         set_group(work, groups, hb, nb, &mut sink);
         made.push((g, ht, hb, old));
@@ -1102,6 +1104,9 @@ fn best_cut(
         let Some((order, closed)) = fan_order(work, &cs) else {
             continue;
         };
+        // A closed fan of n corners has n(n − 1)/2 cuts, each certifying the whole ring:
+        // at a high-valence vertex (a UV sphere's pole) only the open cuts are tried.
+        let closed = closed && order.len() <= MAX_CLOSED_CUT_FAN;
         let mut ring: Vec<u32> = groups.triangles_around(g).collect();
         ring.sort_unstable();
         ring.dedup();
