@@ -59,6 +59,7 @@ struct EdgeData {
     a: [DVec3; 3],
 }
 
+#[inline(always)]
 fn edge_data(v: [DVec3; 4], na: DVec3, nb: DVec3, fallbacks: &mut usize) -> EdgeData {
     let w = [v[1] - v[0], v[2] - v[1], v[3] - v[2]];
     let unit = |x: DVec3, f: &mut usize| {
@@ -109,6 +110,7 @@ pub fn patch_points(
 /// [`patch_points`] where edge k's boundary cubic may be given (`curves[k]`, running from
 /// corner k to corner k + 1), as for crease edges; the other edges get the Walton–Meek
 /// cubic of their end points and this triangle's normals.
+#[inline]
 pub fn patch_points_with_curves(
     q: [DVec3; 3],
     n: [DVec3; 3],
