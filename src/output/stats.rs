@@ -23,7 +23,7 @@ use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
 use crate::patch::repair::{repair, RepairReport};
-use crate::patch::validity::{check_patch, PatchCounts, Verdict};
+use crate::patch::validity::{count_range, PatchCounts};
 use crate::patch::{PatchBuilder, PatchTable, Scheme, SchemeOptions};
 use crate::{Error, Result};
 
@@ -489,7 +489,7 @@ impl Batch {
             b.table_of_into(&self.fresh, counted, &mut self.table)?;
             self.fallbacks = self.table.fallbacks;
             // Each triangle's patch is certified once, where it is first built.
-            self.verdicts = certify(&self.table, 0..counted);
+            self.verdicts = count_range(&self.table, 0..counted);
             // Patches are built the same wherever they are built: copies are bitwise those.
             let stride = self.table.stride;
             for &(t, s) in &self.copy {
@@ -601,7 +601,7 @@ fn run(
     while !current.edges.is_empty() {
         crease_edges += current.creases;
         fallbacks += current.fallbacks;
-        verdicts = merge(verdicts, current.verdicts);
+        verdicts = verdicts.merge(current.verdicts);
         let mut prepared = Ok(());
         let evaluated = rayon::in_place_scope(|s| {
             let (next, slot, done, prev) = (&mut next, &mut slot, &current.fresh, &current.table);
@@ -628,35 +628,11 @@ fn run(
             let mut table = b.empty_table();
             for chunk in never.chunks(1 << 16) {
                 b.table_of_into(chunk, 0, &mut table)?;
-                verdicts = merge(verdicts, certify(&table, 0..chunk.len()));
+                verdicts = verdicts.merge(count_range(&table, 0..chunk.len()));
             }
         }
     }
     Ok((fold.finish(crease_edges), fallbacks, verdicts))
-}
-
-/// The validity verdicts of patches `range` of `table`, counted (in parallel).
-fn certify(table: &PatchTable, range: std::ops::Range<usize>) -> PatchCounts {
-    range
-        .into_par_iter()
-        .map(|i| {
-            let mut c = PatchCounts::default();
-            match check_patch(table, i) {
-                Verdict::Valid => c.valid = 1,
-                Verdict::Folded { .. } => c.folded = 1,
-                Verdict::Undecided => c.undecided = 1,
-            }
-            c
-        })
-        .reduce(PatchCounts::default, merge)
-}
-
-fn merge(a: PatchCounts, b: PatchCounts) -> PatchCounts {
-    PatchCounts {
-        valid: a.valid + b.valid,
-        folded: a.folded + b.folded,
-        undecided: a.undecided + b.undecided,
-    }
 }
 
 /// Continuity statistics of `table` over the interior edges of `mesh`, evaluated by

@@ -488,7 +488,9 @@ fn towards(a: DVec3, b: DVec3, w: f64) -> DVec3 {
 fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan>> {
     let table0 = PatchTable::build(mesh, scheme, opts)?;
     let mut verdicts = check_table(&table0);
-    let before = verdicts.iter().fold(PatchCounts::default(), add);
+    let before = verdicts
+        .iter()
+        .fold(PatchCounts::default(), PatchCounts::with);
     let mut bad: Vec<u32> = (0..verdicts.len() as u32)
         .filter(|&t| verdicts[t as usize] != Verdict::Valid)
         .collect();
@@ -825,7 +827,9 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             set_group(&mut work, &groups, *h, old[1], &mut sink);
         }
     }
-    let after = verdicts.iter().fold(PatchCounts::default(), add);
+    let after = verdicts
+        .iter()
+        .fold(PatchCounts::default(), PatchCounts::with);
     let flipped = bad
         .iter()
         .filter(|&&t| {
@@ -1312,16 +1316,6 @@ fn badness(table: &PatchTable, grid: &[[f64; 3]]) -> f64 {
         }
     }
     sum
-}
-
-fn add(c: PatchCounts, v: &Verdict) -> PatchCounts {
-    let mut c = c;
-    match v {
-        Verdict::Valid => c.valid += 1,
-        Verdict::Folded { .. } => c.folded += 1,
-        Verdict::Undecided => c.undecided += 1,
-    }
-    c
 }
 
 /// The barycentric points of a grid of `level` segments per edge.

@@ -80,7 +80,8 @@ pub struct PatchCounts {
 }
 
 impl PatchCounts {
-    fn add(mut self, v: &Verdict) -> PatchCounts {
+    /// These counts with one more verdict.
+    pub fn with(mut self, v: &Verdict) -> PatchCounts {
         match v {
             Verdict::Valid => self.valid += 1,
             Verdict::Folded { .. } => self.folded += 1,
@@ -89,7 +90,8 @@ impl PatchCounts {
         self
     }
 
-    fn merge(self, o: PatchCounts) -> PatchCounts {
+    /// The sum of two counts.
+    pub fn merge(self, o: PatchCounts) -> PatchCounts {
         PatchCounts {
             valid: self.valid + o.valid,
             folded: self.folded + o.folded,
@@ -123,9 +125,14 @@ pub fn check_table(table: &PatchTable) -> Vec<Verdict> {
 
 /// The verdicts of `table` counted (in parallel).
 pub fn count(table: &PatchTable) -> PatchCounts {
-    (0..table.len())
+    count_range(table, 0..table.len())
+}
+
+/// The verdicts of patches `range` of `table` counted (in parallel).
+pub fn count_range(table: &PatchTable, range: std::ops::Range<usize>) -> PatchCounts {
+    range
         .into_par_iter()
-        .map(|i| PatchCounts::default().add(&check_patch(table, i)))
+        .map(|i| PatchCounts::default().with(&check_patch(table, i)))
         .reduce(PatchCounts::default, PatchCounts::merge)
 }
 
