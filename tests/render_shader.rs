@@ -9,6 +9,8 @@ use g1tess::render::camera::{Camera, DEPTH_MARGIN, MARGIN};
 use g1tess::render::pipeline::{Uniforms, RENDER_WGSL};
 use g1tess::render::{ramp, shader_source, RAMP};
 
+mod common;
+
 fn module() -> naga::Module {
     let src = shader_source();
     let module = naga::front::wgsl::parse_str(&src)
@@ -88,6 +90,12 @@ fn vec3_of(m: &naga::Module, h: naga::Handle<naga::Expression>) -> [f32; 3] {
         lit(&components[1]),
         lit(&components[2]),
     ]
+}
+
+#[test]
+fn render_wgsl_names_the_rust_function_it_mirrors() {
+    let names = common::mirrored_functions("shaders/render.wgsl", RENDER_WGSL);
+    assert_eq!(names, ["render::ramp"]);
 }
 
 /// The shader's stops are generated from `RAMP` (the file holds no copy of them).

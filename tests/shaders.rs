@@ -14,6 +14,8 @@ use g1tess::gpu::Precision;
 use g1tess::patch::basis::MAX_POINTS;
 use g1tess::patch::{PatchKind, PatchTable, Scheme, MIN_NORMAL_LEN_F32, MIN_NORMAL_LEN_F64};
 
+mod common;
+
 const PRECISIONS: [Precision; 2] = [Precision::F32, Precision::F64];
 
 /// Whether a naga module has a float type of `width` bytes.
@@ -266,45 +268,10 @@ fn wgsl_files_copy_no_layout_number_or_threshold() {
     );
 }
 
-/// The Rust source file of module path `segments` (e.g. ["patch", "basis"]), if any.
-fn rust_file(segments: &[&str]) -> Option<String> {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let dir = segments.iter().fold(root, |p, s| p.join(s));
-    [dir.with_extension("rs"), dir.join("mod.rs")]
-        .iter()
-        .find_map(|p| std::fs::read_to_string(p).ok())
-}
-
 #[test]
 fn every_wgsl_file_names_rust_functions_it_mirrors_and_they_exist() {
     for file in FILES {
-        let names: Vec<&str> = file
-            .source
-            .lines()
-            .filter_map(|l| l.trim().strip_prefix("// mirrors "))
-            .flat_map(|l| l.split(','))
-            .map(str::trim)
-            .collect();
-        assert!(
-            !names.is_empty(),
-            "shaders/{} names no mirrored function",
-            file.name
-        );
-        for path in names {
-            let segments: Vec<&str> = path.split("::").collect();
-            let (func, modules) = segments.split_last().unwrap();
-            // The longest module prefix that is a file (the rest: a type, e.g.
-            // patch::PatchTable::eval_weights).
-            let src = (1..=modules.len())
-                .rev()
-                .find_map(|n| rust_file(&modules[..n]))
-                .unwrap_or_else(|| panic!("shaders/{}: no Rust module for {path}", file.name));
-            assert!(
-                src.contains(&format!("fn {func}(")),
-                "shaders/{}: mirrors {path}, which does not exist",
-                file.name
-            );
-        }
+        common::mirrored_functions(&format!("shaders/{}", file.name), file.source);
     }
     assert_eq!(COMMON.name, "common.wgsl");
 }
@@ -373,19 +340,7 @@ fn statistics_module_validates_for_every_kind() {
             assert_eq!(constant_u32(&module, "STATS_REALS"), STATS_REALS);
         }
     }
-    let src = rust_file(&["output", "stats"]).unwrap();
-    let names: Vec<&str> = STATS
-        .source
-        .lines()
-        .filter_map(|l| l.trim().strip_prefix("// mirrors "))
-        .flat_map(|l| l.split(','))
-        .map(str::trim)
-        .collect();
-    assert!(!names.is_empty());
-    for name in names {
-        let func = name.rsplit("::").next().unwrap();
-        assert!(src.contains(&format!("fn {func}(")), "{name}");
-    }
+    common::mirrored_functions("shaders/stats.wgsl", STATS.source);
     // The record offsets 0..=10 are written out; the record size and the crease bit are not.
     for (tok, _) in literals(STATS.source) {
         let v = value(&tok);

@@ -73,36 +73,13 @@ fn level_grid_base_counts_the_smaller_grids() {
     assert_eq!(level_grid_base(l as u32), l * (l + 1) * (l + 2) / 6 - 1);
 }
 
-/// Source of the Rust module file for `segments` (a::b → src/a/b.rs or src/a/b/mod.rs).
-fn rust_file(segments: &[&str]) -> Option<String> {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let dir = segments.iter().fold(root, |p, s| p.join(s));
-    [dir.with_extension("rs"), dir.join("mod.rs")]
-        .iter()
-        .find_map(|p| std::fs::read_to_string(p).ok())
-}
-
 #[test]
 fn level_wgsl_names_rust_functions_it_mirrors_and_they_exist() {
-    let names: Vec<&str> = TESS_LEVELS_WGSL
-        .lines()
-        .filter_map(|l| l.trim().strip_prefix("// mirrors "))
-        .flat_map(|l| l.split(','))
-        .map(str::trim)
-        .collect();
-    assert!(names.contains(&"tess::layout::triangles"), "{names:?}");
-    for path in names {
-        let segments: Vec<&str> = path.split("::").collect();
-        let (func, modules) = segments.split_last().unwrap();
-        let src = (1..=modules.len())
-            .rev()
-            .find_map(|n| rust_file(&modules[..n]))
-            .unwrap_or_else(|| panic!("no Rust module for {path}"));
-        assert!(
-            src.contains(&format!("fn {func}(")),
-            "mirrors {path}, which does not exist"
-        );
-    }
+    let names = common::mirrored_functions("tessellate_levels.wgsl", TESS_LEVELS_WGSL);
+    assert!(
+        names.iter().any(|n| n == "tess::layout::triangles"),
+        "{names:?}"
+    );
     for name in ["TOPO_STRIDE", "TOPO_EDGE", "TESS_WORKGROUP", "FLAG_COPY"] {
         assert!(
             !TESS_LEVELS_WGSL.contains(&format!("const {name}")),

@@ -57,3 +57,40 @@ impl Rng {
         }
     }
 }
+
+/// The Rust source file of module path `segments` (e.g. ["patch", "basis"] →
+/// src/patch/basis.rs or src/patch/basis/mod.rs), if any.
+fn rust_file(segments: &[&str]) -> Option<String> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("src");
+    let dir = segments.iter().fold(root, |p, s| p.join(s));
+    [dir.with_extension("rs"), dir.join("mod.rs")]
+        .iter()
+        .find_map(|p| std::fs::read_to_string(p).ok())
+}
+
+/// The paths named by the `// mirrors a::b::f, c::g` lines of WGSL `source` (the file
+/// `file`), after asserting that there is at least one and that each names a Rust function
+/// that exists: `fn f(` in the longest module prefix that is a file (the rest may be a type,
+/// e.g. `patch::PatchTable::eval_weights`).
+pub fn mirrored_functions(file: &str, source: &str) -> Vec<String> {
+    let names: Vec<String> = source
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("// mirrors "))
+        .flat_map(|l| l.split(','))
+        .map(|s| s.trim().to_string())
+        .collect();
+    assert!(!names.is_empty(), "{file} names no mirrored function");
+    for path in &names {
+        let segments: Vec<&str> = path.split("::").collect();
+        let (func, modules) = segments.split_last().unwrap();
+        let src = (1..=modules.len())
+            .rev()
+            .find_map(|n| rust_file(&modules[..n]))
+            .unwrap_or_else(|| panic!("{file}: no Rust module for {path}"));
+        assert!(
+            src.contains(&format!("fn {func}(")),
+            "{file}: mirrors {path}, which does not exist"
+        );
+    }
+    names
+}
