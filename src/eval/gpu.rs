@@ -969,6 +969,13 @@ impl GpuEvaluator {
         let mut patch_data: Vec<R> = Vec::with_capacity(patches_per_chunk * upload_reals);
         let mut samples = Samples::<R>::new();
         let mut pending: Option<(usize, wgpu::SubmissionIndex)> = None;
+        // Reads dispatch j back from its slot's staging buffer once submission `index` is done.
+        let complete = |(j, index): (usize, wgpu::SubmissionIndex),
+                        samples: &mut Samples<R>,
+                        target: &mut Target<'_>| {
+            let staging = &slots[j % slots.len()].staging;
+            self.complete(&jobs, j, staging, index, per, samples, target, &corners)
+        };
         for (k, &(first, count, s0, n)) in jobs.iter().enumerate() {
             if s0 == 0 {
                 patch_data.clear();
@@ -1016,30 +1023,12 @@ impl GpuEvaluator {
             } else {
                 pending.replace((k, index))
             };
-            if let Some((j, index)) = ready {
-                self.complete(
-                    &jobs,
-                    j,
-                    &slots[j % slots.len()].staging,
-                    index,
-                    per,
-                    &mut samples,
-                    target,
-                    &corners,
-                )?;
+            if let Some(ready) = ready {
+                complete(ready, &mut samples, target)?;
             }
         }
-        if let Some((j, index)) = pending {
-            self.complete(
-                &jobs,
-                j,
-                &slots[j % slots.len()].staging,
-                index,
-                per,
-                &mut samples,
-                target,
-                &corners,
-            )?;
+        if let Some(last) = pending {
+            complete(last, &mut samples, target)?;
         }
         self.ctx.wait()?;
         self.ctx.check()
