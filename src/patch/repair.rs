@@ -70,15 +70,27 @@
 //!    triangle flat for good; the patches around that it leaves uncertified are flattened
 //!    in turn. The cascade ends, at the latest with every triangle flat (a certified
 //!    mesh of non-degenerate triangles), so **every patch ends certified**.
-//! 9. As little as needed: each moved normal whose patches around are all certified goes
-//!    back to its input value, or 3/4, 1/2 or 1/4 of the way (3/4 at most for a cut's
-//!    groups), largest change first, where those patches stay certified; then each cut,
-//!    latest first, is undone (both groups back to the input normal) where the certificate
-//!    counts no more uncertified patches around it.
+//! 9. As little as needed: after a cascade, each touched vertex, largest change first,
+//!    goes back to its input normals at every corner (cuts and flat corners undone) where
+//!    the patches around stay certified. Then each moved normal whose patches around are
+//!    all certified goes back to its input value, or 3/4, 1/2 or 1/4 of the way (3/4 at
+//!    most for a cut's groups), largest change first, where those patches stay certified;
+//!    then each cut, latest first, is undone (both groups back to the input normal) where
+//!    the certificate counts no more uncertified patches around it.
+//! 10. After a cascade, at each touched vertex the groups that were one group in the
+//!     input get one normal again (the mean of their corners' normals, or one of theirs)
+//!     where the patches around stay certified: fewer new creases.
+//!
+//! For G1 the search also refuses a certified patch whose cubic Lagrange element (the
+//! element of order 3 that `export-msh` writes, its nodes on the patch) may fold: the
+//! smallest Bernstein coefficient of that element's Jacobian along n_f, over the largest,
+//! must exceed 1e-6 ([`judge`]); the input's such patches are repaired too (where the
+//! input has a folded or undecided patch at all). The report's verdicts are the
+//! certificate's alone.
 //!
 //! Patches left uncertified (none for G1, other schemes have no step 8) are reported, not
-//! hidden. The report counts the interior edges
-//! that became creases (their uses now disagree on an end's normal).
+//! hidden. The report counts the interior edges that became creases (their uses now
+//! disagree on an end's normal).
 //!
 //! The search builds the G1 patches it scores one triangle at a time, with the crease
 //! curves of their own edges only ([`super::g1::edge_curve`], bitwise those of the whole
@@ -933,6 +945,65 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         } else {
             set_group(&mut work, &groups, *g, old[0], &mut sink);
             set_group(&mut work, &groups, *h, old[1], &mut sink);
+        }
+    }
+    // After a cascade, last, the creases it made that are no longer needed: at each
+    // touched vertex, the groups that were one normal group in the input get one normal
+    // again (their corners' mean normal, or one of theirs), where every patch around stays
+    // certified.
+    if flattened > 0 {
+        let mut verts: Vec<u32> = touched.iter().map(|&g| groups.vertex[g as usize]).collect();
+        verts.sort_unstable();
+        verts.dedup();
+        for v in verts {
+            let at = groups.at_vertex[v as usize].clone();
+            let mut ring: Vec<u32> = at
+                .iter()
+                .flat_map(|&g| groups.corners(g).iter().map(|&c| c / 3))
+                .collect();
+            ring.sort_unstable();
+            ring.dedup();
+            if ring.iter().any(|&r| verdicts[r as usize] != Verdict::Valid) {
+                continue;
+            }
+            // Groups of the vertex by their input normal (one input group each).
+            let mut parts: Vec<([u64; 3], Vec<u32>)> = Vec::new();
+            for &g in &at {
+                let key = normal_key(groups.normal(mesh, g));
+                match parts.iter_mut().find(|(k, _)| *k == key) {
+                    Some((_, list)) => list.push(g),
+                    None => parts.push((key, vec![g])),
+                }
+            }
+            for (_, part) in parts {
+                let now: Vec<DVec3> = part.iter().map(|&g| groups.normal(&work, g)).collect();
+                if now.iter().all(|n| normal_key(*n) == normal_key(now[0])) {
+                    continue;
+                }
+                let mean = part
+                    .iter()
+                    .map(|&g| groups.normal(&work, g) * groups.corners(g).len() as f64)
+                    .sum::<DVec3>()
+                    .try_normalize();
+                let mut options: Vec<DVec3> = mean.into_iter().collect();
+                options.extend(now.iter().copied());
+                let mut sink = Vec::new();
+                for n in options {
+                    for &g in &part {
+                        set_group(&mut work, &groups, g, n, &mut sink);
+                    }
+                    if let Some(vs) = verdicts_upto(&work, (scheme, opts, &twins), &ring, 0)? {
+                        for (i, &r) in ring.iter().enumerate() {
+                            verdicts[r as usize] = vs[i];
+                            changed.insert(r);
+                        }
+                        break;
+                    }
+                    for (&g, &n) in part.iter().zip(&now) {
+                        set_group(&mut work, &groups, g, n, &mut sink);
+                    }
+                }
+            }
         }
     }
     let flipped = bad
