@@ -385,7 +385,8 @@ struct Groups {
     vertex: Vec<u32>,
     /// Groups of each vertex.
     at_vertex: Vec<Vec<u32>>,
-    /// Groups whose normal no later step changes (those of [`isolate_sliver`]).
+    /// Groups whose normal no later step of the search changes (those of
+    /// [`isolate_sliver`]); only the last pass moves them back towards their input.
     frozen: HashSet<u32>,
 }
 
@@ -889,7 +890,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         .filter(|&(a, _)| a > 0.0)
         .collect();
     moved.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    for &(_, g) in moved.iter().filter(|(_, g)| !groups.frozen.contains(g)) {
+    for &(_, g) in &moved {
         let (n0, cur) = (groups.normal(mesh, g), groups.normal(&work, g));
         let mut ring: Vec<u32> = groups.triangles_around(g).collect();
         ring.sort_unstable();
@@ -1095,7 +1096,8 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
 /// flat. The cut between the two runs is placed, at each vertex, where the patches around
 /// it (the triangle's excepted) have the fewest uncertified and then the smallest
 /// [`badness`]. Kept where the certificate counts fewer uncertified patches around the
-/// triangle's vertices; its groups are then left alone by every later step. Returns
+/// triangle's vertices; its groups are then left alone by the search (only the last pass
+/// moves them back towards their input, where the certificate allows). Returns
 /// its groups, where it was kept. With `any`, a patch is isolated whatever the orientation
 /// of the triangles around it (the last resort for what the search leaves uncertified).
 #[allow(clippy::too_many_arguments)]
