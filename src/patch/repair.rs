@@ -58,18 +58,50 @@
 //!    then gets the isolation of step 2 whatever its neighbours' orientation (its own face
 //!    normal, straight crease edges, the fans around cut in three), kept where the
 //!    certificate counts fewer uncertified patches around.
-//! 8. As little as needed: each moved normal whose patches around are all certified goes
-//!    back to its input value, or 3/4, 1/2 or 1/4 of the way (3/4 at most for a cut's
-//!    groups), largest change first, where those patches stay certified; then each cut,
-//!    latest first, is undone (both groups back to the input normal) where the certificate
-//!    counts no more uncertified patches around it.
+//! 8. Last resort, G1 only: a patch still uncertified is *flattened* (its own face
+//!    normal in a group of its own at each corner; at each of its vertices the runs of the
+//!    fan next to it get the central normal of their faces turned perpendicular to the
+//!    edge they share with it, a run between two flat corners cut in two, each part
+//!    perpendicular to its own edge, a run of one triangle flat there too; where a run is
+//!    cut is chosen by the certificate, then the measure): its three boundary curves are
+//!    straight lines and its patch is the flat triangle, which the certificate certifies.
+//!    A flat corner stays flat when a neighbour is flattened later (the runs next to it
+//!    are rebuilt perpendicular to every flat corner's edge), so each flattening adds one
+//!    triangle flat for good; the patches around that it leaves uncertified are flattened
+//!    in turn. The cascade ends, at the latest with every triangle flat (a certified
+//!    mesh of non-degenerate triangles), so **every patch ends certified**.
+//! 9. As little as needed: after a cascade, each touched vertex, largest change first,
+//!    goes back to its input normals at every corner (cuts and flat corners undone) where
+//!    the patches around stay certified. Then each moved normal whose patches around are
+//!    all certified goes back to its input value, or 3/4, 1/2 or 1/4 of the way (3/4 at
+//!    most for a cut's groups), largest change first, where those patches stay certified;
+//!    then each cut, latest first, is undone (both groups back to the input normal) where
+//!    the certificate counts no more uncertified patches around it.
+//! 10. After a cascade, at each touched vertex the groups that were one group in the
+//!     input get one normal again (the mean of their corners' normals, or one of theirs)
+//!     where the patches around stay certified: fewer new creases.
 //!
-//! Patches left uncertified are reported, not hidden. The report counts the interior edges
-//! that became creases (their uses now disagree on an end's normal).
+//! For G1 the search also refuses a certified patch whose cubic Lagrange element (the
+//! element of order 3 that `export-msh` writes, its nodes on the patch) may fold: the
+//! smallest Bernstein coefficient of that element's Jacobian along n_f, over the largest,
+//! must exceed 1e-6 ([`judge`]); the input's such patches are repaired too (where the
+//! input has a folded or undecided patch at all). The report's verdicts are the
+//! certificate's alone.
+//!
+//! Patches left uncertified (none for G1, other schemes have no step 8) are reported, not
+//! hidden. The report counts the interior edges that became creases (their uses now
+//! disagree on an end's normal).
 //!
 //! The search builds the G1 patches it scores one triangle at a time, with the crease
 //! curves of their own edges only ([`super::g1::edge_curve`], bitwise those of the whole
 //! mesh's [`super::g1::prepare`]).
+//!
+//! The certificate is the search's cost: it is asked once per distinct patch (verdicts
+//! are kept by the bit patterns of the patch's control points), a patch whose sampled J
+//! is surely negative (below −1e-9 |S_s| |S_t| on a grid of level 8) is counted as
+//! uncertified without it, and where the search picks the trial with the fewest
+//! uncertified patches, the trials are certified in order of their measure, each only
+//! as far as it could still win. None of this changes what the search chooses.
 //!
 //! The report gives the number of vertices touched, the largest angle between a new and an
 //! input normal, and the largest distance between the repaired and the unrepaired surface
@@ -152,6 +184,9 @@ pub struct RepairReport {
     /// it (negative cosine between its face normal and the mean face normal of the
     /// triangles sharing a corner with it): folds of the input mesh itself.
     pub left_on_flipped_triangles: usize,
+    /// Triangles flattened by the last resort (their own face normal at each corner,
+    /// straight boundary curves: a flat patch), with the patches around that this broke.
+    pub triangles_flattened: usize,
     /// Rounds of the search.
     pub rounds: usize,
 }
@@ -350,7 +385,8 @@ struct Groups {
     vertex: Vec<u32>,
     /// Groups of each vertex.
     at_vertex: Vec<Vec<u32>>,
-    /// Groups whose normal no later step changes (those of [`isolate_sliver`]).
+    /// Groups whose normal no later step of the search changes (those of
+    /// [`isolate_sliver`]); only the last pass moves them back towards their input.
     frozen: HashSet<u32>,
 }
 
@@ -497,6 +533,25 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     if bad.is_empty() {
         return Ok(None);
     }
+    forget_verdicts();
+    // The search also refuses a certified G1 patch whose cubic Lagrange element may fold
+    // ([`judge`]), and repairs the input's too.
+    let verdicts0 = verdicts.clone();
+    if scheme == Scheme::G1 {
+        let weak: Vec<bool> = (0..verdicts.len())
+            .into_par_iter()
+            .map(|t| {
+                verdicts[t] == Verdict::Valid && lagrange3_bound(&table0, t) <= LAGRANGE_MARGIN
+            })
+            .collect();
+        for (t, w) in weak.into_iter().enumerate() {
+            if w {
+                verdicts[t] = Verdict::Undecided;
+                bad.push(t as u32);
+            }
+        }
+        bad.sort_unstable();
+    }
     let mut groups = Groups::new(mesh);
     let faces: Vec<DVec3> = table0.flat_normals.clone();
     let mut work = mesh.clone();
@@ -639,6 +694,8 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                     );
                 }
             }
+            // The badness of each ring as it is now, by ring.
+            let mut now_of: HashMap<Vec<u32>, f64> = HashMap::new();
             for moves in candidates {
                 if moves
                     .iter()
@@ -652,7 +709,14 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                     .collect();
                 ring.sort_unstable();
                 ring.dedup();
-                let now = badness(&ring_table(&work, scheme, opts, &ring, &twins)?, &grid);
+                let now = match now_of.get(&ring) {
+                    Some(&x) => x,
+                    None => {
+                        let x = badness(&ring_table(&work, scheme, opts, &ring, &twins)?, &grid);
+                        now_of.insert(ring.clone(), x);
+                        x
+                    }
+                };
                 let old: Vec<(u32, DVec3)> = moves
                     .iter()
                     .map(|&(g, _)| (g, groups.normal(&work, g)))
@@ -681,18 +745,17 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 }
                 ring.sort_unstable();
                 ring.dedup();
-                let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
                 let was = ring
                     .iter()
                     .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
                     .count();
-                if v.iter().filter(|x| **x != Verdict::Valid).count() > was {
+                let Some(v) = verdicts_upto(&work, (scheme, opts, &twins), &ring, was)? else {
                     // The certificate disagrees with the sampled measure: undo.
                     for &(g, n) in old.iter().rev() {
                         set_group(&mut work, &groups, g, n, &mut ring);
                     }
                     continue;
-                }
+                };
                 for (i, &r) in ring.iter().enumerate() {
                     verdicts[r as usize] = v[i];
                     changed.insert(r);
@@ -753,9 +816,69 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             }
         }
     }
-    // Last, as little as needed: each moved normal (largest change first) goes back to its
-    // input value, or 3/4, 1/2 or 1/4 of the way there, where every patch around it stays
-    // certified.
+    // And where that leaves any G1 patch uncertified, the cascade of flattenings, which
+    // ends with every patch certified.
+    let mut flattened = 0;
+    if scheme == Scheme::G1 && bad.iter().any(|&t| verdicts[t as usize] != Verdict::Valid) {
+        flattened = flatten_cascade(
+            &mut work,
+            &mut groups,
+            &faces,
+            (scheme, opts, &twins),
+            &mut verdicts,
+            &mut changed,
+            &mut touched,
+            &grid,
+        )?;
+    }
+    // Last, as little as needed. After a cascade, first each touched vertex (largest
+    // change first) goes back to its input normals at every corner, cuts and flat corners
+    // undone, where every patch around it stays certified.
+    if flattened > 0 {
+        let mut at: HashMap<u32, f64> = HashMap::new();
+        for &g in &touched {
+            let a = angle_deg(groups.normal(mesh, g), groups.normal(&work, g));
+            let e = at.entry(groups.vertex[g as usize]).or_insert(0.0);
+            *e = e.max(a);
+        }
+        let mut verts: Vec<(f64, u32)> = at
+            .into_iter()
+            .filter(|&(_, a)| a > 0.0)
+            .map(|(v, a)| (a, v))
+            .collect();
+        verts.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        for (_, v) in verts {
+            let corners: Vec<u32> = groups.at_vertex[v as usize]
+                .iter()
+                .flat_map(|&g| groups.corners(g).iter().copied())
+                .collect();
+            let mut ring: Vec<u32> = corners.iter().map(|&c| c / 3).collect();
+            ring.sort_unstable();
+            ring.dedup();
+            if ring.iter().any(|&r| verdicts[r as usize] != Verdict::Valid) {
+                continue;
+            }
+            let old: Vec<DVec3> = corners
+                .iter()
+                .map(|&c| work.corner_normals[c as usize / 3][c as usize % 3])
+                .collect();
+            for &c in &corners {
+                let (t, k) = (c as usize / 3, c as usize % 3);
+                work.corner_normals[t][k] = mesh.corner_normals[t][k];
+            }
+            if let Some(v) = verdicts_upto(&work, (scheme, opts, &twins), &ring, 0)? {
+                for (i, &r) in ring.iter().enumerate() {
+                    verdicts[r as usize] = v[i];
+                }
+            } else {
+                for (&c, &n) in corners.iter().zip(&old) {
+                    work.corner_normals[c as usize / 3][c as usize % 3] = n;
+                }
+            }
+        }
+    }
+    // Then each moved normal (largest change first) goes back to its input value, or 3/4,
+    // 1/2 or 1/4 of the way there, where every patch around it stays certified.
     let mut moved: Vec<(f64, u32)> = touched
         .iter()
         .map(|&g| {
@@ -767,7 +890,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         .filter(|&(a, _)| a > 0.0)
         .collect();
     moved.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    for &(_, g) in moved.iter().filter(|(_, g)| !groups.frozen.contains(g)) {
+    for &(_, g) in &moved {
         let (n0, cur) = (groups.normal(mesh, g), groups.normal(&work, g));
         let mut ring: Vec<u32> = groups.triangles_around(g).collect();
         ring.sort_unstable();
@@ -791,8 +914,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         for &w in ws {
             let mut sink = Vec::new();
             set_group(&mut work, &groups, g, towards(cur, n0, w), &mut sink);
-            let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
-            if v.iter().filter(|x| **x != Verdict::Valid).count() <= was {
+            if let Some(v) = verdicts_upto(&work, (scheme, opts, &twins), &ring, was)? {
                 for (i, &r) in ring.iter().enumerate() {
                     verdicts[r as usize] = v[i];
                 }
@@ -816,8 +938,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         let mut sink = Vec::new();
         set_group(&mut work, &groups, *g, n0, &mut sink);
         set_group(&mut work, &groups, *h, n0, &mut sink);
-        let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
-        if v.iter().filter(|x| **x != Verdict::Valid).count() <= was {
+        if let Some(v) = verdicts_upto(&work, (scheme, opts, &twins), &ring, was)? {
             for (i, &r) in ring.iter().enumerate() {
                 verdicts[r as usize] = v[i];
             }
@@ -827,11 +948,68 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             set_group(&mut work, &groups, *h, old[1], &mut sink);
         }
     }
-    let after = verdicts
-        .iter()
-        .fold(PatchCounts::default(), PatchCounts::with);
+    // After a cascade, last, the creases it made that are no longer needed: at each
+    // touched vertex, the groups that were one normal group in the input get one normal
+    // again (their corners' mean normal, or one of theirs), where every patch around stays
+    // certified.
+    if flattened > 0 {
+        let mut verts: Vec<u32> = touched.iter().map(|&g| groups.vertex[g as usize]).collect();
+        verts.sort_unstable();
+        verts.dedup();
+        for v in verts {
+            let at = groups.at_vertex[v as usize].clone();
+            let mut ring: Vec<u32> = at
+                .iter()
+                .flat_map(|&g| groups.corners(g).iter().map(|&c| c / 3))
+                .collect();
+            ring.sort_unstable();
+            ring.dedup();
+            if ring.iter().any(|&r| verdicts[r as usize] != Verdict::Valid) {
+                continue;
+            }
+            // Groups of the vertex by their input normal (one input group each).
+            let mut parts: Vec<([u64; 3], Vec<u32>)> = Vec::new();
+            for &g in &at {
+                let key = normal_key(groups.normal(mesh, g));
+                match parts.iter_mut().find(|(k, _)| *k == key) {
+                    Some((_, list)) => list.push(g),
+                    None => parts.push((key, vec![g])),
+                }
+            }
+            for (_, part) in parts {
+                let now: Vec<DVec3> = part.iter().map(|&g| groups.normal(&work, g)).collect();
+                if now.iter().all(|n| normal_key(*n) == normal_key(now[0])) {
+                    continue;
+                }
+                let mean = part
+                    .iter()
+                    .map(|&g| groups.normal(&work, g) * groups.corners(g).len() as f64)
+                    .sum::<DVec3>()
+                    .try_normalize();
+                let mut options: Vec<DVec3> = mean.into_iter().collect();
+                options.extend(now.iter().copied());
+                let mut sink = Vec::new();
+                for n in options {
+                    for &g in &part {
+                        set_group(&mut work, &groups, g, n, &mut sink);
+                    }
+                    if let Some(vs) = verdicts_upto(&work, (scheme, opts, &twins), &ring, 0)? {
+                        for (i, &r) in ring.iter().enumerate() {
+                            verdicts[r as usize] = vs[i];
+                            changed.insert(r);
+                        }
+                        break;
+                    }
+                    for (&g, &n) in part.iter().zip(&now) {
+                        set_group(&mut work, &groups, g, n, &mut sink);
+                    }
+                }
+            }
+        }
+    }
     let flipped = bad
         .iter()
+        .filter(|&&t| verdicts[t as usize] != Verdict::Valid)
         .filter(|&&t| {
             let tri = t as usize;
             let around: DVec3 = (0..3)
@@ -857,6 +1035,21 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     }
     let builder = PatchBuilder::new(&work, scheme, opts)?;
     let table = builder.table_of(&changed, 0)?;
+    // The verdicts reported are the certificate's alone (the search also refuses a G1
+    // patch whose cubic Lagrange element may fold, [`judge`]): those of the changed
+    // patches on the whole mesh's builder, the input's elsewhere.
+    let mut finals = verdicts0;
+    let again: Vec<Verdict> = (0..changed.len())
+        .into_par_iter()
+        .map(|i| certify(&table, i))
+        .collect();
+    for (&t, v) in changed.iter().zip(again) {
+        finals[t as usize] = v;
+    }
+    forget_verdicts();
+    let after = finals
+        .iter()
+        .fold(PatchCounts::default(), PatchCounts::with);
     let grid = grid_points(DISTANCE_LEVEL);
     let max_distance = changed
         .par_iter()
@@ -881,6 +1074,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         slivers_isolated: slivers,
         edges_made_creases: new_creases(mesh, &work),
         left_on_flipped_triangles: flipped,
+        triangles_flattened: flattened,
         rounds,
     };
     Ok(Some(Plan {
@@ -902,7 +1096,8 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
 /// flat. The cut between the two runs is placed, at each vertex, where the patches around
 /// it (the triangle's excepted) have the fewest uncertified and then the smallest
 /// [`badness`]. Kept where the certificate counts fewer uncertified patches around the
-/// triangle's vertices; its groups are then left alone by every later step. Returns
+/// triangle's vertices; its groups are then left alone by the search (only the last pass
+/// moves them back towards their input, where the certificate allows). Returns
 /// its groups, where it was kept. With `any`, a patch is isolated whatever the orientation
 /// of the triangles around it (the last resort for what the search leaves uncertified).
 #[allow(clippy::too_many_arguments)]
@@ -977,24 +1172,18 @@ fn isolate_sliver(
             r
         };
         let n = order.len();
-        let mut best: Option<(usize, f64, usize)> = None;
-        for j in 1..n - 1 {
+        let choice = fewest_uncertified(n.saturating_sub(2), grid, |i| {
+            let j = i + 1;
             let hb = groups.split(g, &order[j + 1..]);
             let na = perp(central_of(&order[1..=j], old), *e1);
             let nb = perp(central_of(&order[j + 1..], old), *e2);
             set_group(work, groups, g, na, &mut sink);
             set_group(work, groups, hb, nb, &mut sink);
-            let table = ring_table(work, scheme, opts, &around, twins)?;
-            let bad = (0..around.len())
-                .filter(|&i| check_patch(&table, i) != Verdict::Valid)
-                .count();
-            let b = badness(&table, grid);
+            let table = ring_table(work, scheme, opts, &around, twins);
             groups.unsplit(g, hb);
-            if best.is_none_or(|x| (bad, b) < (x.0, x.1)) {
-                best = Some((bad, b, j));
-            }
-        }
-        let Some((_, _, j)) = best else {
+            table
+        })?;
+        let Some(j) = choice.map(|i| i + 1) else {
             groups.unsplit(g, ht);
             set_group(work, groups, g, old, &mut sink);
             break;
@@ -1006,12 +1195,13 @@ fn isolate_sliver(
         set_group(work, groups, hb, nb, &mut sink);
         made.push((g, ht, hb, old));
     }
+    // Kept only with fewer uncertified patches than before (`was` ≥ 1: `t` is one).
     let v = if made.len() == 3 {
-        verdicts_of(work, scheme, opts, &ring, twins)?
+        verdicts_upto(work, (scheme, opts, twins), &ring, was.saturating_sub(1))?
     } else {
-        Vec::new()
+        None
     };
-    if made.len() == 3 && v.iter().filter(|x| **x != Verdict::Valid).count() < was {
+    if let Some(v) = v {
         for (i, &r) in ring.iter().enumerate() {
             verdicts[r as usize] = v[i];
             changed.insert(r);
@@ -1029,6 +1219,264 @@ fn isolate_sliver(
         set_group(work, groups, g, old, &mut sink);
     }
     Ok(None)
+}
+
+/// Whether corner `c` is flat: alone in its group, with its triangle's face normal (its two
+/// edges at the vertex then leave it along the edges, whatever the crease curve's other
+/// side, as long as that side's normal is perpendicular to the edge too or flat).
+fn flat_corner(work: &Mesh, groups: &Groups, faces: &[DVec3], c: u32) -> bool {
+    let g = groups.of_corner[c as usize];
+    groups.corners(g).len() == 1
+        && parallel(
+            work.corner_normals[c as usize / 3][c as usize % 3],
+            faces[c as usize / 3],
+        )
+}
+
+/// Whether unit vectors `a` and `b` are the same direction within 1e-9 radians: two
+/// triangles of one planar quad, whose face normals differ by rounding only.
+fn parallel(a: DVec3, b: DVec3) -> bool {
+    a.dot(b) > 0.0 && a.cross(b).length() <= 1e-9
+}
+
+/// The last resort of G1 (step 8 of the module documentation): every patch still
+/// uncertified is flattened, one at a time: its three corners get its face normal, each
+/// in a group of its own, and at each of its vertices the runs of the fan on either side
+/// get normals perpendicular to the edges they share with it ([`flatten_corner`]), so its
+/// three boundary curves are straight and its patch is flat, which the certificate
+/// certifies. A flattened triangle stays flat when a neighbour is flattened later: the
+/// runs are rebuilt with the constraints of every flat corner around them. The patches
+/// around that the flattening breaks are flattened in turn; each step flattens one more
+/// triangle for good, so the cascade ends, at the latest with every triangle flat.
+/// Returns the number of triangles flattened.
+#[allow(clippy::too_many_arguments)]
+fn flatten_cascade(
+    work: &mut Mesh,
+    groups: &mut Groups,
+    faces: &[DVec3],
+    ctx: (Scheme, &SchemeOptions, &[u32]),
+    verdicts: &mut [Verdict],
+    changed: &mut HashSet<u32>,
+    touched: &mut HashSet<u32>,
+    grid: &[[f64; 3]],
+) -> Result<usize> {
+    let (scheme, opts, twins) = ctx;
+    let mut flat: HashSet<u32> = HashSet::new();
+    let mut count = 0;
+    while let Some(t) = (0..verdicts.len() as u32)
+        .find(|&t| verdicts[t as usize] != Verdict::Valid && !flat.contains(&t))
+    {
+        flat.insert(t);
+        count += 1;
+        let tri = work.triangles[t as usize];
+        for k in 0..3 {
+            flatten_corner(work, groups, faces, ctx, 3 * t + k as u32, grid)?;
+        }
+        let mut ring: Vec<u32> = tri
+            .iter()
+            .flat_map(|&v| groups.at_vertex[v as usize].iter())
+            .flat_map(|&g| groups.corners(g).iter().map(|&c| c / 3))
+            .collect();
+        ring.sort_unstable();
+        ring.dedup();
+        let v = verdicts_of(work, scheme, opts, &ring, twins)?;
+        for (i, &r) in ring.iter().enumerate() {
+            verdicts[r as usize] = v[i];
+            changed.insert(r);
+        }
+        for &v in &tri {
+            touched.extend(groups.at_vertex[v as usize].iter().copied());
+        }
+    }
+    Ok(count)
+}
+
+/// Makes corner `c` flat ([`flat_corner`]) and gives the runs of its vertex's fan next to
+/// it normals perpendicular to the edges they share with flat corners: a run between two
+/// flat corners is cut in two, each part perpendicular to its own edge (a run of one
+/// triangle gets its face normal), a run with one flat end has a part next to it
+/// perpendicular to that edge and keeps its normal on the rest. Each part's normal is the
+/// central normal of its faces turned perpendicular to the edge; where the run is cut is
+/// chosen by the fewest uncertified patches around the vertex, then the smallest
+/// [`badness`]. At a vertex whose corners form no single fan, every corner there is made
+/// flat.
+fn flatten_corner(
+    work: &mut Mesh,
+    groups: &mut Groups,
+    faces: &[DVec3],
+    (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
+    c: u32,
+    grid: &[[f64; 3]],
+) -> Result<()> {
+    let v = work.triangles[c as usize / 3][c as usize % 3];
+    let mut sink = Vec::new();
+    // A flat corner gets its face normal, or bitwise the normal of a flat corner at the
+    // vertex with the same face normal to 1e-9 radians (the other half of a planar quad):
+    // the crease direction between two such normals would be their rounding error, their
+    // common normal keeps the edge between them smooth, and straight.
+    let make_flat = |work: &mut Mesh, groups: &mut Groups, x: u32, sink: &mut Vec<u32>| {
+        let f = faces[x as usize / 3];
+        let twin = groups.at_vertex[v as usize]
+            .iter()
+            .map(|&h| groups.corners(h)[0])
+            .filter(|&c| c != x && flat_corner(work, groups, faces, c))
+            .map(|c| work.corner_normals[c as usize / 3][c as usize % 3])
+            .find(|&n| parallel(n, f));
+        let g = groups.of_corner[x as usize];
+        let g = if groups.corners(g).len() > 1 {
+            groups.split(g, &[x])
+        } else {
+            g
+        };
+        set_group(work, groups, g, twin.unwrap_or(f), sink);
+    };
+    let all: Vec<u32> = groups.at_vertex[v as usize]
+        .iter()
+        .flat_map(|&g| groups.corners(g).iter().copied())
+        .collect();
+    let Some((order, closed)) = fan_order(work, &all) else {
+        for x in all {
+            make_flat(work, groups, x, &mut sink);
+        }
+        return Ok(());
+    };
+    make_flat(work, groups, c, &mut sink);
+    let n = order.len();
+    let Some(at) = order.iter().position(|&x| x == c) else {
+        return Ok(());
+    };
+    let mut ring: Vec<u32> = all.iter().map(|&x| x / 3).collect();
+    ring.sort_unstable();
+    ring.dedup();
+    // Fan positions as offsets from `at` in a closed fan; plain indices in an open one.
+    let step = |i: usize, d: isize| -> Option<usize> {
+        if closed {
+            Some((i as isize + d).rem_euclid(n as isize) as usize)
+        } else {
+            let j = i as isize + d;
+            (0..n as isize).contains(&j).then_some(j as usize)
+        }
+    };
+    // The edge from `v` shared by fan positions i and i + 1.
+    let edge_dir = |work: &Mesh, i: usize| {
+        let x = order[i] as usize;
+        let w = work.triangles[x / 3][(x % 3 + 2) % 3];
+        (work.positions[w as usize] - work.positions[v as usize]).normalize_or_zero()
+    };
+    for d in [-1isize, 1] {
+        let Some(start) = step(at, d) else {
+            continue;
+        };
+        let s0 = order[start];
+        if flat_corner(work, groups, faces, s0) {
+            continue;
+        }
+        let g = groups.of_corner[s0 as usize];
+        // The run: from `start` away from `c` while in the same group and not flat.
+        let mut run = vec![start];
+        let mut i = start;
+        while let Some(j) = step(i, d) {
+            if j == at
+                || groups.of_corner[order[j] as usize] != g
+                || flat_corner(work, groups, faces, order[j])
+            {
+                break;
+            }
+            run.push(j);
+            i = j;
+        }
+        let far = step(i, d).filter(|&j| flat_corner(work, groups, faces, order[j]));
+        // In fan order: `run` from the lower end; the edge at each flat end.
+        let (near_edge, far_edge) = if d > 0 {
+            (
+                edge_dir(work, (start + n - 1) % n),
+                far.map(|_| edge_dir(work, i)),
+            )
+        } else {
+            (edge_dir(work, start), far.map(|j| edge_dir(work, j)))
+        };
+        let corners: Vec<u32> = run.iter().map(|&j| order[j]).collect();
+        // `corners` runs from the flat corner `c` outwards.
+        let h = if groups.corners(g).len() > corners.len() {
+            groups.split(g, &corners)
+        } else {
+            g
+        };
+        let old = groups.normal(work, h);
+        let m = corners.len();
+        if far_edge.is_some() && m == 1 {
+            make_flat(work, groups, corners[0], &mut sink);
+            continue;
+        }
+        let perp = |n: DVec3, e: DVec3| (n - n.dot(e) * e).try_normalize().unwrap_or(n);
+        let central_of = |cs: &[u32]| {
+            let f: Vec<DVec3> = cs.iter().map(|&x| faces[x as usize / 3]).collect();
+            central(&f, old)
+        };
+        // Option j: the first j corners (from `c`) perpendicular to the near edge, the rest
+        // perpendicular to the far edge, or keeping their normal.
+        let js: Vec<usize> = match far_edge {
+            Some(_) => (1..m).collect(),
+            None => (1..=m).collect(),
+        };
+        let apply = |work: &mut Mesh, groups: &mut Groups, j: usize, sink: &mut Vec<u32>| {
+            let rest = (j < m).then(|| groups.split(h, &corners[j..]));
+            set_group(
+                work,
+                groups,
+                h,
+                perp(central_of(&corners[..j]), near_edge),
+                sink,
+            );
+            if let (Some(r), Some(e)) = (rest, far_edge) {
+                set_group(work, groups, r, perp(central_of(&corners[j..]), e), sink);
+            }
+            rest
+        };
+        let choice = fewest_uncertified(js.len(), grid, |i| {
+            let rest = apply(work, groups, js[i], &mut sink);
+            let table = ring_table(work, scheme, opts, &ring, twins);
+            if let Some(r) = rest {
+                groups.unsplit(h, r);
+            }
+            set_group(work, groups, h, old, &mut sink);
+            table
+        })?;
+        if let Some(i) = choice {
+            apply(work, groups, js[i], &mut sink);
+        }
+    }
+    Ok(())
+}
+
+/// Of `n` trials, the one whose patches (`table_of(i)`, the trial undone again) have the
+/// fewest uncertified, then the smallest [`badness`], then the smallest index. Every
+/// trial's badness is measured first; they are then certified in order of (badness,
+/// index), each only as far as it could still win (one uncertified patch fewer than the
+/// best so far).
+fn fewest_uncertified(
+    n: usize,
+    grid: &[[f64; 3]],
+    mut table_of: impl FnMut(usize) -> Result<PatchTable>,
+) -> Result<Option<usize>> {
+    let mut b = Vec::with_capacity(n);
+    for i in 0..n {
+        b.push(badness(&table_of(i)?, grid));
+    }
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&x, &y| b[x].total_cmp(&b[y]).then(x.cmp(&y)));
+    let mut best: Option<(usize, usize)> = None;
+    for i in order {
+        let limit = match best {
+            Some((0, _)) => break,
+            Some((bad, _)) => bad - 1,
+            None => usize::MAX,
+        };
+        if let Some(bad) = uncertified_upto(&table_of(i)?, limit) {
+            best = Some((bad, i));
+        }
+    }
+    Ok(best.map(|(_, i)| i))
 }
 
 /// A cut of one vertex's normal group into two: the groups, the triangles around the
@@ -1096,9 +1544,34 @@ fn best_cut(
     grid: &[[f64; 3]],
 ) -> Result<Option<Cut>> {
     let nf = faces[t];
-    // (uncertified, badness, group, corners of the second run)
-    type Candidate = (usize, f64, u32, Vec<u32>);
-    let mut best: Option<Candidate> = None;
+    // Cuts are scored by the fewest uncertified patches around their vertex, then the
+    // smallest badness, then the order they are listed in. All are listed with their
+    // badness first; certified in order of (badness, listing), a cut only needs its count
+    // up to one less than the best's so far (as many, it loses on badness or order), and
+    // up to the ring's count before (one less where its badness is not 10 % smaller).
+    struct Listed {
+        b: f64,
+        group: u32,
+        run: Vec<u32>,
+        /// Index of the group's ring in `rings`.
+        ring: usize,
+    }
+    let mut listed: Vec<Listed> = Vec::new();
+    // (ring, uncertified patches on it now, its badness now)
+    let mut rings: Vec<(Vec<u32>, usize, f64)> = Vec::new();
+    let set_cut = |work: &mut Mesh, groups: &mut Groups, g: u32, run: &[u32]| {
+        let h = groups.split(g, run);
+        let mut sink = Vec::new();
+        for x in [g, h] {
+            let f: Vec<DVec3> = groups
+                .corners(x)
+                .iter()
+                .map(|&c| faces[c as usize / 3])
+                .collect();
+            set_group(work, groups, x, central(&f, nf), &mut sink);
+        }
+        h
+    };
     for k in 0..3 {
         let g = groups.of_corner[3 * t + k];
         let cs = groups.corners(g).to_vec();
@@ -1137,35 +1610,52 @@ fn best_cut(
         }
         let old = groups.normal(work, g);
         for run in runs {
-            let h = groups.split(g, &run);
-            let mut sink = Vec::new();
-            for x in [g, h] {
-                let f: Vec<DVec3> = groups
-                    .corners(x)
-                    .iter()
-                    .map(|&c| faces[c as usize / 3])
-                    .collect();
-                set_group(work, groups, x, central(&f, nf), &mut sink);
-            }
-            let table = ring_table(work, scheme, opts, &ring, twins)?;
-            let bad = (0..ring.len())
-                .filter(|&i| check_patch(&table, i) != Verdict::Valid)
-                .count();
-            let b = badness(&table, grid);
+            let h = set_cut(work, groups, g, &run);
+            let b = badness(&ring_table(work, scheme, opts, &ring, twins)?, grid);
             groups.unsplit(g, h);
-            set_group(work, groups, g, old, &mut sink);
-            // Fewer uncertified patches, or as many and a clearly smaller shortfall (a
-            // patch with two bad corners needs a cut at each: the first alone certifies
-            // nothing).
-            let helps = bad < was || (bad == was && b < 0.9 * b0);
-            if helps && best.as_ref().is_none_or(|x| (bad, b) < (x.0, x.1)) {
-                best = Some((bad, b, g, run));
-            }
+            set_group(work, groups, g, old, &mut Vec::new());
+            listed.push(Listed {
+                b,
+                group: g,
+                run,
+                ring: rings.len(),
+            });
+        }
+        rings.push((ring, was, b0));
+    }
+    let mut by_badness: Vec<usize> = (0..listed.len()).collect();
+    by_badness.sort_by(|&x, &y| listed[x].b.total_cmp(&listed[y].b).then(x.cmp(&y)));
+    // (uncertified, index in `listed`)
+    let mut best: Option<(usize, usize)> = None;
+    for i in by_badness {
+        let c = &listed[i];
+        let (ring, was, b0) = &rings[c.ring];
+        // Fewer uncertified patches, or as many and a clearly smaller shortfall (a patch
+        // with two bad corners needs a cut at each: the first alone certifies nothing).
+        let mut limit = if c.b < 0.9 * b0 {
+            Some(*was)
+        } else {
+            was.checked_sub(1)
+        };
+        if let Some((bad, _)) = best {
+            limit = limit.min(bad.checked_sub(1));
+        }
+        let Some(limit) = limit else {
+            continue;
+        };
+        let old = groups.normal(work, c.group);
+        let h = set_cut(work, groups, c.group, &c.run);
+        let counted = uncertified_upto(&ring_table(work, scheme, opts, ring, twins)?, limit);
+        groups.unsplit(c.group, h);
+        set_group(work, groups, c.group, old, &mut Vec::new());
+        if let Some(bad) = counted {
+            best = Some((bad, i));
         }
     }
-    let Some((_, _, g, run)) = best else {
+    let Some((_, i)) = best else {
         return Ok(None);
     };
+    let (g, run) = (listed[i].group, listed[i].run.clone());
     let h = groups.split(g, &run);
     let mut sink = Vec::new();
     for x in [g, h] {
@@ -1294,7 +1784,131 @@ fn verdicts_of(
     twins: &[u32],
 ) -> Result<Vec<Verdict>> {
     let table = ring_table(work, scheme, opts, tris, twins)?;
-    Ok((0..tris.len()).map(|i| check_patch(&table, i)).collect())
+    Ok((0..tris.len())
+        .into_par_iter()
+        .map(|i| judge(&table, i))
+        .collect())
+}
+
+/// The number of uncertified patches of `table` ([`certify`]), or `None` as soon as it
+/// exceeds `limit` (the rest is not certified).
+///
+/// A patch with J < −1e-9 |S_s| |S_t| at a point of a grid of level 8 (far beyond the
+/// rounding of the evaluation: J is negative there) is counted without its certificate,
+/// which cannot prove it valid; the others are certified after them.
+fn uncertified_upto(table: &PatchTable, limit: usize) -> Option<usize> {
+    let grid = grid_points(SURE_LEVEL);
+    // Smallest J / (|S_s| |S_t|) on the grid, and whether J is surely negative there.
+    let low: Vec<(f64, bool)> = (0..table.len())
+        .map(|i| {
+            grid.iter().fold((f64::INFINITY, false), |(m, sure), &b| {
+                let (j, scale) = super::validity::jacobian(table, i, b);
+                let sj = if scale > 0.0 { j / scale } else { -1.0 };
+                (m.min(sj), sure || j < -1e-9 * scale)
+            })
+        })
+        .collect();
+    let mut n = low.iter().filter(|x| x.1).count();
+    if n > limit {
+        return None;
+    }
+    // The rest, closest to folding first, a few at a time in parallel.
+    let mut rest: Vec<usize> = (0..table.len()).filter(|&i| !low[i].1).collect();
+    rest.sort_by(|&a, &b| low[a].0.total_cmp(&low[b].0).then(a.cmp(&b)));
+    for chunk in rest.chunks(rayon::current_num_threads().max(1)) {
+        n += chunk
+            .par_iter()
+            .filter(|&&i| judge(table, i) != Verdict::Valid)
+            .count();
+        if n > limit {
+            return None;
+        }
+    }
+    Some(n)
+}
+
+/// Grid level at which [`uncertified_upto`] looks for points where J is surely negative.
+const SURE_LEVEL: u32 = 8;
+
+/// The verdicts of the patches of `tris` on `work`, or `None` as soon as more than
+/// `limit` of them are uncertified ([`uncertified_upto`]).
+fn verdicts_upto(
+    work: &Mesh,
+    (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
+    tris: &[u32],
+    limit: usize,
+) -> Result<Option<Vec<Verdict>>> {
+    let table = ring_table(work, scheme, opts, tris, twins)?;
+    if uncertified_upto(&table, limit).is_none() {
+        return Ok(None);
+    }
+    Ok(Some(
+        (0..tris.len())
+            .into_par_iter()
+            .map(|i| judge(&table, i))
+            .collect(),
+    ))
+}
+
+/// Most verdicts [`certify`] keeps before it starts afresh (each key is 57 words).
+const MAX_KEPT_VERDICTS: usize = 1 << 18;
+
+/// Verdicts by the bit patterns of a patch's control points and flat normal.
+type VerdictMap = HashMap<Box<[u64]>, Verdict>;
+
+/// Verdicts of the patches the search has certified, by the bit patterns of their control
+/// points and flat normal: the search builds the same patch again and again (the patches
+/// around a vertex that a trial leaves as they were), and [`check_patch`] is a function of
+/// these alone.
+static VERDICTS: Mutex<Option<VerdictMap>> = Mutex::new(None);
+
+/// Smallest [`lagrange3_bound`] the search accepts: far above the rounding of this and of
+/// `export-msh`'s computation of the same coefficients.
+const LAGRANGE_MARGIN: f64 = 1e-6;
+
+/// The search's verdict on patch `i` of `table`: the certificate's ([`certify`]), except
+/// that a certified G1 patch whose cubic Lagrange element (the nodes `export-msh` writes
+/// at order 3) may fold ([`lagrange3_bound`] at most [`LAGRANGE_MARGIN`]) counts as
+/// undecided, so that the repair gives solvers elements that do not fold either.
+fn judge(table: &PatchTable, i: usize) -> Verdict {
+    let v = certify(table, i);
+    if v == Verdict::Valid
+        && table.scheme == Scheme::G1
+        && lagrange3_bound(table, i) <= LAGRANGE_MARGIN
+    {
+        return Verdict::Undecided;
+    }
+    v
+}
+
+/// [`check_patch`] of patch `i` of `table`, remembered in [`VERDICTS`].
+fn certify(table: &PatchTable, i: usize) -> Verdict {
+    let key: Box<[u64]> = table
+        .patch(i)
+        .iter()
+        .chain(std::iter::once(&table.flat_normals[i]))
+        .flat_map(|p| p.to_array().map(f64::to_bits))
+        .collect();
+    let kept = |m: &Mutex<Option<VerdictMap>>| {
+        let m = m.lock().unwrap_or_else(|e| e.into_inner());
+        m.as_ref().and_then(|m| m.get(&key).copied())
+    };
+    if let Some(v) = kept(&VERDICTS) {
+        return v;
+    }
+    let v = check_patch(table, i);
+    let mut m = VERDICTS.lock().unwrap_or_else(|e| e.into_inner());
+    let m = m.get_or_insert_with(HashMap::new);
+    if m.len() >= MAX_KEPT_VERDICTS {
+        m.clear();
+    }
+    m.insert(key, v);
+    v
+}
+
+/// Forgets what [`certify`] kept (at the end of a search).
+fn forget_verdicts() {
+    *VERDICTS.lock().unwrap_or_else(|e| e.into_inner()) = None;
 }
 
 /// How far the patches of `table` are from a scaled Jacobian J/(|S_s| |S_t|) of
@@ -1329,4 +1943,106 @@ fn grid_points(level: u32) -> Vec<[f64; 3]> {
         }
     }
     out
+}
+
+/// Barycentric multi-indices of degree `n` (i for b_0, j for b_1, k for b_2).
+fn multi_indices(n: usize) -> Vec<[usize; 3]> {
+    let mut out = Vec::new();
+    for i in (0..=n).rev() {
+        for j in (0..=n - i).rev() {
+            out.push([i, j, n - i - j]);
+        }
+    }
+    out
+}
+
+/// n! / (α_0! α_1! α_2!).
+fn multinomial(a: [usize; 3]) -> f64 {
+    let f = |k: usize| (1..=k).map(|x| x as f64).product::<f64>();
+    f(a[0] + a[1] + a[2]) / (f(a[0]) * f(a[1]) * f(a[2]))
+}
+
+/// The Bézier control points of the cubic that interpolates `x` at the points
+/// (i, j, k)/3 of [`multi_indices`]`(3)` (Gauss–Jordan on the 10 × 10 Bernstein matrix).
+fn cubic_through(x: &[DVec3; 10]) -> [DVec3; 10] {
+    let idx = multi_indices(3);
+    let mut m = [[0.0f64; 10]; 10];
+    let mut rhs = *x;
+    for (r, node) in idx.iter().enumerate() {
+        let b = node.map(|v| v as f64 / 3.0);
+        for (c, a) in idx.iter().enumerate() {
+            m[r][c] = multinomial(*a)
+                * b[0].powi(a[0] as i32)
+                * b[1].powi(a[1] as i32)
+                * b[2].powi(a[2] as i32);
+        }
+    }
+    for col in 0..10 {
+        let piv = (col..10)
+            .max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))
+            .unwrap_or(col);
+        m.swap(col, piv);
+        rhs.swap(col, piv);
+        let d = m[col][col];
+        let pivot_row = m[col].map(|x| x / d);
+        m[col] = pivot_row;
+        rhs[col] /= d;
+        let pivot_rhs = rhs[col];
+        for (r, (row, y)) in m.iter_mut().zip(rhs.iter_mut()).enumerate() {
+            if r != col && row[col] != 0.0 {
+                let f = row[col];
+                for (x, p) in row.iter_mut().zip(&pivot_row) {
+                    *x -= f * p;
+                }
+                *y -= f * pivot_rhs;
+            }
+        }
+    }
+    rhs
+}
+
+/// The smallest Bernstein coefficient of J = (X_u × X_v) · n_f of the cubic Lagrange
+/// triangle through patch `i` of `table` at the points (i, j, k)/3 (the element of order 3
+/// that `export-msh` writes, u and v along b_1 and b_2), over the largest |coefficient|:
+/// where it is positive the element cannot fold.
+fn lagrange3_bound(table: &PatchTable, i: usize) -> f64 {
+    let idx3 = multi_indices(3);
+    let x: [DVec3; 10] = std::array::from_fn(|r| table.eval(i, idx3[r].map(|v| v as f64 / 3.0)).p);
+    let c = cubic_through(&x);
+    let at = |a: [usize; 3]| c[idx3.iter().position(|x| *x == a).unwrap_or(0)];
+    let idx2 = multi_indices(2);
+    let du: Vec<DVec3> = idx2
+        .iter()
+        .map(|a| 3.0 * (at([a[0], a[1] + 1, a[2]]) - at([a[0] + 1, a[1], a[2]])))
+        .collect();
+    let dv: Vec<DVec3> = idx2
+        .iter()
+        .map(|a| 3.0 * (at([a[0], a[1], a[2] + 1]) - at([a[0] + 1, a[1], a[2]])))
+        .collect();
+    let n = table.flat_normals[i];
+    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    for g in multi_indices(4) {
+        let mut s = 0.0;
+        for (p, a) in idx2.iter().enumerate() {
+            let b = [
+                g[0] as isize - a[0] as isize,
+                g[1] as isize - a[1] as isize,
+                g[2] as isize - a[2] as isize,
+            ];
+            if b.iter().any(|&x| x < 0) {
+                continue;
+            }
+            let b = b.map(|x| x as usize);
+            let q = idx2.iter().position(|x| *x == b).unwrap_or(0);
+            s += multinomial(*a) * multinomial(b) * du[p].cross(dv[q]).dot(n);
+        }
+        let s = s / multinomial(g);
+        lo = lo.min(s);
+        hi = hi.max(s.abs());
+    }
+    if hi > 0.0 {
+        lo / hi
+    } else {
+        0.0
+    }
 }
