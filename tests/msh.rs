@@ -541,6 +541,59 @@ fn jacobian_bound_is_conservative() {
     }
 }
 
+/// Three pages of two triangles each around one spine edge (a non-manifold edge), with
+/// creases between the pages: each page's G1 patch has its own boundary curve on the spine,
+/// so each page's element gets its own spine nodes, on its own patch.
+#[test]
+fn a_non_manifold_edge_with_split_normals_gets_nodes_per_triangle() {
+    let (a, b) = ([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+    let mut pos = vec![a, b];
+    let mut tris = Vec::new();
+    for deg in [0.0f64, 100.0, 200.0] {
+        let (s, c) = deg.to_radians().sin_cos();
+        // C on the page's plane; D out of it, so that the page folds by about 15° at B and
+        // its normal at B leans off the spine's perpendicular: the spine curve bends.
+        pos.push([c, s, 0.3]);
+        pos.push([0.8 * c - 0.25 * s, 0.8 * s + 0.25 * c, 1.6]);
+        let (ci, di) = (pos.len() as u32 - 2, pos.len() as u32 - 1);
+        tris.push([0, ci, 1]);
+        tris.push([1, ci, di]);
+    }
+    // Pages 100° apart are split by a crease angle of 30°; a page's 15° fold is not.
+    let opts = LoadOptions {
+        crease_angle: Some(30.0),
+        ..LoadOptions::default()
+    };
+    let mesh = Mesh::from_soup("book", &pos, &tris, None, &opts).unwrap();
+    let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let ho = build(&mesh, &table, 3, &NoProgress).unwrap();
+    // 8 vertices; 2 nodes on each of 12 page edges and on each page's own spine; 1 interior
+    // node per triangle.
+    assert_eq!(ho.nodes.len(), 8 + 2 * (12 + 3) + 6);
+    let mut spines = Vec::new();
+    for t in [0, 2, 4] {
+        // Element edge 2 runs from corner 2 (B) to corner 0 (A): nodes 7 and 8 of Gmsh's
+        // order, at 1/3 and 2/3 of the way.
+        let e = ho.element(t);
+        let nodes = [ho.nodes[e[7] as usize], ho.nodes[e[8] as usize]];
+        // Up to rounding only: the writer places a node at 1 − (1 − j/3), not j/3.
+        for (x, b) in nodes
+            .iter()
+            .zip([[1.0 / 3.0, 0.0, 2.0 / 3.0], [2.0 / 3.0, 0.0, 1.0 / 3.0]])
+        {
+            let d = x.distance(table.eval(t, b).p);
+            assert!(d < 1e-14, "triangle {t}: {d:e} off its patch");
+        }
+        spines.push(nodes);
+    }
+    // The three curves differ (by far more than rounding): one shared set of nodes would put
+    // two of the elements off their patches.
+    for i in 0..3 {
+        let j = (i + 1) % 3;
+        assert!(spines[i][0].distance(spines[j][0]) > 1e-3, "{spines:?}");
+    }
+}
+
 #[test]
 fn boundary_lines_and_flat_nodes_on_a_square() {
     // Two triangles of the unit square: four boundary edges, one interior diagonal. The flat

@@ -75,16 +75,13 @@ def test_node_order_matches_gmsh_reference_nodes(cli, tmp_path, g):
 
 # Elements our conservative bound flags at order 3 after `--repair-folds` (deterministic).
 # The repair certifies every G1 patch and refuses patches whose cubic element may fold, so
-# none is left on the bunny. On Suzanne two are: elements 270 and 271, its doubled triangle
-# (the same three vertices in both orders, standing in the symmetry plane x = 0, on its
-# non-manifold edge). Its input normals lie in that plane, perpendicular to the triangle,
-# and both elements are degenerate already without the repair (J vanishes at a corner to
-# rounding). The repair gives each copy normals leaning to its own side (each patch, and
-# the cubic element through its own patch, is valid: min J / max |J| = 2.0e-3), but
-# the two copies' boundary curves on their non-manifold edge then differ, and the export
-# writes that edge's nodes once, from the lower-indexed triangle: the other element's
-# edge nodes are not on its patch.
-REPAIRED_FLAGGED = {"stanford-bunny.obj": 0, "suzanne.obj": 2, "spot.obj": 0, "fandisk.obj": 0}
+# none is left. Suzanne's doubled triangle (elements 270 and 271: the same three vertices
+# in both orders, standing in the symmetry plane x = 0, on its non-manifold edges) is
+# degenerate without the repair, its input normals lying in its plane. The repair gives
+# each copy normals leaning to its own side, so the copies' boundary curves on those
+# non-manifold edges differ, and each element gets edge nodes of its own there, on its own
+# patch.
+REPAIRED_FLAGGED = {"stanford-bunny.obj": 0, "suzanne.obj": 0, "spot.obj": 0, "fandisk.obj": 0}
 # Suzanne's doubled triangle (element tags).
 DOUBLED = {270, 271}
 
@@ -114,7 +111,7 @@ def test_gmsh_jacobians_on_the_test_meshes(cli, tmp_path, g):
             assert len(ours) == s["nonpositive_jacobian_elements"]
             flagged_by[bool(extra)] = (flagged, ours)
             if m in ("spot.obj", "fandisk.obj") or (extra and REPAIRED_FLAGGED[m] == 0):
-                # Smooth input, or the bunny repaired: no element folds; Gmsh agrees.
+                # Smooth input, or repaired: no element folds; Gmsh agrees.
                 assert not flagged and not ours and s["min_scaled_jacobian"] > 0, (m, extra)
         # The repair leaves fewer elements that Gmsh or our bound finds non-positive, and
         # exactly as many as it leaves folded patches imply (see REPAIRED_FLAGGED).
@@ -124,8 +121,8 @@ def test_gmsh_jacobians_on_the_test_meshes(cli, tmp_path, g):
         if m in ("stanford-bunny.obj", "suzanne.obj"):
             assert len(f1) < len(f0), m
         if m == "suzanne.obj":
-            # What is left is the doubled triangle only, flagged without the repair too.
-            assert f1 <= o1 == DOUBLED and DOUBLED <= o0, (f1, o1)
+            # The doubled triangle is flagged without the repair (by our bound), not after.
+            assert DOUBLED <= o0 and not DOUBLED & o1, (o0, o1)
 
 
 def read_views(g):

@@ -71,7 +71,17 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
         need,
         &format!("about {nodes} nodes"),
     )?;
-    let table = crate::patch::PatchTable::build(&mesh, a.input.scheme, &a.input.scheme_options())?;
+    // With --repair-folds the elements are those of the repaired mesh, whose creases (the
+    // repair's new ones too) go into the crease group, and whose split normals decide where
+    // a non-manifold edge's triangles get edge nodes of their own.
+    let mut opts = a.input.scheme_options();
+    let mesh = if opts.repair_folds {
+        opts.repair_folds = false;
+        crate::patch::repair::repair(&mesh, a.input.scheme, &a.input.scheme_options())?.0
+    } else {
+        mesh
+    };
+    let table = crate::patch::PatchTable::build(&mesh, a.input.scheme, &opts)?;
     let bar = progress::bar(nt, "placing nodes", "triangles", a.quiet);
     let summary = export_msh(&mesh, &table, a.order, a.binary, &a.output, &bar)?;
     bar.finish();

@@ -9,7 +9,11 @@
 //! vertex k of the element. Every node is the f64 evaluation of the patch there; vertices
 //! are the input positions bit for bit. Shared nodes are written once: an edge's nodes are
 //! evaluated by its first triangle (the lowest index), at fractions j/P from its lower vertex
-//! id, and every triangle on the edge refers to them.
+//! id, and every triangle on the edge refers to them. The exception is a non-manifold edge
+//! (three or more triangles) whose triangles disagree on an end's normal: the patch schemes
+//! join only the two triangles of an interior edge into one boundary curve, so there each
+//! triangle's patch has a boundary curve of its own, and each triangle gets edge nodes of
+//! its own on that edge, evaluated on its own patch.
 //!
 //! For each element two numbers are computed and written as `$ElementData` views (and the
 //! worst of each returned in [`MshSummary`]):
@@ -39,7 +43,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::atomic::write_atomic_with;
-use crate::mesh::{creases, Mesh};
+use crate::mesh::{creases, EdgeUse, Mesh};
 use crate::patch::basis::Weights;
 use crate::patch::PatchTable;
 use crate::progress::Progress;
@@ -224,8 +228,9 @@ pub struct ElementQuality {
 pub struct HighOrderMesh {
     pub order: u32,
     /// Node positions; node tag = index + 1. The input vertices first (same order), then the
-    /// edge nodes (P − 1 per edge, edges in the adjacency's order, from the lower vertex id),
-    /// then the interior nodes of each triangle.
+    /// edge nodes (P − 1 per edge, edges in the adjacency's order, from the lower vertex id;
+    /// P − 1 per triangle on a non-manifold edge with split normals, in the edge's use
+    /// order: see the module documentation), then the interior nodes of each triangle.
     pub nodes: Vec<DVec3>,
     /// [`triangle_node_count`] node indices per triangle, in Gmsh's order; triangle t of the
     /// mesh is element t.
@@ -272,9 +277,29 @@ pub fn build(
     let p = order;
     let pu = p as usize;
     let adjacency = mesh.adjacency();
-    let crease = creases::crease_edges(mesh, &adjacency);
+    let split = creases::split_ends(mesh, &adjacency);
+    let crease: Vec<bool> = split
+        .iter()
+        .zip(&adjacency.edges)
+        .map(|(s, e)| e.is_interior() && (s[0] || s[1]))
+        .collect();
     let nv = mesh.positions.len();
-    let ne = adjacency.edges.len();
+    // Blocks of edge nodes: one per edge, or one per use of a non-manifold edge whose uses
+    // disagree on an end's normal (each use's patch has its own boundary curve there). A
+    // block is (edge, the use that evaluates it).
+    let mut blocks: Vec<(usize, EdgeUse)> = Vec::with_capacity(adjacency.edges.len());
+    // Block of each half-edge (3t + k).
+    let mut use_block = vec![0u32; 3 * nt];
+    for (e, edge) in adjacency.edges.iter().enumerate() {
+        let own = edge.uses.len() > 2 && (split[e][0] || split[e][1]);
+        for (i, u) in edge.uses.iter().enumerate() {
+            if own || i == 0 {
+                blocks.push((e, *u));
+            }
+            use_block[u.half_edge() as usize] = (blocks.len() - 1) as u32;
+        }
+    }
+    let ne = blocks.len();
     let per_edge = pu - 1;
     let lattice = triangle_nodes(p);
     let interior: Vec<[u32; 2]> = lattice[3 + 3 * per_edge..].to_vec();
@@ -293,21 +318,13 @@ pub fn build(
         )
     };
     progress.start("placing nodes", nt as u64);
-    // Edge of each half-edge (3t + k).
-    let mut use_edge = vec![0u32; 3 * nt];
-    for (e, edge) in adjacency.edges.iter().enumerate() {
-        for u in &edge.uses {
-            use_edge[u.half_edge() as usize] = e as u32;
-        }
-    }
     let mut nodes = Vec::with_capacity(total);
     nodes.extend_from_slice(&mesh.positions);
     let pf = p as f64;
-    let edge_nodes: Vec<Vec<DVec3>> = adjacency
-        .edges
+    let edge_nodes: Vec<Vec<DVec3>> = blocks
         .par_iter()
-        .map(|edge| {
-            let u = edge.uses[0];
+        .map(|&(e, u)| {
+            let edge = &adjacency.edges[e];
             let t = u.triangle as usize;
             let k = u.local as usize;
             let tri = mesh.triangles[t];
@@ -369,7 +386,7 @@ pub fn build(
     // Node i (1..p) of the way along element edge k of triangle t.
     let edge_node = |t: usize, k: usize, i: usize| -> u32 {
         let tri = mesh.triangles[t];
-        let e = use_edge[3 * t + k];
+        let e = use_block[3 * t + k];
         let forward = tri[k] < tri[(k + 1) % 3];
         let j = if forward { i - 1 } else { pu - 1 - i };
         edge_base(e) + j as u32
