@@ -662,6 +662,51 @@ fn boundary_lines_and_flat_nodes_on_a_square() {
     }
 }
 
+/// The bunny's 7 folded G1 patches (tests/validity.rs) give 7 order-3 elements whose bound
+/// is not positive: `export-msh` says so in two warning lines. With `--repair-folds` it
+/// prints the repair's report instead, puts the repair's 14 new creases into the crease
+/// group, and no element may fold.
+#[test]
+fn cli_warns_of_folds_and_exports_the_repaired_mesh() {
+    let bunny = common::shared_spec("stanford-bunny.obj");
+    let run = |extra: &[&str], name: &str| {
+        let path = out(name);
+        let o = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+            .args(["export-msh", &bunny, "--order", "3", "--json", "-o"])
+            .arg(&path)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (String::from_utf8_lossy(&o.stderr).into_owned(), summary)
+    };
+    let (err, s) = run(&[], "bunny-folded.msh");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(
+        lines,
+        [
+            "warning: stanford-bunny.obj: 7 of 69451 g1 patches are folded (their normal turns \
+             over inside the patch), 0 undecided",
+            "warning: stanford-bunny.obj: 7 of 69451 elements of order 3 may fold (their \
+             Jacobian bound is not positive); --repair-folds repairs folded patches"
+        ]
+    );
+    assert_eq!(s["nonpositive_jacobian_elements"], 7);
+    assert_eq!(s["crease_lines"], 0);
+    let (err, s) = run(&["--repair-folds"], "bunny-repaired.msh");
+    assert!(
+        err.starts_with(
+            "stanford-bunny.obj: g1 fold repair: 7 folded and 0 undecided patches \
+             before, 0 folded and 0 undecided after;"
+        ) && err.lines().count() == 1,
+        "{err}"
+    );
+    assert_eq!(s["nonpositive_jacobian_elements"], 0);
+    assert!(s["min_scaled_jacobian"].as_f64().unwrap() > 0.0);
+    assert_eq!(s["crease_lines"], 14);
+}
+
 #[test]
 fn cli_refuses_bad_orders_and_writes_stdout() {
     let bin = env!("CARGO_BIN_EXE_g1tess");

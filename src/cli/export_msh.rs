@@ -75,16 +75,49 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
     // repair's new ones too) go into the crease group, and whose split normals decide where
     // a non-manifold edge's triangles get edge nodes of their own.
     let mut opts = a.input.scheme_options();
-    let mesh = if opts.repair_folds {
+    let (mesh, repair) = if opts.repair_folds {
         opts.repair_folds = false;
-        crate::patch::repair::repair(&mesh, a.input.scheme, &a.input.scheme_options())?.0
+        let (m, r) =
+            crate::patch::repair::repair(&mesh, a.input.scheme, &a.input.scheme_options())?;
+        (m, Some(r))
     } else {
-        mesh
+        (mesh, None)
     };
     let table = crate::patch::PatchTable::build(&mesh, a.input.scheme, &opts)?;
+    // The line `tessellate` and `render` print: the repair's report, or the folded patches.
+    let folds = match &repair {
+        Some(r) => {
+            let c = crate::patch::validity::count(&table);
+            let line = r.to_text(&mesh.name, a.input.scheme);
+            Some(if c.folded > 0 || c.undecided > 0 {
+                format!("warning: {line}")
+            } else {
+                line
+            })
+        }
+        None => crate::patch::validity::fold_line(&mesh.name, &table),
+    };
+    if let Some(line) = folds {
+        eprintln!("{line}");
+    }
     let bar = progress::bar(nt, "placing nodes", "triangles", a.quiet);
     let summary = export_msh(&mesh, &table, a.order, a.binary, &a.output, &bar)?;
     bar.finish();
+    if summary.nonpositive_jacobian_elements > 0 {
+        eprintln!(
+            "warning: {}: {} of {} elements of order {} may fold (their Jacobian bound is not \
+             positive){}",
+            mesh.name,
+            summary.nonpositive_jacobian_elements,
+            summary.triangles,
+            summary.order,
+            if repair.is_none() {
+                "; --repair-folds repairs folded patches"
+            } else {
+                ""
+            }
+        );
+    }
     if a.json {
         let mut v = serde_json::to_value(&summary)?;
         v["output"] = a.output.display().to_string().into();
