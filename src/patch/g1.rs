@@ -294,11 +294,46 @@ pub fn edge_curve(
     ))
 }
 
+/// Whether some vertex gets two different normals from its corners (compared bitwise, by
+/// [`normal_key`]). Without such a vertex no edge is a crease: [`edge_curve`] is `None` for
+/// every edge. One pass over the corners, 4 bytes per vertex; `true` (look edge by edge)
+/// where the corners cannot be numbered in 32 bits or a corner names no vertex.
+pub fn any_split_normals(mesh: &Mesh) -> bool {
+    let corners = 3 * mesh.triangles.len();
+    if corners >= u32::MAX as usize || mesh.corner_normals.len() != mesh.triangles.len() {
+        return true;
+    }
+    let mut first = vec![u32::MAX; mesh.positions.len()];
+    for (t, (tri, normals)) in mesh.triangles.iter().zip(&mesh.corner_normals).enumerate() {
+        for k in 0..3 {
+            let Some(f) = first.get_mut(tri[k] as usize) else {
+                return true;
+            };
+            if *f == u32::MAX {
+                *f = (3 * t + k) as u32;
+                continue;
+            }
+            let (ft, fk) = (*f as usize / 3, *f as usize % 3);
+            if normal_key(mesh.corner_normals[ft][fk]) != normal_key(normals[k]) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
 /// The G1 scheme prepared for `mesh`: crease edges (split normals at an end, see
 /// [`crate::mesh::creases`]) get one shared [`crease_curve`], built here once.
 pub fn prepare<'a>(mesh: &'a Mesh, _: &SchemeOptions) -> Result<Box<dyn TriangleBuilder + 'a>> {
     let mut fallbacks = 0;
     let mut curves: HashMap<u32, [DVec3; 4]> = HashMap::new();
+    if !any_split_normals(mesh) {
+        return Ok(Box::new(G1Builder {
+            mesh,
+            curves,
+            fallbacks,
+        }));
+    }
     let index = EdgeIndex::new(&mesh.triangles);
     for e in index.edges().filter(|e| e.is_interior()) {
         let [u0, u1] = [e.use_at(0), e.use_at(1)];
