@@ -183,7 +183,8 @@ impl Evaluator for CpuEvaluator {
             return Ok(());
         }
         let per = edges.samples as usize;
-        let weights = EdgeWeights::new(table, edges);
+        let cached = EdgeWeights::cached(table, edges);
+        let weights: &EdgeWeights = &cached;
         let pairs_per_chunk = (self.chunk_samples / (2 * per)).max(1);
         let step = 2 * per * pairs_per_chunk;
         stream_chunks(2 * per * edges.pairs.len(), step, sink, |r, pos, nrm| {
@@ -269,6 +270,7 @@ fn stream_chunks(
 /// [`PatchTable::eval_sparse`] takes them) and, for the AVX kernel, dense over the points
 /// any sample of that pair weighs, in blocks of [`EDGE_LANES`] samples.
 struct EdgeWeights {
+    kind: crate::patch::PatchKind,
     per: usize,
     /// Pair (from, to) at `(3 · from + to) · per`.
     w: Vec<SparseWeights>,
@@ -296,7 +298,30 @@ struct DenseEdgeWeights {
     nonzero: Vec<u8>,
 }
 
+thread_local! {
+    /// The edge weights of the last call on this thread: a streaming caller (statistics)
+    /// evaluates many small edge patterns of one kind and sample count.
+    static EDGE_WEIGHTS: std::cell::RefCell<Option<std::rc::Rc<EdgeWeights>>> =
+        const { std::cell::RefCell::new(None) };
+}
+
 impl EdgeWeights {
+    /// [`EdgeWeights::new`], kept for the next call with the same kind and sample count
+    /// (the weights depend on nothing else).
+    fn cached(table: &PatchTable, edges: &EdgePairs) -> std::rc::Rc<EdgeWeights> {
+        EDGE_WEIGHTS.with(|cell| {
+            let mut cell = cell.borrow_mut();
+            match &*cell {
+                Some(w) if w.kind == table.kind && w.per == edges.samples as usize => w.clone(),
+                _ => {
+                    let w = std::rc::Rc::new(EdgeWeights::new(table, edges));
+                    *cell = Some(w.clone());
+                    w
+                }
+            }
+        })
+    }
+
     fn new(table: &PatchTable, edges: &EdgePairs) -> EdgeWeights {
         let per = edges.samples as usize;
         let geometry = table.kind.geometry();
@@ -338,6 +363,7 @@ impl EdgeWeights {
             }
         }
         EdgeWeights {
+            kind: table.kind,
             per,
             w,
             dense,

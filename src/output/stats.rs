@@ -22,6 +22,7 @@ use crate::eval::{EdgePairs, EdgeSide, Evaluator, PatchPoint};
 use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
+use crate::patch::g1::any_split_normals;
 use crate::patch::repair::{repair, RepairReport};
 use crate::patch::validity::{count_range, PatchCounts};
 use crate::patch::{PatchBuilder, PatchTable, Scheme, SchemeOptions};
@@ -211,8 +212,16 @@ impl Part {
         self.s2 += d * d;
         self.min = self.min.min(c);
         self.max = self.max.max(c);
-        self.worst_abs = self.worst_abs.max(1.0 - c.abs());
-        self.gap2 = self.gap2.max(gap2);
+        // As f64::max, more cheaply: neither running value is NaN or −0 (they start at +0
+        // and only take values 1 − |c| and squared lengths, never −0), so a NaN or equal
+        // new value leaves them as they are either way.
+        let worst = 1.0 - c.abs();
+        if worst > self.worst_abs {
+            self.worst_abs = worst;
+        }
+        if gap2 > self.gap2 {
+            self.gap2 = gap2;
+        }
         self.folded += (c < 0.0) as usize;
     }
 }
@@ -371,6 +380,10 @@ enum Patches<'a, 'm> {
     Builder(&'a PatchBuilder<'m>),
 }
 
+/// Interior edges per evaluation call within a chunk: their samples (42 points of 48 bytes
+/// each, about 1 MB) are folded while they are in cache.
+const EVAL_EDGES: usize = 512;
+
 /// Slot of a triangle never built (in [`run`]'s per-triangle numbering).
 const NEVER: u32 = u32::MAX;
 /// Slot of a triangle built in an earlier chunk.
@@ -430,11 +443,13 @@ impl Batch {
     /// Takes the next `chunk_edges` edges (none at the end) and prepares them. `done` are
     /// the triangles of the previous chunk's table `prev` (their slots still number them
     /// there: patches needed again are copied from it), marked built afterwards; `slot` is
-    /// the per-triangle numbering of [`run`].
+    /// the per-triangle numbering of [`run`]. Without `split` (no vertex of the mesh has
+    /// two normals, [`any_split_normals`]) no edge is a crease and none is looked at.
     #[allow(clippy::too_many_arguments)]
     fn prepare(
         &mut self,
         mesh: &Mesh,
+        split: bool,
         edges: &mut (dyn Iterator<Item = Edge> + Send),
         patches: Patches<'_, '_>,
         slot: &mut [u32],
@@ -455,10 +470,12 @@ impl Batch {
             }
             return Ok(());
         }
-        self.edges
-            .par_iter_mut()
-            .with_min_len(1024)
-            .for_each(|e| e.with_crease(mesh));
+        if split {
+            self.edges
+                .par_iter_mut()
+                .with_min_len(1024)
+                .for_each(|e| e.with_crease(mesh));
+        }
         self.creases = self.edges.iter().filter(|e| e.crease).count();
         if let Patches::Builder(b) = patches {
             for u in self.edges.iter().flat_map(|e| e.uses) {
@@ -535,26 +552,47 @@ impl Batch {
                 .get((i - first_pair) / SAMPLES_PER_EDGE as usize)
                 .is_some_and(|e| e.crease)
         };
-        evaluator.evaluate_edges(table, &self.pattern, &mut |chunk| {
-            let (mut pos, mut nrm) = (chunk.positions, chunk.normals);
-            if chunk.first != next || pos.len() != nrm.len() {
-                return Err(Error::Invalid(format!(
-                    "evaluator delivered points from {} where {next} was due",
-                    chunk.first
-                )));
+        // Without crease edges in the chunk no sample needs looking up.
+        let creases = self.creases;
+        let add = |fold: &mut Fold, pos: &[DVec3], nrm: &[DVec3]| {
+            if creases == 0 {
+                fold.add(pos, nrm, &|_| false);
+            } else {
+                fold.add(pos, nrm, &crease);
             }
-            next += pos.len();
-            if let (Some((p0, n0)), Some(p1), Some(n1)) = (pending, pos.first(), nrm.first()) {
-                fold.add(&[p0, *p1], &[n0, *n1], &crease);
-                pending = None;
-                (pos, nrm) = (&pos[1..], &nrm[1..]);
-            }
-            fold.add(pos, nrm, &crease);
-            if pos.len() % 2 == 1 {
-                pending = Some((pos[pos.len() - 1], nrm[nrm.len() - 1]));
-            }
-            Ok(())
-        })?;
+        };
+        // The chunk is evaluated a few edges at a time, so that the samples are folded
+        // while they are still in cache.
+        let mut sub = EdgePairs {
+            samples: SAMPLES_PER_EDGE,
+            pairs: Vec::with_capacity(EVAL_EDGES.min(self.pattern.pairs.len())),
+        };
+        for pairs in self.pattern.pairs.chunks(EVAL_EDGES) {
+            sub.pairs.clear();
+            sub.pairs.extend_from_slice(pairs);
+            let base = next;
+            evaluator.evaluate_edges(table, &sub, &mut |chunk| {
+                let (mut pos, mut nrm) = (chunk.positions, chunk.normals);
+                if base + chunk.first != next || pos.len() != nrm.len() {
+                    return Err(Error::Invalid(format!(
+                        "evaluator delivered points from {} where {} was due",
+                        chunk.first,
+                        next - base
+                    )));
+                }
+                next += pos.len();
+                if let (Some((p0, n0)), Some(p1), Some(n1)) = (pending, pos.first(), nrm.first()) {
+                    add(fold, &[p0, *p1], &[n0, *n1]);
+                    pending = None;
+                    (pos, nrm) = (&pos[1..], &nrm[1..]);
+                }
+                add(fold, pos, nrm);
+                if pos.len() % 2 == 1 {
+                    pending = Some((pos[pos.len() - 1], nrm[nrm.len() - 1]));
+                }
+                Ok(())
+            })?;
+        }
         let expected = batch.len() * SAMPLES_PER_EDGE as usize;
         if fold.pairs - first_pair != expected || pending.is_some() {
             return Err(Error::Invalid(format!(
@@ -576,6 +614,7 @@ fn run(
     patches: Patches<'_, '_>,
     evaluator: &dyn Evaluator,
     chunk_edges: usize,
+    split: Option<bool>,
 ) -> Result<(Continuity, usize, PatchCounts)> {
     let chunk_edges = chunk_edges.max(1);
     let triangles = &mesh.triangles;
@@ -597,7 +636,17 @@ fn run(
     let mut current = Batch::new(patches, chunk_edges);
     let mut next = Batch::new(patches, chunk_edges);
     let empty = current.table.clone();
-    current.prepare(mesh, edges, patches, &mut slot, &[], &empty, chunk_edges)?;
+    let split = split.unwrap_or_else(|| any_split_normals(mesh));
+    current.prepare(
+        mesh,
+        split,
+        edges,
+        patches,
+        &mut slot,
+        &[],
+        &empty,
+        chunk_edges,
+    )?;
     while !current.edges.is_empty() {
         crease_edges += current.creases;
         fallbacks += current.fallbacks;
@@ -608,7 +657,8 @@ fn run(
             let prepared = &mut prepared;
             let edges = &mut *edges;
             s.spawn(move |_| {
-                *prepared = next.prepare(mesh, edges, patches, slot, done, prev, chunk_edges);
+                *prepared =
+                    next.prepare(mesh, split, edges, patches, slot, done, prev, chunk_edges);
             });
             current.evaluate(patches, evaluator, &mut fold)
         });
@@ -661,6 +711,7 @@ pub fn continuity(
         Patches::Table(table),
         evaluator,
         CHUNK_EDGES,
+        None,
     )?
     .0)
 }
@@ -672,6 +723,8 @@ pub struct EdgeStats<'m> {
     index: EdgeIndex<'m>,
     /// Interior edges per chunk (default [`CHUNK_EDGES`]).
     pub chunk_edges: usize,
+    /// Whether some vertex has split normals ([`any_split_normals`]), where known.
+    split: Option<bool>,
 }
 
 impl<'m> EdgeStats<'m> {
@@ -680,6 +733,7 @@ impl<'m> EdgeStats<'m> {
             mesh,
             index: EdgeIndex::new(&mesh.triangles),
             chunk_edges: CHUNK_EDGES,
+            split: None,
         }
     }
 
@@ -720,6 +774,7 @@ impl<'m> EdgeStats<'m> {
             Patches::Builder(builder),
             evaluator,
             self.chunk_edges,
+            self.split,
         )
     }
 
@@ -747,9 +802,9 @@ impl<'m> EdgeStats<'m> {
 
 /// The statistics report of `scheme` on `mesh`, streamed in bounded memory: what
 /// `g1tess stats` prints. The edge index (one thread) is built while the scheme prepares
-/// its per-mesh data; patches are then built a chunk of edges at a time. With
-/// [`SchemeOptions::repair_folds`] the statistics are those of the repaired mesh
-/// ([`repair`]), and the report says what the repair changed.
+/// its per-mesh data and the mesh is searched for split normals; patches are then built a
+/// chunk of edges at a time. With [`SchemeOptions::repair_folds`] the statistics are those
+/// of the repaired mesh ([`repair`]), and the report says what the repair changed.
 pub fn stats_report(
     mesh: &Mesh,
     scheme: Scheme,
@@ -769,9 +824,11 @@ pub fn stats_report(
     let (stats, builder) = std::thread::scope(|s| {
         let index = s.spawn(|| EdgeStats::new(mesh));
         let builder = PatchBuilder::new(mesh, scheme, opts);
-        let index = index
+        let split = any_split_normals(mesh);
+        let mut index = index
             .join()
             .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        index.split = Some(split);
         (index, builder)
     });
     let builder = builder?;

@@ -27,6 +27,7 @@ use crate::Result;
 
 /// The Walton–Meek cubic between (qa, na) and (qb, nb) (Theorem 2.1, Γ the unit edge
 /// vector). Normals must be unit vectors.
+#[inline]
 pub fn walton_meek(qa: DVec3, na: DVec3, qb: DVec3, nb: DVec3) -> [DVec3; 4] {
     let [t0, t1] = walton_meek_offsets(qa, na, qb, nb);
     [qa, qa + t0, qb - t1, qb]
@@ -118,6 +119,20 @@ pub fn patch_points_with_curves(
     curves: [Option<[DVec3; 4]>; 3],
     fallbacks: &mut usize,
 ) -> [DVec3; 18] {
+    let mut out = [DVec3::ZERO; 18];
+    patch_points_into(q, n, ids, curves, fallbacks, &mut out);
+    out
+}
+
+/// [`patch_points_with_curves`] written into `out` (a table's slot), not returned.
+fn patch_points_into(
+    q: [DVec3; 3],
+    n: [DVec3; 3],
+    ids: [u32; 3],
+    curves: [Option<[DVec3; 4]>; 3],
+    fallbacks: &mut usize,
+    out: &mut [DVec3; 18],
+) {
     let edges: [EdgeData; 3] = std::array::from_fn(|k| {
         let (a, b) = (k, (k + 1) % 3);
         let v = if let Some(c) = curves[k] {
@@ -130,7 +145,6 @@ pub fn patch_points_with_curves(
         };
         edge_data(v, n[a], n[b], fallbacks)
     });
-    let mut out = [DVec3::ZERO; 18];
     for k in 0..3 {
         out[4 * k..4 * k + 4].copy_from_slice(&edges[k].l[..4]);
     }
@@ -163,7 +177,6 @@ pub fn patch_points_with_curves(
         out[12 + 2 * k] = 0.5 * (e.l[1] + e.l[2]) + d1;
         out[13 + 2 * k] = 0.5 * (e.l[2] + e.l[3]) + d2;
     }
-    out
 }
 
 /// Unit crease direction at a vertex whose two sides have unit normals `n0` and `n1`:
@@ -253,13 +266,12 @@ impl TriangleBuilder for G1Builder<'_> {
             std::array::from_fn(|k| self.curves.get(&(3 * t as u32 + k as u32)).copied())
         };
         let mut fallbacks = 0;
-        out.copy_from_slice(&patch_points_with_curves(
-            q,
-            mesh.corner_normals[t],
-            tri,
-            given,
-            &mut fallbacks,
-        ));
+        let n = mesh.corner_normals[t];
+        if let Some(slot) = out.first_chunk_mut::<18>() {
+            patch_points_into(q, n, tri, given, &mut fallbacks, slot);
+        } else {
+            out.copy_from_slice(&patch_points_with_curves(q, n, tri, given, &mut fallbacks));
+        }
         fallbacks
     }
 
@@ -294,11 +306,46 @@ pub fn edge_curve(
     ))
 }
 
+/// Whether some vertex gets two different normals from its corners (compared bitwise, by
+/// [`normal_key`]). Without such a vertex no edge is a crease: [`edge_curve`] is `None` for
+/// every edge. One pass over the corners, 4 bytes per vertex; `true` (look edge by edge)
+/// where the corners cannot be numbered in 32 bits or a corner names no vertex.
+pub fn any_split_normals(mesh: &Mesh) -> bool {
+    let corners = 3 * mesh.triangles.len();
+    if corners >= u32::MAX as usize || mesh.corner_normals.len() != mesh.triangles.len() {
+        return true;
+    }
+    let mut first = vec![u32::MAX; mesh.positions.len()];
+    for (t, (tri, normals)) in mesh.triangles.iter().zip(&mesh.corner_normals).enumerate() {
+        for k in 0..3 {
+            let Some(f) = first.get_mut(tri[k] as usize) else {
+                return true;
+            };
+            if *f == u32::MAX {
+                *f = (3 * t + k) as u32;
+                continue;
+            }
+            let (ft, fk) = (*f as usize / 3, *f as usize % 3);
+            if normal_key(mesh.corner_normals[ft][fk]) != normal_key(normals[k]) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
 /// The G1 scheme prepared for `mesh`: crease edges (split normals at an end, see
 /// [`crate::mesh::creases`]) get one shared [`crease_curve`], built here once.
 pub fn prepare<'a>(mesh: &'a Mesh, _: &SchemeOptions) -> Result<Box<dyn TriangleBuilder + 'a>> {
     let mut fallbacks = 0;
     let mut curves: HashMap<u32, [DVec3; 4]> = HashMap::new();
+    if !any_split_normals(mesh) {
+        return Ok(Box::new(G1Builder {
+            mesh,
+            curves,
+            fallbacks,
+        }));
+    }
     let index = EdgeIndex::new(&mesh.triangles);
     for e in index.edges().filter(|e| e.is_interior()) {
         let [u0, u1] = [e.use_at(0), e.use_at(1)];

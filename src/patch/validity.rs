@@ -234,7 +234,7 @@ const MAXC: usize = 21;
 /// One de Casteljau step at `u` on coefficient pairs of degree `deg` (`src`) into degree
 /// `deg − 1` (`dst`).
 #[inline(always)]
-fn step(src: &[[DVec3; 2]; 15], deg: u32, u: [f64; 3], dst: &mut [[DVec3; 2]; 15]) {
+fn step(src: &Pairs, deg: u32, u: [f64; 3], dst: &mut Pairs) {
     let up = &tables().up[deg as usize];
     for (j, ix) in up.iter().enumerate() {
         let (a, b, c) = (&src[ix[0]], &src[ix[1]], &src[ix[2]]);
@@ -245,34 +245,70 @@ fn step(src: &[[DVec3; 2]; 15], deg: u32, u: [f64; 3], dst: &mut [[DVec3; 2]; 15
     }
 }
 
+/// Coefficient pairs of a Bézier triangle of degree at most 4.
+type Pairs = [[DVec3; 2]; 15];
+
+/// [`step`] from `buf[from]` into the other buffer of the pair.
+#[inline(always)]
+fn step_over(buf: &mut [Pairs; 2], from: usize, deg: u32, u: [f64; 3]) {
+    let (x, y) = buf.split_at_mut(1);
+    if from == 0 {
+        step(&x[0], deg, u, &mut y[0]);
+    } else {
+        step(&y[0], deg, u, &mut x[0]);
+    }
+}
+
 /// The pairs of Bézier coefficients (degree m ≤ 4) `d` restricted to `cell` (blossoming:
 /// coefficient α of the restriction is the blossom at α_0 copies of the cell's first
-/// corner, α_1 of its second, α_2 of its third; the blossoms share their prefixes).
-fn restrict(d: &[[DVec3; 2]; 15], m: u32, cell: &Cell, out: &mut [[DVec3; 2]; 15]) {
+/// corner, α_1 of its second, α_2 of its third; the blossoms share their prefixes). The
+/// steps run between two pairs of buffers, never copying a whole set of coefficients.
+fn restrict(d: &Pairs, m: u32, cell: &Cell, out: &mut Pairs) {
+    let m = m as usize;
     // a[i]: after i steps at the first corner (degree m − i).
     let mut a = [[[DVec3::ZERO; 2]; 15]; 5];
     a[0] = *d;
-    for i in 1..=m as usize {
+    for i in 1..=m {
         let (lo, hi) = a.split_at_mut(i);
-        step(&lo[i - 1], m - i as u32 + 1, cell[0], &mut hi[0]);
+        step(&lo[i - 1], (m - i + 1) as u32, cell[0], &mut hi[0]);
     }
+    // b: a[i] after j steps at the second corner (degree m − i − j), in `bb[k]` once
+    // stepped; c: b after the steps at the third corner, in `cc`.
+    let mut bb = [[[DVec3::ZERO; 2]; 15]; 2];
+    let mut cc = [[[DVec3::ZERO; 2]; 15]; 2];
     for i in 0..=m {
-        // b: then j steps at the second corner (degree m − i − j).
-        let mut b = a[i as usize];
+        let mut b: Option<usize> = None;
         for j in 0..=m - i {
-            let mut c = b;
-            let mut deg = m - i - j;
-            while deg > 0 {
-                let mut next = [[DVec3::ZERO; 2]; 15];
-                step(&c, deg, cell[2], &mut next);
-                c = next;
-                deg -= 1;
-            }
-            out[basis::bezier_index(m, [i, j, m - i - j])] = c[0];
+            let deg = m - i - j;
+            let value = if deg == 0 {
+                match b {
+                    None => a[i][0],
+                    Some(k) => bb[k][0],
+                }
+            } else {
+                match b {
+                    None => step(&a[i], deg as u32, cell[2], &mut cc[0]),
+                    Some(k) => step(&bb[k], deg as u32, cell[2], &mut cc[0]),
+                }
+                let mut c = 0;
+                for dd in (1..deg).rev() {
+                    step_over(&mut cc, c, dd as u32, cell[2]);
+                    c ^= 1;
+                }
+                cc[c][0]
+            };
+            out[basis::bezier_index(m as u32, [i as u32, j as u32, deg as u32])] = value;
             if j < m - i {
-                let mut next = [[DVec3::ZERO; 2]; 15];
-                step(&b, m - i - j, cell[1], &mut next);
-                b = next;
+                b = Some(match b {
+                    None => {
+                        step(&a[i], deg as u32, cell[1], &mut bb[0]);
+                        0
+                    }
+                    Some(k) => {
+                        step_over(&mut bb, k, deg as u32, cell[1]);
+                        k ^ 1
+                    }
+                });
             }
         }
     }
@@ -418,6 +454,68 @@ impl Geometry {
     }
 }
 
+/// [`basis::bezier_index`] of degree 4, at compile time.
+const fn quartic_index(p: [u32; 3]) -> usize {
+    let mut before = 0;
+    let mut i = p[0] + 1;
+    while i <= 4 {
+        before += 4 - i + 1;
+        i += 1;
+    }
+    (before + (4 - p[0] - p[1])) as usize
+}
+
+/// Slots in the quartic of [`quick_quartic`] of the G1 layout's 12 boundary points
+/// ([`basis::g1_boundary_powers`]).
+const QUARTIC_BOUNDARY: [usize; 12] = {
+    let mut out = [0; 12];
+    let mut k = 0;
+    while k < 3 {
+        let mut j = 0;
+        while j < 4 {
+            let mut p = [0u32; 3];
+            p[k] = 4 - j as u32;
+            p[(k + 1) % 3] = j as u32;
+            out[4 * k + j] = quartic_index(p);
+            j += 1;
+        }
+        k += 1;
+    }
+    out
+};
+
+/// Slots in that quartic of corner m's interior point ([`interior_powers`]).
+const QUARTIC_INTERIOR: [usize; 3] = [
+    quartic_index([2, 1, 1]),
+    quartic_index([1, 2, 1]),
+    quartic_index([1, 1, 2]),
+];
+
+/// `tables().up[4]` at compile time: for each multi-index γ of degree 3 (in
+/// [`basis::bezier_powers`] order), the slots of γ + e_0, γ + e_1, γ + e_2 in degree 4.
+const QUARTIC_UP: [[usize; 3]; 10] = {
+    let mut out = [[0; 3]; 10];
+    let mut n = 0;
+    let mut i = 4;
+    while i > 0 {
+        i -= 1;
+        let mut j = 4 - i;
+        while j > 0 {
+            j -= 1;
+            let g = [i, j, 3 - i - j];
+            let mut k = 0;
+            while k < 3 {
+                let mut p = g;
+                p[k] += 1;
+                out[n][k] = quartic_index(p);
+                k += 1;
+            }
+            n += 1;
+        }
+    }
+    out
+};
+
 /// Powers (2 on m, 1 on m + 1, 1 on m + 2) of corner m's interior point.
 fn interior_powers(m: usize) -> [u32; 3] {
     let mut a = [1u32; 3];
@@ -553,17 +651,23 @@ fn quick_gregory(c: &[DVec3], nref: DVec3) -> bool {
 #[inline(always)]
 fn quick_quartic(c: &[DVec3]) -> ([DVec3; 15], [DVec3; 15], f64, f64) {
     let mut q = [DVec3::ZERO; 15];
-    for (j, p) in basis::g1_boundary_powers().iter().enumerate() {
-        q[basis::bezier_index(4, *p)] = c[j];
+    for (j, &slot) in QUARTIC_BOUNDARY.iter().enumerate() {
+        q[slot] = c[j];
     }
     let mut r = 0.0;
     for m in 0..3 {
         let g1 = c[12 + 2 * m];
         let g2 = c[13 + 2 * ((m + 2) % 3)];
-        q[basis::bezier_index(4, interior_powers(m))] = 0.5 * (g1 + g2);
+        q[QUARTIC_INTERIOR[m]] = 0.5 * (g1 + g2);
         r += QUICK_BLEND_BOUND * (g1 - g2).length();
     }
-    let (ds, dt) = derivatives(&q, 4);
+    // As `derivatives(&q, 4)`, with its index table known at compile time.
+    let mut ds = [DVec3::ZERO; 15];
+    let mut dt = [DVec3::ZERO; 15];
+    for (j, ix) in QUARTIC_UP.iter().enumerate() {
+        ds[j] = 4.0 * (q[ix[1]] - q[ix[0]]);
+        dt[j] = 4.0 * (q[ix[2]] - q[ix[0]]);
+    }
     let cmax = c.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max);
     (ds, dt, r, cmax)
 }
@@ -606,10 +710,35 @@ pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
     if table.kind == PatchKind::Gregory && quick_gregory(table.patch(i), table.flat_normals[i]) {
         return Verdict::Valid;
     }
+    if let Some(v) = grid_witness(table, i) {
+        return v;
+    }
     match check_within(table, i, MAX_DEPTH, MAX_CELLS) {
         Verdict::Undecided => check_within(table, i, DEEP_DEPTH, DEEP_CELLS),
         v => v,
     }
+}
+
+/// Level of the grid searched for a witness before any subdivision.
+const WITNESS_GRID: u32 = 8;
+
+/// A witness of a fold (as [`check_within`] takes them: J below −1e-12 |S_s| |S_t| by the
+/// patch's own f64 evaluation) at a point of the barycentric grid of level
+/// [`WITNESS_GRID`], if there is one: most folded patches show one there, and then need
+/// no subdivision.
+fn grid_witness(table: &PatchTable, i: usize) -> Option<Verdict> {
+    let n = WITNESS_GRID;
+    (0..=n).find_map(|a| {
+        (0..=n - a).find_map(|b| {
+            let p = [a, b, n - a - b].map(|k| k as f64 / n as f64);
+            let (j, scale) = jacobian(table, i, p);
+            (j < -1e-12 * scale).then_some(Verdict::Folded {
+                s: p[1],
+                t: p[2],
+                jacobian: j,
+            })
+        })
+    })
 }
 
 /// Depth of the second, deeper subdivision of a patch left undecided.
@@ -706,6 +835,19 @@ mod tests {
     use super::*;
     use crate::mesh::{LoadOptions, Mesh};
     use crate::patch::{Scheme, SchemeOptions};
+
+    /// The compile-time index tables of [`quick_quartic`] are those of the runtime
+    /// functions they stand for.
+    #[test]
+    fn quartic_tables_match_the_basis() {
+        for (j, p) in basis::g1_boundary_powers().iter().enumerate() {
+            assert_eq!(QUARTIC_BOUNDARY[j], basis::bezier_index(4, *p));
+        }
+        for (m, &slot) in QUARTIC_INTERIOR.iter().enumerate() {
+            assert_eq!(slot, basis::bezier_index(4, interior_powers(m)));
+        }
+        assert_eq!(tables().up[4], QUARTIC_UP.to_vec());
+    }
 
     /// Every bunny G1 patch that [`quick_flat`] certifies has J > 0 at the 15 points of a
     /// level-4 barycentric grid by the patch's own f64 evaluation (independent of the
