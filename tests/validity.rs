@@ -5,7 +5,7 @@ mod common;
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::generators::icosphere;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::stats::{continuity, stats_report};
+use g1tess::output::stats::{continuity, stats_report, Continuity};
 use g1tess::patch::repair::repair;
 use g1tess::patch::validity::{
     check_patch, count, jacobian, PatchCounts, Verdict, QUICK_BLEND_BOUND,
@@ -270,11 +270,24 @@ fn suzanne_repair_certifies_every_patch() {
         .fold(0.0, f64::max);
     assert_eq!(largest, r.max_normal_change_deg);
     // The whole mesh's builder (not the search's one-triangle builds) certifies every
-    // patch again, and gives the option's patches bit for bit.
-    let table = PatchTable::build(&fixed, Scheme::G1, &opts).unwrap();
+    // patch again.
+    let (table, _) = repaired_is_g1_and_watertight(&suzanne, &fixed, opts);
     assert_eq!(count(&table).valid, suzanne.triangles.len());
+}
+
+/// The table of the repaired mesh `fixed` (of `input`), after checking that the library
+/// option gives it bit for bit (the search builds its patches one triangle at a time,
+/// crease curves included), and its continuity: on every smooth edge the tangent plane is
+/// shared to rounding and no sample's normal turns over (cos < 0); every edge, crease
+/// edges included, is watertight to rounding of the coordinates.
+fn repaired_is_g1_and_watertight(
+    input: &Mesh,
+    fixed: &Mesh,
+    opts: SchemeOptions,
+) -> (PatchTable, Continuity) {
+    let table = PatchTable::build(fixed, Scheme::G1, &opts).unwrap();
     let via_option = PatchTable::build(
-        &suzanne,
+        input,
         Scheme::G1,
         &SchemeOptions {
             repair_folds: true,
@@ -283,17 +296,18 @@ fn suzanne_repair_certifies_every_patch() {
     )
     .unwrap();
     assert_eq!(via_option.points, table.points);
-    let c = continuity(&fixed, &fixed.adjacency(), &table, &CpuEvaluator::default()).unwrap();
-    // No edge sample whose normals turn over (cos < 0) on a smooth edge; G1 to rounding;
-    // watertight to rounding of the coordinates, crease edges included.
+    let c = continuity(fixed, &fixed.adjacency(), &table, &CpuEvaluator::default()).unwrap();
     assert_eq!(c.folded, 0);
+    // 1e-12: the bound for G1 (rounding gives about 5e-16).
     assert!(1.0 - c.cos.min <= 1e-12, "1 - min cos {}", 1.0 - c.cos.min);
+    // 1e-12 of the diagonal: rounding of the coordinates (about 1e-15 here).
     assert!(c.max_gap <= 1e-12 * fixed.diagonal(), "gap {}", c.max_gap);
     assert!(
         c.crease_max_gap <= 1e-12 * fixed.diagonal(),
         "crease gap {}",
         c.crease_max_gap
     );
+    (table, c)
 }
 
 #[test]
@@ -353,24 +367,8 @@ fn repair_fixes_a_tilted_normal_and_keeps_g1_and_watertight() {
         r.max_distance > 0.0 && r.max_distance < mesh.diagonal(),
         "{r:?}"
     );
-    let table = PatchTable::build(&fixed, Scheme::G1, &opts).unwrap();
+    let (table, _) = repaired_is_g1_and_watertight(&mesh, &fixed, opts);
     assert_eq!(count(&table).valid, fixed.triangles.len());
-    // The library option gives the same patches as building on the repaired mesh.
-    let via_option = PatchTable::build(
-        &mesh,
-        Scheme::G1,
-        &SchemeOptions {
-            repair_folds: true,
-            ..opts
-        },
-    )
-    .unwrap();
-    assert_eq!(via_option.points, table.points);
-    let c = continuity(&fixed, &fixed.adjacency(), &table, &CpuEvaluator::default()).unwrap();
-    // G1 to rounding, and watertight (shared boundary curves), on the repaired mesh.
-    assert!(1.0 - c.cos.min <= 1e-12, "1 - min cos {}", 1.0 - c.cos.min);
-    assert_eq!(c.folded, 0);
-    assert!(c.max_gap <= 1e-12 * fixed.diagonal(), "gap {}", c.max_gap);
 }
 
 #[test]
@@ -400,32 +398,9 @@ fn bunny_repair_counts_are_exact_and_kept_for_the_warning() {
         "{r:?}"
     );
     assert_eq!(r.left_on_flipped_triangles, 0);
-    let table = PatchTable::build(&fixed, Scheme::G1, &opts).unwrap();
-    // The library option gives bit for bit the patches of the repaired mesh (the search
-    // builds its patches one triangle at a time, crease curves included).
-    let via_option = PatchTable::build(
-        &bunny,
-        Scheme::G1,
-        &SchemeOptions {
-            repair_folds: true,
-            ..opts
-        },
-    )
-    .unwrap();
-    assert_eq!(via_option.points, table.points);
-    let c = continuity(&fixed, &fixed.adjacency(), &table, &CpuEvaluator::default()).unwrap();
-    // The new creases are those of the repaired mesh; on every smooth edge the tangent
-    // plane is shared to rounding and no sample's normal turns over (cos < 0); the
-    // crease edges share their curve (no gap beyond rounding of the coordinates).
+    let (table, c) = repaired_is_g1_and_watertight(&bunny, &fixed, opts);
+    // The new creases are those of the repaired mesh.
     assert_eq!(c.crease_edges, 14);
-    assert_eq!(c.folded, 0);
-    assert!(1.0 - c.cos.min <= 1e-12, "1 - min cos {}", 1.0 - c.cos.min);
-    assert!(c.max_gap <= 1e-12 * fixed.diagonal(), "gap {}", c.max_gap);
-    assert!(
-        c.crease_max_gap <= 1e-12 * fixed.diagonal(),
-        "crease gap {}",
-        c.crease_max_gap
-    );
     assert_eq!(count(&table), r.after);
     // What the warning line reports is the outcome kept from that search, equal to it.
     assert_eq!(

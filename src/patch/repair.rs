@@ -1656,16 +1656,7 @@ fn best_cut(
         return Ok(None);
     };
     let (g, run) = (listed[i].group, listed[i].run.clone());
-    let h = groups.split(g, &run);
-    let mut sink = Vec::new();
-    for x in [g, h] {
-        let f: Vec<DVec3> = groups
-            .corners(x)
-            .iter()
-            .map(|&c| faces[c as usize / 3])
-            .collect();
-        set_group(work, groups, x, central(&f, nf), &mut sink);
-    }
+    let h = set_cut(work, groups, g, &run);
     let mut ring: Vec<u32> = groups.triangles_around(g).collect();
     ring.sort_unstable();
     ring.dedup();
