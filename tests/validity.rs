@@ -507,6 +507,48 @@ fn stats_report_counts_patches_and_prints_null_without_interior_edges() {
     assert_eq!(json["patches"]["valid"], 80);
 }
 
+/// `tessellate --repair-folds` stitches the repaired mesh: the repair's 14 new crease edges
+/// of the bunny (see `bunny_repair_counts_are_exact_and_kept_for_the_warning`) are cut in the
+/// output, with a normal record per side (13 more records than positions at level 1).
+#[test]
+fn tessellate_cuts_the_output_along_the_repairs_creases() {
+    use std::process::Command;
+    let dir = std::env::temp_dir().join(format!("g1tess-validity-cut-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bunny = common::shared_spec("stanford-bunny.obj");
+    let run = |extra: Option<&str>| {
+        let out = dir.join("b.ply");
+        let o = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+            .args([
+                "tessellate",
+                &bunny,
+                "--level",
+                "1",
+                "--backend",
+                "cpu",
+                "--json",
+            ])
+            .arg("-o")
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{o:?}");
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (
+            v["crease_edges"].clone(),
+            v["vertices"].clone(),
+            v["vertex_records"].clone(),
+        )
+    };
+    assert_eq!(run(None), (0.into(), 34834.into(), 34834.into()));
+    assert_eq!(
+        run(Some("--repair-folds")),
+        (14.into(), 34834.into(), 34847.into())
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// The command line: `stats --json` counts patches, `tessellate` warns about a fold and
 /// `--repair-folds` repairs it, and leaves a mesh without folds bit for bit alone.
 #[test]

@@ -72,10 +72,22 @@ impl InputArgs {
     }
 
     /// Loads the mesh ([`InputArgs::load_mesh`]) and builds the scheme's patch table.
-    pub fn load(&self) -> anyhow::Result<(Mesh, PatchTable)> {
-        let mesh = self.load_mesh()?;
-        let table = PatchTable::build(&mesh, self.scheme, &self.scheme_options())?;
-        Ok((mesh, table))
+    pub fn load(&self) -> anyhow::Result<(Mesh, PatchTable, Option<String>)> {
+        self.prepare(self.load_mesh()?)
+    }
+
+    /// The mesh to work on (with `--repair-folds` the repaired one: its new creases are
+    /// what the stitcher and writers see), its table, and the line to print about folded
+    /// patches or the repair ([`crate::patch::validity::repair_line`]).
+    pub fn prepare(&self, mesh: Mesh) -> anyhow::Result<(Mesh, PatchTable, Option<String>)> {
+        let (m, table, report) =
+            crate::patch::repair::prepared(&mesh, self.scheme, &self.scheme_options())?;
+        let line = crate::patch::validity::repair_line(&m.name, &table, report.as_ref());
+        let mesh = match m {
+            std::borrow::Cow::Owned(m) => m,
+            std::borrow::Cow::Borrowed(_) => mesh,
+        };
+        Ok((mesh, table, line))
     }
 }
 

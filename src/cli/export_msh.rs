@@ -74,29 +74,8 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
     // With --repair-folds the elements are those of the repaired mesh, whose creases (the
     // repair's new ones too) go into the crease group, and whose split normals decide where
     // a non-manifold edge's triangles get edge nodes of their own.
-    let mut opts = a.input.scheme_options();
-    let (mesh, repair) = if opts.repair_folds {
-        opts.repair_folds = false;
-        let (m, r) =
-            crate::patch::repair::repair(&mesh, a.input.scheme, &a.input.scheme_options())?;
-        (m, Some(r))
-    } else {
-        (mesh, None)
-    };
-    let table = crate::patch::PatchTable::build(&mesh, a.input.scheme, &opts)?;
-    // The line `tessellate` and `render` print: the repair's report, or the folded patches.
-    let folds = match &repair {
-        Some(r) => {
-            let c = crate::patch::validity::count(&table);
-            let line = r.to_text(&mesh.name, a.input.scheme);
-            Some(if c.folded > 0 || c.undecided > 0 {
-                format!("warning: {line}")
-            } else {
-                line
-            })
-        }
-        None => crate::patch::validity::fold_line(&mesh.name, &table),
-    };
+    let repair = a.input.repair_folds;
+    let (mesh, table, folds) = a.input.prepare(mesh)?;
     if let Some(line) = folds {
         eprintln!("{line}");
     }
@@ -111,7 +90,7 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
             summary.nonpositive_jacobian_elements,
             summary.triangles,
             summary.order,
-            if repair.is_none() {
+            if !repair {
                 "; --repair-folds repairs folded patches"
             } else {
                 ""

@@ -189,13 +189,14 @@ pub fn render_schemes(
 ) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     for &scheme in schemes {
-        let table = PatchTable::build(mesh, scheme, scheme_opts)?;
-        if let Some(w) = crate::patch::validity::fold_warning(mesh, &table, scheme_opts)? {
+        // With --repair-folds the repaired mesh, whose new creases the surface is cut along.
+        let (m, table, report) = crate::patch::repair::prepared(mesh, scheme, scheme_opts)?;
+        if let Some(w) = crate::patch::validity::repair_line(&mesh.name, &table, report.as_ref()) {
             eprintln!("{w}");
         }
         rows.push(Row {
             label: scheme.to_string(),
-            panels: scheme_panels(mesh, &table, level, opts, evaluator)?,
+            panels: scheme_panels(&m, &table, level, opts, evaluator)?,
         });
     }
     let caption = format!(

@@ -119,10 +119,9 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         "--max-level must be in 1..={}",
         crate::tess::layout::MAX_LEVEL
     );
-    let (mesh, table) = a.input.load()?;
-    if let Some(w) = crate::patch::validity::fold_warning(&mesh, &table, &a.input.scheme_options())?
-    {
-        eprintln!("{w}");
+    let (mesh, table, folds) = a.input.load()?;
+    if let Some(line) = folds {
+        eprintln!("{line}");
     }
     let adjacency = mesh.adjacency();
     let eps = match (a.tolerance, a.tolerance_rel) {

@@ -229,6 +229,29 @@ pub fn repair(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<(Mesh
     })
 }
 
+/// The mesh and patch table a command works on. With [`SchemeOptions::repair_folds`]: the
+/// repaired mesh (so that its new creases and split normals are what stitching, writers
+/// and device topology see), its table built without the option (bit for bit the
+/// option's patches) and the repair's report. Otherwise `mesh` itself, its table and no
+/// report.
+pub fn prepared<'a>(
+    mesh: &'a Mesh,
+    scheme: Scheme,
+    opts: &SchemeOptions,
+) -> Result<(std::borrow::Cow<'a, Mesh>, PatchTable, Option<RepairReport>)> {
+    if !opts.repair_folds {
+        let table = PatchTable::build(mesh, scheme, opts)?;
+        return Ok((std::borrow::Cow::Borrowed(mesh), table, None));
+    }
+    let (fixed, report) = repair(mesh, scheme, opts)?;
+    let plain = SchemeOptions {
+        repair_folds: false,
+        ..*opts
+    };
+    let table = PatchTable::build(&fixed, scheme, &plain)?;
+    Ok((std::borrow::Cow::Owned(fixed), table, Some(report)))
+}
+
 /// What [`repair`] reports for `mesh`, without copying the repaired mesh. The repair of
 /// the same mesh, scheme and options that built a table just before (with
 /// [`SchemeOptions::repair_folds`]) is not run again: the last few outcomes are kept.

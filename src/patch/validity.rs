@@ -822,12 +822,27 @@ pub fn fold_warning(
         return Ok(fold_line(&mesh.name, table));
     }
     let report = super::repair::report(mesh, table.scheme, opts)?;
+    Ok(repair_line(&mesh.name, table, Some(&report)))
+}
+
+/// The line about `table` of mesh `mesh_name` given the repair's `report` when there was
+/// one ([`super::repair::prepared`]): the report, a warning where a patch is left folded or
+/// undecided; without a report the count of folded patches ([`fold_line`]).
+pub fn repair_line(
+    mesh_name: &str,
+    table: &PatchTable,
+    report: Option<&super::repair::RepairReport>,
+) -> Option<String> {
+    let Some(report) = report else {
+        return fold_line(mesh_name, table);
+    };
     let c = count(table);
-    let mut line = report.to_text(&mesh.name, table.scheme);
-    if c.folded > 0 || c.undecided > 0 {
-        line = format!("warning: {line}");
-    }
-    Ok(Some(line))
+    let line = report.to_text(mesh_name, table.scheme);
+    Some(if c.folded > 0 || c.undecided > 0 {
+        format!("warning: {line}")
+    } else {
+        line
+    })
 }
 
 #[cfg(test)]
