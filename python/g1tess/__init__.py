@@ -138,6 +138,15 @@ class Mesh:
             _native.export_msh(self._native, os.fspath(path), order, bool(binary), scheme)
         )
 
+    def repair_folds(self, scheme: str = "g1") -> Tuple["Mesh", Dict[str, Any]]:
+        """The mesh with its normals changed as little as needed so that every ``scheme``
+        patch is certified valid (what ``--repair-folds`` does), and the repair's report
+        (the ``repair`` object of ``g1tess stats --repair-folds --json``). A mesh whose
+        patches are all valid comes back unchanged. Tessellate, take statistics or export
+        the returned mesh as any other."""
+        native, report = _native.repair_folds(self._native, scheme)
+        return Mesh._wrap(native), json.loads(report)
+
     def __repr__(self) -> str:
         return f"<g1tess.Mesh {self.name!r}>"
 

@@ -259,6 +259,25 @@ fn export_msh_json(args: Args) -> PyResult<Py<PyAny>> {
     json.into_py_any(py)
 }
 
+/// repair_folds(mesh, scheme) -> (mesh, str): the mesh with its normals repaired so that
+/// every `scheme` patch is certified valid (`patch::repair::repair`, what `--repair-folds`
+/// does), and the repair's report as JSON (the `repair` object of `stats --json`).
+fn repair_folds(args: Args) -> PyResult<Py<PyAny>> {
+    let py = args.py();
+    let mesh = mesh_arg(args)?;
+    let scheme = scheme(&arg::<String>(args, 1)?)?;
+    let (fixed, json) = py
+        .detach(|| -> g1tess::Result<_> {
+            let (fixed, report) =
+                g1tess::patch::repair::repair(mesh, scheme, &SchemeOptions::default())?;
+            let json = serde_json::to_string(&report)
+                .map_err(|e| g1tess::Error::Invalid(e.to_string()))?;
+            Ok((fixed, json))
+        })
+        .map_err(py_err)?;
+    (wrap(py, fixed)?, json).into_py_any(py)
+}
+
 type Function = fn(Args) -> PyResult<Py<PyAny>>;
 
 const FUNCTIONS: &[(&CStr, Function)] = &[
@@ -270,6 +289,7 @@ const FUNCTIONS: &[(&CStr, Function)] = &[
     (c"write_tessellation", write_tessellation),
     (c"stats_json", stats_json),
     (c"export_msh", export_msh_json),
+    (c"repair_folds", repair_folds),
 ];
 
 fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
