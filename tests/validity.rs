@@ -402,7 +402,7 @@ fn bunny_repair_counts_are_exact_and_kept_for_the_warning() {
     // The new creases are those of the repaired mesh.
     assert_eq!(c.crease_edges, 14);
     assert_eq!(count(&table), r.after);
-    // What the warning line reports is the outcome kept from that search, equal to it.
+    // What `repair::report` gives is the outcome kept from that search, equal to it.
     assert_eq!(
         g1tess::patch::repair::report(&bunny, Scheme::G1, &opts).unwrap(),
         r

@@ -50,7 +50,6 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
     use crate::eval::Evaluator;
     use crate::gpu::GpuContext;
     use crate::output::stats::{EdgeStats, StatsReport};
-    use crate::patch::PatchTable;
     let precision = a.backend.precision.unwrap_or(crate::gpu::Precision::F64);
     let ctx = GpuContext::shared()?;
     let gpu = GpuEvaluator::new(ctx.clone(), precision)?;
@@ -66,16 +65,9 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
         &format!("{stride} control points each, beside the mesh"),
     )?;
     // With --repair-folds the statistics are those of the repaired mesh, as on the CPU.
-    let mut opts = a.input.scheme_options();
-    let repaired = if opts.repair_folds {
-        let (m, r) = crate::patch::repair::repair(mesh, a.input.scheme, &opts)?;
-        opts.repair_folds = false;
-        Some((m, r))
-    } else {
-        None
-    };
-    let mesh = repaired.as_ref().map_or(mesh, |(m, _)| m);
-    let table = PatchTable::build(mesh, a.input.scheme, &opts)?;
+    let (mesh, table, repair) =
+        crate::patch::repair::prepared(mesh, a.input.scheme, &a.input.scheme_options())?;
+    let mesh = mesh.as_ref();
     let adjacency = mesh.adjacency();
     let c = crate::gpu::stats::gpu_continuity(&gpu, mesh, &adjacency, &table)?;
     let mut report = StatsReport::new(
@@ -87,7 +79,7 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
         gpu.describe(),
     );
     report.patches = crate::patch::validity::count(&table);
-    report.repair = repaired.map(|(_, r)| r);
+    report.repair = repair;
     if a.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {

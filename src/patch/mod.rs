@@ -10,6 +10,7 @@
 pub mod basis;
 pub mod flat;
 pub mod g1;
+pub mod lagrange;
 pub mod nagata;
 pub mod nlsa;
 pub mod phong;

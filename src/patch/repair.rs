@@ -1959,104 +1959,19 @@ fn grid_points(level: u32) -> Vec<[f64; 3]> {
     out
 }
 
-/// Barycentric multi-indices of degree `n` (i for b_0, j for b_1, k for b_2).
-fn multi_indices(n: usize) -> Vec<[usize; 3]> {
-    let mut out = Vec::new();
-    for i in (0..=n).rev() {
-        for j in (0..=n - i).rev() {
-            out.push([i, j, n - i - j]);
-        }
-    }
-    out
-}
-
-/// n! / (α_0! α_1! α_2!).
-fn multinomial(a: [usize; 3]) -> f64 {
-    let f = |k: usize| (1..=k).map(|x| x as f64).product::<f64>();
-    f(a[0] + a[1] + a[2]) / (f(a[0]) * f(a[1]) * f(a[2]))
-}
-
-/// The Bézier control points of the cubic that interpolates `x` at the points
-/// (i, j, k)/3 of [`multi_indices`]`(3)` (Gauss–Jordan on the 10 × 10 Bernstein matrix).
-fn cubic_through(x: &[DVec3; 10]) -> [DVec3; 10] {
-    let idx = multi_indices(3);
-    let mut m = [[0.0f64; 10]; 10];
-    let mut rhs = *x;
-    for (r, node) in idx.iter().enumerate() {
-        let b = node.map(|v| v as f64 / 3.0);
-        for (c, a) in idx.iter().enumerate() {
-            m[r][c] = multinomial(*a)
-                * b[0].powi(a[0] as i32)
-                * b[1].powi(a[1] as i32)
-                * b[2].powi(a[2] as i32);
-        }
-    }
-    for col in 0..10 {
-        let piv = (col..10)
-            .max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))
-            .unwrap_or(col);
-        m.swap(col, piv);
-        rhs.swap(col, piv);
-        let d = m[col][col];
-        let pivot_row = m[col].map(|x| x / d);
-        m[col] = pivot_row;
-        rhs[col] /= d;
-        let pivot_rhs = rhs[col];
-        for (r, (row, y)) in m.iter_mut().zip(rhs.iter_mut()).enumerate() {
-            if r != col && row[col] != 0.0 {
-                let f = row[col];
-                for (x, p) in row.iter_mut().zip(&pivot_row) {
-                    *x -= f * p;
-                }
-                *y -= f * pivot_rhs;
-            }
-        }
-    }
-    rhs
-}
-
-/// The smallest Bernstein coefficient of J = (X_u × X_v) · n_f of the cubic Lagrange
-/// triangle through patch `i` of `table` at the points (i, j, k)/3 (the element of order 3
-/// that `export-msh` writes, u and v along b_1 and b_2), over the largest |coefficient|:
-/// where it is positive the element cannot fold.
+/// The bound `export-msh` reports as the minimum scaled Jacobian
+/// ([`super::lagrange::JacobianBound`]) of the cubic Lagrange triangle through patch `i` of
+/// `table` at its nodes (the element of order 3 that `export-msh` writes): where it is
+/// positive the element cannot fold.
 fn lagrange3_bound(table: &PatchTable, i: usize) -> f64 {
-    let idx3 = multi_indices(3);
-    let x: [DVec3; 10] = std::array::from_fn(|r| table.eval(i, idx3[r].map(|v| v as f64 / 3.0)).p);
-    let c = cubic_through(&x);
-    let at = |a: [usize; 3]| c[idx3.iter().position(|x| *x == a).unwrap_or(0)];
-    let idx2 = multi_indices(2);
-    let du: Vec<DVec3> = idx2
+    static BOUND: std::sync::OnceLock<super::lagrange::JacobianBound> = std::sync::OnceLock::new();
+    let bound = BOUND.get_or_init(|| super::lagrange::JacobianBound::new(3));
+    let x: Vec<DVec3> = super::lagrange::triangle_nodes(3)
         .iter()
-        .map(|a| 3.0 * (at([a[0], a[1] + 1, a[2]]) - at([a[0] + 1, a[1], a[2]])))
+        .map(|&[a, b]| {
+            let (u, v) = (a as f64 / 3.0, b as f64 / 3.0);
+            table.eval(i, [1.0 - u - v, u, v]).p
+        })
         .collect();
-    let dv: Vec<DVec3> = idx2
-        .iter()
-        .map(|a| 3.0 * (at([a[0], a[1], a[2] + 1]) - at([a[0] + 1, a[1], a[2]])))
-        .collect();
-    let n = table.flat_normals[i];
-    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-    for g in multi_indices(4) {
-        let mut s = 0.0;
-        for (p, a) in idx2.iter().enumerate() {
-            let b = [
-                g[0] as isize - a[0] as isize,
-                g[1] as isize - a[1] as isize,
-                g[2] as isize - a[2] as isize,
-            ];
-            if b.iter().any(|&x| x < 0) {
-                continue;
-            }
-            let b = b.map(|x| x as usize);
-            let q = idx2.iter().position(|x| *x == b).unwrap_or(0);
-            s += multinomial(*a) * multinomial(b) * du[p].cross(dv[q]).dot(n);
-        }
-        let s = s / multinomial(g);
-        lo = lo.min(s);
-        hi = hi.max(s.abs());
-    }
-    if hi > 0.0 {
-        lo / hi
-    } else {
-        0.0
-    }
+    bound.min_scaled(&x, table.flat_normals[i])
 }

@@ -808,25 +808,9 @@ fn check_within(table: &PatchTable, i: usize, max_depth: u32, max_cells: usize) 
     }
 }
 
-/// The line `tessellate` and `render` print about `table` (built for `mesh` with `opts`):
-/// with [`SchemeOptions::repair_folds`], what the repair changed and what is left
-/// ([`super::repair::report`]: the outcome of the repair that built `table`, kept, not
-/// searched again); otherwise the count of folded patches ([`fold_line`]), `None` where
-/// every patch is certified valid.
-pub fn fold_warning(
-    mesh: &crate::mesh::Mesh,
-    table: &PatchTable,
-    opts: &super::SchemeOptions,
-) -> Result<Option<String>> {
-    if !opts.repair_folds {
-        return Ok(fold_line(&mesh.name, table));
-    }
-    let report = super::repair::report(mesh, table.scheme, opts)?;
-    Ok(repair_line(&mesh.name, table, Some(&report)))
-}
-
-/// The line about `table` of mesh `mesh_name` given the repair's `report` when there was
-/// one ([`super::repair::prepared`]): the report, a warning where a patch is left folded or
+/// The line `tessellate`, `render` and `export-msh` print about `table` of mesh
+/// `mesh_name`, given the repair's `report` when there was one
+/// ([`super::repair::prepared`]): the report, a warning where a patch is left folded or
 /// undecided; without a report the count of folded patches ([`fold_line`]).
 pub fn repair_line(
     mesh_name: &str,
