@@ -16,9 +16,49 @@
 //! corner, where the sign of J is set by the directions of the two end tangents, that is by
 //! the normals.
 //!
-//! Method: a local search under the certificate of [`super::validity`]:
+//! **What no repair that keeps G1 can avoid** ([`corner_bound`]). At a corner A of
+//! triangle f (unit face normal n_f) with normal N whose two edges of f are not crease
+//! edges, every scheme's boundary curves leave A along the chords projected on the plane
+//! normal to N, so S_s × S_t = 2 Area a b (n_f · N) N there (a, b > 0 the tangent lengths).
+//! Along such an edge A → B the patch's normal is λ(u) n(u), n(u) the edge's continuous
+//! nonzero normal field from N_A to N_B; a certified patch has J = λ (n · n_f) > 0 on the
+//! whole edge, so λ keeps one sign σ, the patch's, and σ (n_f · N) > 0 at every such
+//! corner. Across a smooth edge both patches' normals are their λ times the same n(u), so a
+//! repair with no edge sample at cos < 0 has one σ on each component of triangles joined by
+//! smooth edges. A repair that keeps every smooth edge smooth, certifies every patch and
+//! has no cos < 0 sample therefore turns each such corner's normal to within 90° of n_f
+//! (σ = +1) or beyond it (σ = −1): it changes the normal by at least θ − 90° or 90° − θ
+//! there (θ the input angle between N and n_f). The report's
+//! `normal_change_lower_bound_deg` is the largest, over components, of the smaller of the
+//! two largest; tangent lengths scale a and b only and change no sign. A crease changes the
+//! argument only at the corners between two crease edges (their curves leave along the
+//! crease directions), which is how a triangle given its own face normal (a flat corner)
+//! escapes it: at the price of the crease. A normal group whose triangles' face normals fit
+//! in no open hemisphere (Suzanne's doubled triangle, the same three vertices in both
+//! orders) has no single normal facing them all: a crease there is forced
+//! (`crease_forced_groups`, found exactly by [`max_min_direction`]).
+//!
+//! Method: a local search under the certificate of [`super::validity`], for G1 first
+//! without making any crease:
 //! 1. Every patch gets its verdict. If all are certified valid, nothing changes at all (the
 //!    mesh and every patch stay bit for bit as they were).
+//!
+//! *Crease-free phase* (G1, between steps 1 and 2). Each normal group at a corner of an
+//! uncertified patch that faces some of its triangles by less than a cosine of 0.05 (where a crease is not
+//! forced) gets the nearest normal facing all of them by 0.05 ([`nearest_facing`]: the
+//! minimal rotation, exact by enumerating the active constraints), the corner condition
+//! above with a margin. Then the rounds of moves of steps 4 and 5, with no cut, on a
+//! grid of level 12, with more moves: each group, two or three of the patch's groups
+//! each, or all of them with one normal, to the nearest normal facing their triangles by
+//! 0.02 to 0.5; a move must keep each moved group facing its triangles (by 0.02, or as
+//! much as before); the measure adds the shortfall of the cubic Lagrange element's bound
+//! below 0.01; and among the 16 trials of largest gain the one the certificate finds
+//! with the fewest uncertified patches around it, where that is fewer than now, is kept
+//! (the measure's grid can miss a fold the certificate sees). At most 12 rounds. What it
+//! leaves uncertified is reported (`crease_free_left`, and how many of those patches
+//! have a corner where a crease is forced) and goes through steps 2 to 10 (the
+//! fallback); other schemes start there.
+//!
 //! 2. G1: a triangle whose face normal turns away (negative cosine) from every other
 //!    triangle at each of its three corners folds the input itself; no normal shared with
 //!    them serves it, and normals of its own alone would make its two crease curves at a
@@ -80,6 +120,10 @@
 //! 10. After a cascade, at each touched vertex the groups that were one group in the
 //!     input get one normal again (the mean of their corners' normals, or one of theirs)
 //!     where the patches around stay certified: fewer new creases.
+//!
+//! The search also refuses a certified patch that is inside out (its normal at a corner
+//! turned away from the corner's normal): the certificate, along n_f, accepts it, but it
+//! meets its neighbours across smooth edges at cos = −1 ([`judge`]).
 //!
 //! For G1 the search also refuses a certified patch whose cubic Lagrange element (the
 //! element of order 3 that `export-msh` writes, its nodes on the patch) may fold: the
@@ -148,10 +192,25 @@ const MARGIN: f64 = 0.05;
 /// Smallest cosine between a group's normal and its faces' normals below which the first
 /// pass gives the group its central normal.
 const PREPASS_MARGIN: f64 = 0.1;
+/// Smallest cosine n_f · N to each of its triangles that the crease-free phase first gives
+/// a group that does not face them all (the nearest such normal, [`nearest_facing`]).
+const FACING: f64 = 0.05;
+/// Margins of the nearest facing normals the crease-free phase's moves try.
+const FACING_STEPS: [f64; 6] = [0.02, 0.05, 0.1, 0.2, 0.3, 0.5];
 /// Grid level of the search's measure ([`badness`]).
 const BADNESS_LEVEL: u32 = 6;
+/// Grid level of the crease-free phase's measure.
+const FINE_LEVEL: u32 = 12;
+/// Trials of largest gain per patch and round that the crease-free phase certifies.
+const CERTIFY_TRIALS: usize = 16;
+/// Most rounds of the crease-free phase (each certifies up to [`CERTIFY_TRIALS`] trials
+/// per patch; what is left then goes to the fallback).
+const CREASE_FREE_ROUNDS: usize = 12;
 /// Grid level at which the repaired and unrepaired surfaces are compared.
 const DISTANCE_LEVEL: u32 = 8;
+
+/// A trial of the crease-free phase: its gain, its moves (group, new normal), its ring.
+type Trial = (f64, Vec<(u32, DVec3)>, Vec<u32>);
 
 /// What a repair changed.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -189,6 +248,22 @@ pub struct RepairReport {
     pub triangles_flattened: usize,
     /// Rounds of the search.
     pub rounds: usize,
+    /// Lower bound, in degrees, of the largest normal change of any repair by normals and
+    /// tangent lengths that keeps G1 (makes no smooth edge a crease) and leaves every
+    /// patch certified with no edge sample at cos < 0 ([`corner_bound`]): the largest,
+    /// over components of triangles joined by smooth edges, of the smaller of the largest
+    /// θ − 90° and the largest 90° − θ over their corners not between two crease edges
+    /// (θ the angle between the input normal and the face normal). 0 when nothing folds.
+    pub normal_change_lower_bound_deg: f64,
+    /// Input normal groups whose triangles' face normals fit in no open hemisphere: no
+    /// single normal faces all of them, so a crease there is forced (Suzanne's doubled
+    /// triangle). 0 when nothing folds.
+    pub crease_forced_groups: usize,
+    /// Patches that the crease-free search (first phase, G1) left uncertified, handed to
+    /// the fallback of cuts, isolations and flattenings (sorted triangle indices).
+    pub crease_free_left: Vec<u32>,
+    /// Of those, the patches with a corner in a group where a crease is forced.
+    pub crease_free_left_forced: usize,
 }
 
 impl RepairReport {
@@ -564,7 +639,9 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         let weak: Vec<bool> = (0..verdicts.len())
             .into_par_iter()
             .map(|t| {
-                verdicts[t] == Verdict::Valid && lagrange3_bound(&table0, t) <= LAGRANGE_MARGIN
+                verdicts[t] == Verdict::Valid
+                    && (lagrange3_bound(&table0, t) <= LAGRANGE_MARGIN
+                        || inside_out(&table0, t, mesh.corner_normals[t]))
             })
             .collect();
         for (t, w) in weak.into_iter().enumerate() {
@@ -576,6 +653,8 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         bad.sort_unstable();
     }
     let mut groups = Groups::new(mesh);
+    // The input's group of each corner (those of `forced`; cuts add groups later).
+    let input_group = groups.of_corner.clone();
     let faces: Vec<DVec3> = table0.flat_normals.clone();
     let mut work = mesh.clone();
     let mut touched: HashSet<u32> = HashSet::new();
@@ -590,48 +669,61 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         Vec::new()
     };
     let grid = grid_points(BADNESS_LEVEL);
-    if scheme == Scheme::G1 {
-        for &t in &bad {
-            if let Some(gs) = isolate_sliver(
-                &mut work,
-                &mut groups,
-                t,
-                &faces,
-                (scheme, opts, &twins),
-                &mut verdicts,
-                &mut changed,
-                &grid,
-                false,
-            )? {
-                touched.extend(gs);
-                splits += 6;
-                slivers += 1;
-            }
+    let grid_fine = grid_points(FINE_LEVEL);
+    let (lower_bound, forced) = corner_bound(mesh, &faces, &groups);
+    let mut crease_free_left: Vec<u32> = Vec::new();
+    let mut rounds = 0;
+    // Two phases. G1 first searches without making any crease (the moves only, after
+    // each group that does not face its triangles gets the nearest normal that does);
+    // what it leaves uncertified, and every other scheme, goes through the search with
+    // cuts, isolations and (G1) flattenings.
+    for fallback in [false, true] {
+        if !fallback && scheme != Scheme::G1 {
+            continue;
         }
-        bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
-    }
-    // Then, every normal group at a corner of an uncertified patch that does not face
-    // all of its own triangles by a margin (smallest cosine to their face normals below
-    // 0.1) gets its central normal, where that faces them better: the corner condition
-    // n_f · N > 0 of every patch around it, which no later move can do without.
-    let mut seen = HashSet::new();
-    for &t in &bad {
-        for k in 0..3 {
-            let g = groups.of_corner[3 * t as usize + k];
-            if !seen.insert(g) || groups.frozen.contains(&g) {
-                continue;
-            }
-            let f: Vec<DVec3> = groups
-                .corners(g)
-                .iter()
-                .map(|&c| faces[c as usize / 3])
+        if fallback {
+            bad = (0..verdicts.len() as u32)
+                .filter(|&t| verdicts[t as usize] != Verdict::Valid)
                 .collect();
-            let cur = groups.normal(&work, g);
-            let margin = |n: DVec3| f.iter().map(|x| x.dot(n)).fold(f64::INFINITY, f64::min);
-            let c = central(&f, cur);
-            if margin(cur) < PREPASS_MARGIN && margin(c) > margin(cur) {
+            if bad.is_empty() {
+                break;
+            }
+            if scheme == Scheme::G1 {
+                crease_free_left = bad.clone();
+            }
+        } else {
+            // Every group at a corner of an uncertified patch that faces some of its
+            // triangles by less than FACING (n_f · N) gets the nearest normal that faces
+            // them all by FACING (by the largest smallest cosine where that is less than
+            // FACING); a group where no normal faces them all is left to the fallback.
+            let mut gs: Vec<u32> = bad
+                .iter()
+                .flat_map(|&t| (0..3).map(move |k| 3 * t as usize + k))
+                .map(|c| groups.of_corner[c])
+                .collect();
+            gs.sort_unstable();
+            gs.dedup();
+            for g in gs {
+                if forced[g as usize] {
+                    continue;
+                }
+                let f: Vec<DVec3> = groups
+                    .corners(g)
+                    .iter()
+                    .map(|&c| faces[c as usize / 3])
+                    .filter(|x| x.length_squared() > 0.25)
+                    .collect();
+                let cur = groups.normal(&work, g);
+                if f.iter().all(|x| x.dot(cur) >= FACING) {
+                    continue;
+                }
+                let Some(target) = nearest_facing(cur, &f, FACING)
+                    .or_else(|| max_min_direction(&f).map(|(n, _)| n))
+                else {
+                    continue;
+                };
                 let mut ring = Vec::new();
-                set_group(&mut work, &groups, g, c, &mut ring);
+                set_group(&mut work, &groups, g, target, &mut ring);
                 ring.sort_unstable();
                 ring.dedup();
                 let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
@@ -642,177 +734,343 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 touched.insert(g);
             }
         }
-    }
-    bad = (0..verdicts.len() as u32)
-        .filter(|&t| verdicts[t as usize] != Verdict::Valid)
-        .collect();
-    let mut rounds = 0;
-    while !bad.is_empty() && rounds < MAX_ROUNDS {
-        rounds += 1;
-        let mut improved = false;
-        for &t in &bad.clone() {
-            let tri = t as usize;
-            if verdicts[tri] == Verdict::Valid {
-                continue;
+        if fallback && scheme == Scheme::G1 {
+            for &t in &bad {
+                if let Some(gs) = isolate_sliver(
+                    &mut work,
+                    &mut groups,
+                    t,
+                    &faces,
+                    (scheme, opts, &twins),
+                    &mut verdicts,
+                    &mut changed,
+                    &grid,
+                    false,
+                )? {
+                    touched.extend(gs);
+                    splits += 6;
+                    slivers += 1;
+                }
             }
-            // The best move of one corner group of this patch: (badness of the patches
-            // around the group after it, group, new normal).
-            let mut best: Option<(f64, Vec<(u32, DVec3)>)> = None;
-            let corner_normals = work.corner_normals[tri];
-            let mean = corner_normals
-                .iter()
-                .copied()
-                .sum::<DVec3>()
-                .try_normalize();
-            let own: Vec<u32> = (0..3).map(|k| groups.of_corner[3 * tri + k]).collect();
-            // Candidate moves: one group at a time, then the patch's three groups together
-            // towards its face normal.
-            let mut candidates: Vec<Vec<(u32, DVec3)>> = Vec::new();
-            for &g in own.iter().filter(|g| !groups.frozen.contains(g)) {
-                let cur = groups.normal(&work, g);
+            bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
+        }
+        // Then, every normal group at a corner of an uncertified patch that does not face
+        // all of its own triangles by a margin (smallest cosine to their face normals below
+        // 0.1) gets its central normal, where that faces them better: the corner condition
+        // n_f · N > 0 of every patch around it, which no later move can do without.
+        let mut seen = HashSet::new();
+        for &t in bad.iter().filter(|_| fallback) {
+            for k in 0..3 {
+                let g = groups.of_corner[3 * t as usize + k];
+                if !seen.insert(g) || groups.frozen.contains(&g) {
+                    continue;
+                }
                 let f: Vec<DVec3> = groups
                     .corners(g)
                     .iter()
                     .map(|&c| faces[c as usize / 3])
                     .collect();
-                let mut targets = vec![central(&f, cur), faces[tri]];
-                targets.extend(mean);
-                for target in targets {
-                    for w in WEIGHTS {
-                        candidates.push(vec![(g, towards(cur, target, w))]);
+                let cur = groups.normal(&work, g);
+                let margin = |n: DVec3| f.iter().map(|x| x.dot(n)).fold(f64::INFINITY, f64::min);
+                let c = central(&f, cur);
+                if margin(cur) < PREPASS_MARGIN && margin(c) > margin(cur) {
+                    let mut ring = Vec::new();
+                    set_group(&mut work, &groups, g, c, &mut ring);
+                    ring.sort_unstable();
+                    ring.dedup();
+                    let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
+                    for (i, &r) in ring.iter().enumerate() {
+                        verdicts[r as usize] = v[i];
+                        changed.insert(r);
                     }
+                    touched.insert(g);
                 }
             }
-            for w in WEIGHTS {
-                candidates.push(
-                    own.iter()
-                        .filter(|g| !groups.frozen.contains(g))
-                        .map(|&g| (g, towards(groups.normal(&work, g), faces[tri], w)))
-                        .collect(),
-                );
-            }
-            // Two or three of its groups together towards the central normal of all their
-            // faces (a sliver's close corners need nearly the same normal: their curves to
-            // the far corner must not cross).
-            let sets: [&[usize]; 4] = [&[0, 1], &[1, 2], &[2, 0], &[0, 1, 2]];
-            for set in sets {
-                let gs: Vec<u32> = set.iter().map(|&k| own[k]).collect();
-                if gs
-                    .iter()
-                    .any(|g| gs.iter().filter(|h| *h == g).count() > 1 || groups.frozen.contains(g))
-                {
+        }
+        bad = (0..verdicts.len() as u32)
+            .filter(|&t| verdicts[t as usize] != Verdict::Valid)
+            .collect();
+        let mut phase_rounds = 0;
+        while !bad.is_empty()
+            && phase_rounds
+                < if fallback {
+                    MAX_ROUNDS
+                } else {
+                    CREASE_FREE_ROUNDS
+                }
+        {
+            phase_rounds += 1;
+            rounds += 1;
+            let mut improved = false;
+            // The crease-free phase measures on a finer grid: the folds it meets sit between
+            // the points of the coarse one.
+            let grid = if fallback { &grid } else { &grid_fine };
+            for &t in &bad.clone() {
+                let tri = t as usize;
+                if verdicts[tri] == Verdict::Valid {
                     continue;
                 }
-                let f: Vec<DVec3> = gs
+                // The best move of one corner group of this patch: (badness of the patches
+                // around the group after it, group, new normal).
+                let mut best: Option<(f64, Vec<(u32, DVec3)>)> = None;
+                let corner_normals = work.corner_normals[tri];
+                let mean = corner_normals
                     .iter()
-                    .flat_map(|&g| groups.corners(g))
-                    .map(|&c| faces[c as usize / 3])
-                    .collect();
-                let target = central(&f, faces[tri]);
+                    .copied()
+                    .sum::<DVec3>()
+                    .try_normalize();
+                let own: Vec<u32> = (0..3).map(|k| groups.of_corner[3 * tri + k]).collect();
+                // Candidate moves: one group at a time, then the patch's three groups together
+                // towards its face normal.
+                let mut candidates: Vec<Vec<(u32, DVec3)>> = Vec::new();
+                for &g in own.iter().filter(|g| !groups.frozen.contains(g)) {
+                    let cur = groups.normal(&work, g);
+                    let f: Vec<DVec3> = groups
+                        .corners(g)
+                        .iter()
+                        .map(|&c| faces[c as usize / 3])
+                        .collect();
+                    let mut targets = vec![central(&f, cur), faces[tri]];
+                    targets.extend(mean);
+                    for target in targets {
+                        for w in WEIGHTS {
+                            candidates.push(vec![(g, towards(cur, target, w))]);
+                        }
+                    }
+                    // The nearest normals facing all of the group's triangles by a margin.
+                    for m in FACING_STEPS {
+                        if let Some(n) = nearest_facing(cur, &f, m) {
+                            candidates.push(vec![(g, n)]);
+                        }
+                    }
+                }
                 for w in WEIGHTS {
                     candidates.push(
-                        gs.iter()
-                            .map(|&g| (g, towards(groups.normal(&work, g), target, w)))
+                        own.iter()
+                            .filter(|g| !groups.frozen.contains(g))
+                            .map(|&g| (g, towards(groups.normal(&work, g), faces[tri], w)))
                             .collect(),
                     );
                 }
-            }
-            // The badness of each ring as it is now, by ring.
-            let mut now_of: HashMap<Vec<u32>, f64> = HashMap::new();
-            for moves in candidates {
-                if moves
-                    .iter()
-                    .all(|&(g, n)| normal_key(n) == normal_key(groups.normal(&work, g)))
-                {
-                    continue;
+                // Two or three of its groups together towards the central normal of all their
+                // faces (a sliver's close corners need nearly the same normal: their curves to
+                // the far corner must not cross).
+                let sets: [&[usize]; 4] = [&[0, 1], &[1, 2], &[2, 0], &[0, 1, 2]];
+                for set in sets {
+                    let gs: Vec<u32> = set.iter().map(|&k| own[k]).collect();
+                    if gs.iter().any(|g| {
+                        gs.iter().filter(|h| *h == g).count() > 1 || groups.frozen.contains(g)
+                    }) {
+                        continue;
+                    }
+                    let f: Vec<DVec3> = gs
+                        .iter()
+                        .flat_map(|&g| groups.corners(g))
+                        .map(|&c| faces[c as usize / 3])
+                        .collect();
+                    let target = central(&f, faces[tri]);
+                    for w in WEIGHTS {
+                        candidates.push(
+                            gs.iter()
+                                .map(|&g| (g, towards(groups.normal(&work, g), target, w)))
+                                .collect(),
+                        );
+                    }
+                    // Crease-free phase: the groups together, each to its nearest normal
+                    // facing its own triangles by a margin.
+                    for m in FACING_STEPS.iter().filter(|_| !fallback) {
+                        let moves: Option<Vec<(u32, DVec3)>> = gs
+                            .iter()
+                            .map(|&g| {
+                                let f: Vec<DVec3> = groups
+                                    .corners(g)
+                                    .iter()
+                                    .map(|&c| faces[c as usize / 3])
+                                    .collect();
+                                nearest_facing(groups.normal(&work, g), &f, *m).map(|n| (g, n))
+                            })
+                            .collect();
+                        candidates.extend(moves);
+                    }
+                    // And one normal for all of them, the nearest to their mean facing
+                    // all of their triangles (a sliver's close corners).
+                    let mean = gs
+                        .iter()
+                        .map(|&g| groups.normal(&work, g))
+                        .sum::<DVec3>()
+                        .try_normalize();
+                    for m in FACING_STEPS.iter().filter(|_| !fallback) {
+                        if let Some(n) = mean.and_then(|x| nearest_facing(x, &f, *m)) {
+                            candidates.push(gs.iter().map(|&g| (g, n)).collect());
+                        }
+                    }
                 }
-                let mut ring: Vec<u32> = moves
-                    .iter()
-                    .flat_map(|&(g, _)| groups.triangles_around(g))
-                    .collect();
-                ring.sort_unstable();
-                ring.dedup();
-                let now = match now_of.get(&ring) {
-                    Some(&x) => x,
-                    None => {
-                        let x = badness(&ring_table(&work, scheme, opts, &ring, &twins)?, &grid);
-                        now_of.insert(ring.clone(), x);
-                        x
+                // Crease-free phase: every trial, (gain, moves, ring).
+                let mut scored: Vec<Trial> = Vec::new();
+                // The badness of each ring as it is now, by ring.
+                let mut now_of: HashMap<Vec<u32>, f64> = HashMap::new();
+                let measure = |table: &PatchTable| {
+                    if fallback {
+                        badness(table, grid)
+                    } else {
+                        badness(table, grid) + lagrange_shortfall(table)
                     }
                 };
-                let old: Vec<(u32, DVec3)> = moves
-                    .iter()
-                    .map(|&(g, _)| (g, groups.normal(&work, g)))
-                    .collect();
-                let mut sink = Vec::new();
-                for &(g, n) in &moves {
-                    set_group(&mut work, &groups, g, n, &mut sink);
+                // Smallest cosine of a normal to the face normals of group `g`.
+                let facing = |g: u32, n: DVec3| {
+                    groups
+                        .corners(g)
+                        .iter()
+                        .map(|&c| faces[c as usize / 3])
+                        .filter(|x| x.length_squared() > 0.25)
+                        .map(|x| x.dot(n))
+                        .fold(f64::INFINITY, f64::min)
+                };
+                for moves in candidates {
+                    if moves
+                        .iter()
+                        .all(|&(g, n)| normal_key(n) == normal_key(groups.normal(&work, g)))
+                    {
+                        continue;
+                    }
+                    // The crease-free phase keeps every corner condition it has met: a
+                    // moved group faces all of its triangles by FACING_STEPS[0], or by no
+                    // less than before.
+                    if !fallback
+                        && moves.iter().any(|&(g, n)| {
+                            facing(g, n) < FACING_STEPS[0].min(facing(g, groups.normal(&work, g)))
+                        })
+                    {
+                        continue;
+                    }
+                    let mut ring: Vec<u32> = moves
+                        .iter()
+                        .flat_map(|&(g, _)| groups.triangles_around(g))
+                        .collect();
+                    ring.sort_unstable();
+                    ring.dedup();
+                    let now = match now_of.get(&ring) {
+                        Some(&x) => x,
+                        None => {
+                            let x = measure(&*ring_table(&work, scheme, opts, &ring, &twins)?);
+                            now_of.insert(ring.clone(), x);
+                            x
+                        }
+                    };
+                    let old: Vec<(u32, DVec3)> = moves
+                        .iter()
+                        .map(|&(g, _)| (g, groups.normal(&work, g)))
+                        .collect();
+                    let mut sink = Vec::new();
+                    for &(g, n) in &moves {
+                        set_group(&mut work, &groups, g, n, &mut sink);
+                    }
+                    let b = measure(&*ring_table(&work, scheme, opts, &ring, &twins)?);
+                    for &(g, n) in old.iter().rev() {
+                        set_group(&mut work, &groups, g, n, &mut sink);
+                    }
+                    let gain = now - b;
+                    if !fallback {
+                        scored.push((gain, moves.clone(), ring));
+                    }
+                    if gain > 1e-9 * now && best.as_ref().is_none_or(|(x, _)| gain > *x) {
+                        best = Some((gain, moves));
+                    }
                 }
-                let b = badness(&ring_table(&work, scheme, opts, &ring, &twins)?, &grid);
-                for &(g, n) in old.iter().rev() {
-                    set_group(&mut work, &groups, g, n, &mut sink);
+                // The crease-free phase prefers, among the trials of largest gain, the
+                // one with the fewest uncertified patches around it where that is fewer
+                // than now (the measure's grid can miss a fold the certificate sees).
+                scored.sort_by(|a, b| b.0.total_cmp(&a.0));
+                let mut fewest: Option<(usize, usize)> = None;
+                for (i, (_, moves, ring)) in scored.iter().take(CERTIFY_TRIALS).enumerate() {
+                    let was = ring
+                        .iter()
+                        .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+                        .count();
+                    let Some(limit) = fewest.map_or(was.checked_sub(1), |(c, _)| c.checked_sub(1))
+                    else {
+                        break;
+                    };
+                    let old: Vec<(u32, DVec3)> = moves
+                        .iter()
+                        .map(|&(g, _)| (g, groups.normal(&work, g)))
+                        .collect();
+                    let mut sink = Vec::new();
+                    for &(g, n) in moves {
+                        set_group(&mut work, &groups, g, n, &mut sink);
+                    }
+                    let counted =
+                        uncertified_upto(&ring_table(&work, scheme, opts, ring, &twins)?, limit);
+                    for &(g, n) in old.iter().rev() {
+                        set_group(&mut work, &groups, g, n, &mut sink);
+                    }
+                    if let Some(c) = counted {
+                        fewest = Some((c, i));
+                    }
                 }
-                let gain = now - b;
-                if gain > 1e-9 * now && best.as_ref().is_none_or(|(x, _)| gain > *x) {
+                if let Some((_, i)) = fewest {
+                    let (gain, moves, _) = scored.swap_remove(i);
                     best = Some((gain, moves));
                 }
-            }
-            if let Some((_, moves)) = best {
-                let old: Vec<(u32, DVec3)> = moves
-                    .iter()
-                    .map(|&(g, _)| (g, groups.normal(&work, g)))
-                    .collect();
-                let mut ring = Vec::new();
-                for &(g, n) in &moves {
-                    set_group(&mut work, &groups, g, n, &mut ring);
-                }
-                ring.sort_unstable();
-                ring.dedup();
-                let was = ring
-                    .iter()
-                    .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
-                    .count();
-                let Some(v) = verdicts_upto(&work, (scheme, opts, &twins), &ring, was)? else {
-                    // The certificate disagrees with the sampled measure: undo.
-                    for &(g, n) in old.iter().rev() {
+                if let Some((_, moves)) = best {
+                    let old: Vec<(u32, DVec3)> = moves
+                        .iter()
+                        .map(|&(g, _)| (g, groups.normal(&work, g)))
+                        .collect();
+                    let mut ring = Vec::new();
+                    for &(g, n) in &moves {
                         set_group(&mut work, &groups, g, n, &mut ring);
                     }
+                    ring.sort_unstable();
+                    ring.dedup();
+                    let was = ring
+                        .iter()
+                        .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+                        .count();
+                    let Some(v) = verdicts_upto(&work, (scheme, opts, &twins), &ring, was)? else {
+                        // The certificate disagrees with the sampled measure: undo.
+                        for &(g, n) in old.iter().rev() {
+                            set_group(&mut work, &groups, g, n, &mut ring);
+                        }
+                        continue;
+                    };
+                    for (i, &r) in ring.iter().enumerate() {
+                        verdicts[r as usize] = v[i];
+                        changed.insert(r);
+                    }
+                    touched.extend(moves.iter().map(|&(g, _)| g));
+                    improved = true;
+                } else if !fallback {
                     continue;
-                };
-                for (i, &r) in ring.iter().enumerate() {
-                    verdicts[r as usize] = v[i];
-                    changed.insert(r);
+                } else if let Some(cut) = best_cut(
+                    &mut work,
+                    &mut groups,
+                    tri,
+                    &faces,
+                    (scheme, opts, &twins),
+                    &verdicts,
+                    grid,
+                )? {
+                    // No move of one normal helps: the fan of one corner's vertex is cut along
+                    // one or two of its edges into two groups, each with its own normal (a new
+                    // crease there), kept only where the certificate counts fewer uncertified
+                    // patches.
+                    for (&r, &v) in cut.ring.iter().zip(&cut.verdicts) {
+                        verdicts[r as usize] = v;
+                        changed.insert(r);
+                    }
+                    touched.insert(cut.groups[0]);
+                    touched.insert(cut.groups[1]);
+                    in_cuts.extend(cut.groups);
+                    cuts.push(cut.groups);
+                    splits += 1;
+                    improved = true;
                 }
-                touched.extend(moves.iter().map(|&(g, _)| g));
-                improved = true;
-            } else if let Some(cut) = best_cut(
-                &mut work,
-                &mut groups,
-                tri,
-                &faces,
-                (scheme, opts, &twins),
-                &verdicts,
-                &grid,
-            )? {
-                // No move of one normal helps: the fan of one corner's vertex is cut along
-                // one or two of its edges into two groups, each with its own normal (a new
-                // crease there), kept only where the certificate counts fewer uncertified
-                // patches.
-                for (&r, &v) in cut.ring.iter().zip(&cut.verdicts) {
-                    verdicts[r as usize] = v;
-                    changed.insert(r);
-                }
-                touched.insert(cut.groups[0]);
-                touched.insert(cut.groups[1]);
-                in_cuts.extend(cut.groups);
-                cuts.push(cut.groups);
-                splits += 1;
-                improved = true;
             }
-        }
-        bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
-        if !improved {
-            break;
+            bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
+            if !improved {
+                break;
+            }
         }
     }
     // Where the search leaves a G1 patch uncertified, the same isolation as for a
@@ -1099,6 +1357,13 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         left_on_flipped_triangles: flipped,
         triangles_flattened: flattened,
         rounds,
+        normal_change_lower_bound_deg: lower_bound,
+        crease_forced_groups: forced.iter().filter(|&&x| x).count(),
+        crease_free_left_forced: crease_free_left
+            .iter()
+            .filter(|&&t| (0..3).any(|k| forced[input_group[3 * t as usize + k] as usize]))
+            .count(),
+        crease_free_left,
     };
     Ok(Some(Plan {
         mesh: work,
@@ -1480,11 +1745,11 @@ fn flatten_corner(
 fn fewest_uncertified(
     n: usize,
     grid: &[[f64; 3]],
-    mut table_of: impl FnMut(usize) -> Result<PatchTable>,
+    mut table_of: impl FnMut(usize) -> Result<RingTable>,
 ) -> Result<Option<usize>> {
     let mut b = Vec::with_capacity(n);
     for i in 0..n {
-        b.push(badness(&table_of(i)?, grid));
+        b.push(badness(&*table_of(i)?, grid));
     }
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&x, &y| b[x].total_cmp(&b[y]).then(x.cmp(&y)));
@@ -1614,7 +1879,7 @@ fn best_cut(
             .iter()
             .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
             .count();
-        let b0 = badness(&ring_table(work, scheme, opts, &ring, twins)?, grid);
+        let b0 = badness(&*ring_table(work, scheme, opts, &ring, twins)?, grid);
         let n = order.len();
         // The second run of each cut (the first is the rest of the fan): between fan
         // positions i and i + 1 and between j and j + 1 where the fan closes, after i
@@ -1634,7 +1899,7 @@ fn best_cut(
         let old = groups.normal(work, g);
         for run in runs {
             let h = set_cut(work, groups, g, &run);
-            let b = badness(&ring_table(work, scheme, opts, &ring, twins)?, grid);
+            let b = badness(&*ring_table(work, scheme, opts, &ring, twins)?, grid);
             groups.unsplit(g, h);
             set_group(work, groups, g, old, &mut Vec::new());
             listed.push(Listed {
@@ -1744,6 +2009,38 @@ fn ring_table(
     opts: &SchemeOptions,
     tris: &[u32],
     twins: &[u32],
+) -> Result<RingTable> {
+    let normals = tris
+        .iter()
+        .map(|&t| work.corner_normals[t as usize])
+        .collect();
+    Ok(RingTable {
+        table: ring_patches(work, scheme, opts, tris, twins)?,
+        normals,
+    })
+}
+
+/// A table of some triangles' patches ([`ring_table`]) with their corner normals (for
+/// [`judge`]).
+struct RingTable {
+    table: PatchTable,
+    normals: Vec<[DVec3; 3]>,
+}
+
+impl std::ops::Deref for RingTable {
+    type Target = PatchTable;
+    fn deref(&self) -> &PatchTable {
+        &self.table
+    }
+}
+
+/// The patches of [`ring_table`].
+fn ring_patches(
+    work: &Mesh,
+    scheme: Scheme,
+    opts: &SchemeOptions,
+    tris: &[u32],
+    twins: &[u32],
 ) -> Result<PatchTable> {
     if scheme != Scheme::G1 {
         return PatchBuilder::new(work, scheme, opts)?.table_of(tris, 0);
@@ -1800,7 +2097,7 @@ fn verdicts_of(
     let table = ring_table(work, scheme, opts, tris, twins)?;
     Ok((0..tris.len())
         .into_par_iter()
-        .map(|i| judge(&table, i))
+        .map(|i| judge(&table, i, table.normals[i]))
         .collect())
 }
 
@@ -1810,7 +2107,7 @@ fn verdicts_of(
 /// A patch with J < −1e-9 |S_s| |S_t| at a point of a grid of level 8 (far beyond the
 /// rounding of the evaluation: J is negative there) is counted without its certificate,
 /// which cannot prove it valid; the others are certified after them.
-fn uncertified_upto(table: &PatchTable, limit: usize) -> Option<usize> {
+fn uncertified_upto(table: &RingTable, limit: usize) -> Option<usize> {
     let grid = grid_points(SURE_LEVEL);
     // Smallest J / (|S_s| |S_t|) on the grid, and whether J is surely negative there.
     let low: Vec<(f64, bool)> = (0..table.len())
@@ -1832,7 +2129,7 @@ fn uncertified_upto(table: &PatchTable, limit: usize) -> Option<usize> {
     for chunk in rest.chunks(rayon::current_num_threads().max(1)) {
         n += chunk
             .par_iter()
-            .filter(|&&i| judge(table, i) != Verdict::Valid)
+            .filter(|&&i| judge(table, i, table.normals[i]) != Verdict::Valid)
             .count();
         if n > limit {
             return None;
@@ -1859,7 +2156,7 @@ fn verdicts_upto(
     Ok(Some(
         (0..tris.len())
             .into_par_iter()
-            .map(|i| judge(&table, i))
+            .map(|i| judge(&table, i, table.normals[i]))
             .collect(),
     ))
 }
@@ -1884,15 +2181,32 @@ const LAGRANGE_MARGIN: f64 = 1e-6;
 /// that a certified G1 patch whose cubic Lagrange element (the nodes `export-msh` writes
 /// at order 3) may fold ([`lagrange3_bound`] at most [`LAGRANGE_MARGIN`]) counts as
 /// undecided, so that the repair gives solvers elements that do not fold either.
-fn judge(table: &PatchTable, i: usize) -> Verdict {
+///
+/// It also counts as undecided a certified patch that is inside out: its normal at a
+/// corner turned away from that corner's vertex normal ((S_s × S_t) · N ≤ 0), which the
+/// certificate (along the face normal) accepts but which meets its neighbours across
+/// smooth edges at cos = −1 (two copies of one triangle in both orders, glued along two
+/// edges, one of them facing away from the normals of all three vertices).
+fn judge(table: &PatchTable, i: usize, normals: [DVec3; 3]) -> Verdict {
     let v = certify(table, i);
     if v == Verdict::Valid
-        && table.scheme == Scheme::G1
-        && lagrange3_bound(table, i) <= LAGRANGE_MARGIN
+        && ((table.scheme == Scheme::G1 && lagrange3_bound(table, i) <= LAGRANGE_MARGIN)
+            || inside_out(table, i, normals))
     {
         return Verdict::Undecided;
     }
     v
+}
+
+/// Whether the normal of patch `i` of `table` at a corner turns away from that corner's
+/// normal (`normals`): (S_s × S_t) · N ≤ 0.
+fn inside_out(table: &PatchTable, i: usize, normals: [DVec3; 3]) -> bool {
+    (0..3).any(|k| {
+        let mut b = [0.0; 3];
+        b[k] = 1.0;
+        let p = table.eval(i, b);
+        p.ds.cross(p.dt).dot(normals[k]) <= 0.0
+    })
 }
 
 /// [`check_patch`] of patch `i` of `table`, remembered in [`VERDICTS`].
@@ -1946,6 +2260,22 @@ fn badness(table: &PatchTable, grid: &[[f64; 3]]) -> f64 {
     sum
 }
 
+/// Scaled Jacobian of the cubic Lagrange element ([`lagrange3_bound`]) that the
+/// crease-free phase's measure aims at for G1 patches: a margin above [`LAGRANGE_MARGIN`].
+const LAGRANGE_AIM: f64 = 0.01;
+
+/// The crease-free phase's addition to [`badness`] for G1: for each patch whose cubic
+/// Lagrange element's bound is below [`LAGRANGE_AIM`], 10 times its shortfall (the
+/// certificate's refusals there sit between the grid's points, or in the element).
+fn lagrange_shortfall(table: &PatchTable) -> f64 {
+    if table.scheme != Scheme::G1 {
+        return 0.0;
+    }
+    (0..table.len())
+        .map(|i| 10.0 * (LAGRANGE_AIM - lagrange3_bound(table, i)).max(0.0))
+        .sum()
+}
+
 /// The barycentric points of a grid of `level` segments per edge.
 fn grid_points(level: u32) -> Vec<[f64; 3]> {
     let n = level as f64;
@@ -1974,4 +2304,177 @@ fn lagrange3_bound(table: &PatchTable, i: usize) -> f64 {
         })
         .collect();
     bound.min_scaled(&x, table.flat_normals[i])
+}
+
+/// Largest smallest cosine below which a set of unit face normals counts as fitting in no
+/// open hemisphere ([`max_min_direction`]): far below any cosine a certified corner needs
+/// (J at a corner is proportional to its square) and far above the rounding of face
+/// normals (two copies of one triangle in both orders give exactly opposite normals, or
+/// opposite to about 1e-16).
+const NO_HEMISPHERE: f64 = 1e-12;
+
+/// The unit vector with the largest smallest cosine to the unit vectors `f`, and that
+/// cosine, exactly (to rounding): where it is positive the optimum has at most three
+/// active vectors (equal smallest cosines), so it is one of the candidates enumerated
+/// here: a vector of `f`, the bisector of two, or the direction at equal cosines to three
+/// (M x = 1 for the matrix M of their rows). Where no open hemisphere holds `f` the
+/// largest value found is at most 0. `None` for an empty `f`. Cubic in `f.len()` (fans
+/// are small; the quick case of the mean direction facing them all comes first).
+fn max_min_direction(f: &[DVec3]) -> Option<(DVec3, f64)> {
+    let value = |n: DVec3| f.iter().map(|x| x.dot(n)).fold(f64::INFINITY, f64::min);
+    let mut best: Option<(DVec3, f64)> = None;
+    let mut offer = |n: DVec3| {
+        if let Some(n) = n.try_normalize() {
+            let v = value(n);
+            if best.is_none_or(|(_, b)| v > b) {
+                best = Some((n, v));
+            }
+        }
+    };
+    for (i, &a) in f.iter().enumerate() {
+        offer(a);
+        for (j, &b) in f.iter().enumerate().skip(i + 1) {
+            offer(a + b);
+            for &c in &f[j + 1..] {
+                // x = M⁻¹ 1 by Cramer's rule: x · a = x · b = x · c = 1 / det-scaled.
+                let (bc, ca, ab) = (b.cross(c), c.cross(a), a.cross(b));
+                let det = a.dot(bc);
+                if det.abs() > 1e-300 {
+                    let x = (bc + ca + ab) / det;
+                    offer(x);
+                    offer(-x);
+                }
+            }
+        }
+    }
+    best
+}
+
+/// The unit vector nearest to `n` (smallest angle) whose cosine to each of the unit
+/// vectors `f` is at least `m` (0 ≤ m < 1), or `None` where none is. The feasible set is
+/// an intersection of spherical caps smaller than a hemisphere, so convex, and its point
+/// nearest to `n` is `n` itself, the projection of `n` on one cap's circle, or a corner
+/// where two circles cross: all are enumerated here and the nearest feasible one is kept
+/// (feasible to 1e-12, the rounding of the construction).
+fn nearest_facing(n: DVec3, f: &[DVec3], m: f64) -> Option<DVec3> {
+    let feasible = |x: DVec3| f.iter().all(|a| a.dot(x) >= m - 1e-12);
+    if feasible(n) {
+        return Some(n);
+    }
+    let s = (1.0 - m * m).max(0.0).sqrt();
+    let mut best: Option<(f64, DVec3)> = None;
+    let mut offer = |x: DVec3| {
+        if let Some(x) = x.try_normalize() {
+            if feasible(x) && best.is_none_or(|(d, _)| x.dot(n) > d) {
+                best = Some((x.dot(n), x));
+            }
+        }
+    };
+    for (i, &a) in f.iter().enumerate() {
+        if let Some(u) = (n - n.dot(a) * a).try_normalize() {
+            offer(m * a + s * u);
+        }
+        for &b in &f[i + 1..] {
+            let c = a.dot(b);
+            let Some(d) = a.cross(b).try_normalize() else {
+                continue;
+            };
+            // The point of span{a, b} with cosine m to both, then ± along a × b.
+            let p = (m / (1.0 + c)) * (a + b);
+            let h = 1.0 - p.length_squared();
+            if h >= 0.0 {
+                offer(p + h.sqrt() * d);
+                offer(p - h.sqrt() * d);
+            }
+        }
+    }
+    best.map(|(_, x)| x)
+}
+
+/// What any repair that keeps G1 (turns no smooth edge into a crease) must change, from
+/// the input's corner normals and face normals (the report's
+/// [`RepairReport::normal_change_lower_bound_deg`] and
+/// [`RepairReport::crease_forced_groups`]), with the groups where a crease is forced.
+///
+/// At a corner A of triangle f with normal N whose two edges of f are no crease edges, the
+/// boundary curves leave A along the chords projected on the plane normal to N, so
+/// S_s × S_t = 2 Area a b (n_f · N) N there, and along such an edge A → B the patch's
+/// normal is λ(u) n(u), with n(u) the edge's continuous nonzero normal field from N_A to
+/// N_B. A certified patch has J = λ (n · n_f) > 0 on the whole edge, so λ keeps one sign σ
+/// and σ (n_f · N) > 0 at both of its ends; two edges of f meet at a corner, so σ is the
+/// patch's. Across a smooth edge both patches' normals are their λ times the same n(u): no
+/// sample with cos < 0 needs the same σ on both sides, so σ is constant on each component
+/// of triangles joined by smooth edges. Hence every such corner has its angle θ between N'
+/// (the repaired normal) and n_f below 90° (σ = +1) or above (σ = −1), and the normal
+/// changes by at least θ − 90° or 90° − θ at that corner: the bound is the largest, over
+/// components, of the smaller of the two largest. Tangent lengths scale a and b only, and
+/// cannot change a sign. Returns (bound in degrees, groups with no open hemisphere).
+fn corner_bound(mesh: &Mesh, faces: &[DVec3], groups: &Groups) -> (f64, Vec<bool>) {
+    let nt = mesh.triangles.len();
+    // Crease half-edges (an interior edge whose two uses disagree on an end's normal) and
+    // the components of triangles joined by smooth interior edges (union–find).
+    let mut crease = vec![false; 3 * nt];
+    let mut parent: Vec<u32> = (0..nt as u32).collect();
+    fn root(p: &mut [u32], mut x: u32) -> u32 {
+        while p[x as usize] != x {
+            p[x as usize] = p[p[x as usize] as usize];
+            x = p[x as usize];
+        }
+        x
+    }
+    for e in EdgeIndex::new(&mesh.triangles).edges() {
+        if !e.is_interior() {
+            continue;
+        }
+        let [u0, u1] = [e.use_at(0), e.use_at(1)];
+        let split = e.v.iter().any(|&v| {
+            normal_key(crate::mesh::creases::use_normal(mesh, u0, v))
+                != normal_key(crate::mesh::creases::use_normal(mesh, u1, v))
+        });
+        if split {
+            crease[e.half_edges[0] as usize] = true;
+            crease[e.half_edges[1] as usize] = true;
+        } else {
+            let (a, b) = (
+                root(&mut parent, u0.triangle),
+                root(&mut parent, u1.triangle),
+            );
+            parent[a.max(b) as usize] = a.min(b);
+        }
+    }
+    // Per component: the largest θ − 90° and 90° − θ over its constrained corners.
+    let mut worst: HashMap<u32, (f64, f64)> = HashMap::new();
+    for t in 0..nt {
+        for k in 0..3 {
+            if (crease[3 * t + k] && crease[3 * t + (k + 2) % 3])
+                || faces[t].length_squared() < 0.25
+            {
+                continue;
+            }
+            let theta = angle_deg(mesh.corner_normals[t][k], faces[t]);
+            let r = root(&mut parent, t as u32);
+            let e = worst.entry(r).or_insert((0.0, 0.0));
+            e.0 = e.0.max(theta - 90.0);
+            e.1 = e.1.max(90.0 - theta);
+        }
+    }
+    let bound = worst.values().map(|&(p, q)| p.min(q)).fold(0.0, f64::max);
+    let forced = (0..groups.list.len() as u32)
+        .map(|g| {
+            // Degenerate triangles (zero face normal) face every way.
+            let f: Vec<DVec3> = groups
+                .corners(g)
+                .iter()
+                .map(|&c| faces[c as usize / 3])
+                .filter(|x| x.length_squared() > 0.25)
+                .collect();
+            let n = groups.normal(mesh, g);
+            // Quick case: the group's own normal faces all of them.
+            if f.iter().all(|x| x.dot(n) > NO_HEMISPHERE) {
+                return false;
+            }
+            max_min_direction(&f).is_none_or(|(_, v)| v <= NO_HEMISPHERE)
+        })
+        .collect();
+    (bound, forced)
 }
