@@ -236,9 +236,9 @@ fn suzanne_verdicts_are_decided_by_the_deeper_subdivision() {
 #[test]
 fn suzanne_repair_certifies_every_patch() {
     // The repair's outcome on Suzanne (deterministic): 76 folded before, every patch
-    // certified after. The crease-free phase leaves 19 patches uncertified (3 of them at
-    // the doubled triangle's vertices, where a crease is forced); the fallback's cuts and
-    // isolations, then its cascade, flatten 10 triangles and make 54 edges creases.
+    // certified after. The crease-free phase leaves 18 patches uncertified (2 of them the
+    // doubled triangle's copies, whose vertices need a crease); the fallback's cuts and
+    // isolations, then its cascade, flatten 11 triangles and make 61 edges creases.
     let suzanne = common::load("suzanne.obj");
     let opts = SchemeOptions::default();
     let (fixed, r) = repair(&suzanne, Scheme::G1, &opts).unwrap();
@@ -258,11 +258,11 @@ fn suzanne_repair_certifies_every_patch() {
             r.triangles_flattened,
             r.edges_made_creases
         ),
-        (65, 10, 54),
+        (65, 11, 61),
         "{r:?}"
     );
-    assert_eq!(r.crease_free_left.len(), 19, "{r:?}");
-    assert_eq!(r.crease_free_left_forced, 3, "{r:?}");
+    assert_eq!(r.crease_free_left.len(), 18, "{r:?}");
+    assert_eq!(r.crease_free_left_forced, 2, "{r:?}");
     // The bound and the forced creases, recomputed here from the input mesh: the doubled
     // triangle's three vertices (70, 135, 136) are the only ones whose faces fit in no
     // open hemisphere.
@@ -499,7 +499,10 @@ fn bunny_repair_counts_are_exact_and_kept_for_the_warning() {
         .map(|(a, b)| a.cross(*b).length().atan2(a.dot(*b)).to_degrees())
         .fold(0.0, f64::max);
     assert_eq!(largest, r.max_normal_change_deg);
-    assert!(largest >= bound && largest < 70.0, "{r:?}");
+    assert!(largest >= bound, "{r:?}");
+    // 47.109° (deterministic; to 1e-3° for the printed digits): 8.8° above the bound, at
+    // a close corner of the sliver.
+    assert!((largest - 47.109).abs() < 1e-3, "{r:?}");
     let (table, c) = repaired_is_g1_and_watertight(&bunny, &fixed, opts);
     // No crease: G1 across every edge (1 − min cos checked above).
     assert_eq!(c.crease_edges, 0);

@@ -52,12 +52,13 @@
 //! each, or all of them with one normal, to the nearest normal facing their triangles by
 //! 0.02 to 0.5; a move must keep each moved group facing its triangles (by 0.02, or as
 //! much as before); the measure adds the shortfall of the cubic Lagrange element's bound
-//! below 0.01; and among the 16 trials of largest gain the one the certificate finds
+//! below 0.01; and among the 8 trials of largest gain the one the certificate finds
 //! with the fewest uncertified patches around it, where that is fewer than now, is kept
-//! (the measure's grid can miss a fold the certificate sees). At most 12 rounds. What it
+//! (the measure's grid can miss a fold the certificate sees). At most 12 rounds, and
+//! none after two that leave as many patches uncertified as before. What it
 //! leaves uncertified is reported (`crease_free_left`, and how many of those patches
-//! have a corner where a crease is forced) and goes through steps 2 to 10 (the
-//! fallback); other schemes start there.
+//! have a corner where a crease is forced) and goes through steps 2 to 8 (the
+//! fallback); other schemes start there. Steps 9 to 11 run in every case.
 //!
 //! 2. G1: a triangle whose face normal turns away (negative cosine) from every other
 //!    triangle at each of its three corners folds the input itself; no normal shared with
@@ -114,12 +115,20 @@
 //!    goes back to its input normals at every corner (cuts and flat corners undone) where
 //!    the patches around stay certified. Then each moved normal whose patches around are
 //!    all certified goes back to its input value, or 3/4, 1/2 or 1/4 of the way (3/4 at
-//!    most for a cut's groups), largest change first, where those patches stay certified;
-//!    then each cut, latest first, is undone (both groups back to the input normal) where
-//!    the certificate counts no more uncertified patches around it.
+//!    most for a cut's groups), or (not for a cut's groups) to the nearest normal to its
+//!    input value facing all of its triangles by 0.02 to 0.5, largest change first, the
+//!    option nearest to the input that keeps those patches certified; then each cut,
+//!    latest first, is undone (both groups back to the input normal) where the
+//!    certificate counts no more uncertified patches around it.
 //! 10. After a cascade, at each touched vertex the groups that were one group in the
 //!     input get one normal again (the mean of their corners' normals, or one of theirs)
 //!     where the patches around stay certified: fewer new creases.
+//! 11. Last, the moved groups (not a cut's) of each triangle with two or three of them go
+//!     back together (a sliver's close corners need nearly one normal, so neither goes
+//!     back alone): each to its nearest normal to the input facing its triangles by 0.02
+//!     to 0.5, or all to the nearest one to the mean of their input normals facing all of
+//!     their triangles, or each 3/4, 1/2 or 1/4 of the way; of the options with a smaller
+//!     largest change, the smallest that keeps the patches around certified.
 //!
 //! The search also refuses a certified patch that is inside out (its normal at a corner
 //! turned away from the corner's normal): the certificate, along n_f, accepts it, but it
@@ -202,7 +211,7 @@ const BADNESS_LEVEL: u32 = 6;
 /// Grid level of the crease-free phase's measure.
 const FINE_LEVEL: u32 = 12;
 /// Trials of largest gain per patch and round that the crease-free phase certifies.
-const CERTIFY_TRIALS: usize = 16;
+const CERTIFY_TRIALS: usize = 8;
 /// Most rounds of the crease-free phase (each certifies up to [`CERTIFY_TRIALS`] trials
 /// per patch; what is left then goes to the fallback).
 const CREASE_FREE_ROUNDS: usize = 12;
@@ -791,6 +800,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             .filter(|&t| verdicts[t as usize] != Verdict::Valid)
             .collect();
         let mut phase_rounds = 0;
+        let (mut fewest_bad, mut stalled) = (bad.len(), 0);
         while !bad.is_empty()
             && phase_rounds
                 < if fallback {
@@ -1068,6 +1078,16 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 }
             }
             bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
+            // The crease-free phase stops after two rounds that certify nothing more.
+            if bad.len() < fewest_bad {
+                fewest_bad = bad.len();
+                stalled = 0;
+            } else {
+                stalled += 1;
+            }
+            if !fallback && stalled >= 2 {
+                break;
+            }
             if !improved {
                 break;
             }
@@ -1192,9 +1212,29 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         } else {
             &[1.0, 0.75, 0.5, 0.25]
         };
-        for &w in ws {
+        // Also the nearest normals to the input one that face all of the group's
+        // triangles by a margin (the corner condition; not for a cut's groups): tried with
+        // the others, nearest to the input first.
+        let mut options: Vec<DVec3> = ws.iter().map(|&w| towards(cur, n0, w)).collect();
+        if !in_cuts.contains(&g) {
+            let f: Vec<DVec3> = groups
+                .corners(g)
+                .iter()
+                .map(|&c| faces[c as usize / 3])
+                .filter(|x| x.length_squared() > 0.25)
+                .collect();
+            options.extend(
+                FACING_STEPS
+                    .iter()
+                    .filter_map(|&m| nearest_facing(n0, &f, m)),
+            );
+        }
+        let far = angle_deg(n0, cur);
+        options.retain(|&n| angle_deg(n0, n) < far);
+        options.sort_by(|a, b| angle_deg(n0, *a).total_cmp(&angle_deg(n0, *b)));
+        for n in options {
             let mut sink = Vec::new();
-            set_group(&mut work, &groups, g, towards(cur, n0, w), &mut sink);
+            set_group(&mut work, &groups, g, n, &mut sink);
             if let Some(v) = verdicts_upto(&work, (scheme, opts, &twins), &ring, was)? {
                 for (i, &r) in ring.iter().enumerate() {
                     verdicts[r as usize] = v[i];
@@ -1285,6 +1325,101 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                         set_group(&mut work, &groups, g, n, &mut sink);
                     }
                 }
+            }
+        }
+    }
+    // Last, the moved groups of one triangle together (two close corners of a sliver need
+    // nearly one normal, so neither goes back alone): each to its nearest normal to the
+    // input facing its triangles by a margin, or all to the nearest one to the mean of
+    // their input normals facing all of their triangles, or each a fraction of the way
+    // back; the option with the smallest largest change that the certificate accepts.
+    let mut by_triangle: Vec<(u32, Vec<u32>)> = Vec::new();
+    {
+        let mut gs: Vec<u32> = moved
+            .iter()
+            .map(|&(_, g)| g)
+            .filter(|g| !in_cuts.contains(g) && !groups.frozen.contains(g))
+            .collect();
+        gs.sort_unstable();
+        let mut tris: Vec<u32> = gs
+            .iter()
+            .flat_map(|&g| groups.corners(g).iter().map(|&c| c / 3))
+            .collect();
+        tris.sort_unstable();
+        tris.dedup();
+        for t in tris {
+            let own: Vec<u32> = (0..3)
+                .map(|k| groups.of_corner[3 * t as usize + k])
+                .filter(|g| gs.binary_search(g).is_ok())
+                .collect();
+            if own.len() >= 2 {
+                by_triangle.push((t, own));
+            }
+        }
+    }
+    for (_, own) in &by_triangle {
+        let cur: Vec<DVec3> = own.iter().map(|&g| groups.normal(&work, g)).collect();
+        let n0: Vec<DVec3> = own.iter().map(|&g| groups.normal(mesh, g)).collect();
+        let worst = |ns: &[DVec3]| {
+            ns.iter()
+                .zip(&n0)
+                .map(|(a, b)| angle_deg(*a, *b))
+                .fold(0.0, f64::max)
+        };
+        let now = worst(&cur);
+        let mut ring: Vec<u32> = own
+            .iter()
+            .flat_map(|&g| groups.triangles_around(g))
+            .collect();
+        ring.sort_unstable();
+        ring.dedup();
+        if ring.iter().any(|&r| verdicts[r as usize] != Verdict::Valid) {
+            continue;
+        }
+        let faces_of = |gs: &[u32]| -> Vec<DVec3> {
+            gs.iter()
+                .flat_map(|&g| groups.corners(g))
+                .map(|&c| faces[c as usize / 3])
+                .filter(|x| x.length_squared() > 0.25)
+                .collect()
+        };
+        let all = faces_of(own);
+        let mean = n0.iter().copied().sum::<DVec3>().try_normalize();
+        let mut options: Vec<Vec<DVec3>> = Vec::new();
+        for m in FACING_STEPS {
+            let each: Option<Vec<DVec3>> = own
+                .iter()
+                .zip(&n0)
+                .map(|(&g, &n)| nearest_facing(n, &faces_of(&[g]), m))
+                .collect();
+            options.extend(each);
+            if let Some(n) = mean.and_then(|x| nearest_facing(x, &all, m)) {
+                options.push(vec![n; own.len()]);
+            }
+        }
+        for w in [0.75, 0.5, 0.25] {
+            options.push(
+                cur.iter()
+                    .zip(&n0)
+                    .map(|(&c, &n)| towards(c, n, w))
+                    .collect(),
+            );
+        }
+        options.retain(|o| worst(o) < now);
+        options.sort_by(|a, b| worst(a).total_cmp(&worst(b)));
+        for o in options {
+            let mut sink = Vec::new();
+            for (&g, &n) in own.iter().zip(&o) {
+                set_group(&mut work, &groups, g, n, &mut sink);
+            }
+            if let Some(v) = verdicts_upto(&work, (scheme, opts, &twins), &ring, 0)? {
+                for (i, &r) in ring.iter().enumerate() {
+                    verdicts[r as usize] = v[i];
+                }
+                break;
+            }
+            for (&g, &n) in own.iter().zip(&cur) {
+                set_group(&mut work, &groups, g, n, &mut sink);
             }
         }
     }
