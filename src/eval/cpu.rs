@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::{
     evaluate_f32_via_f64, grid_barycentrics, grid_corners, grid_len, Chunk, ChunkF32, EdgePairs,
-    Evaluator, Pattern,
+    Evaluator, PairChunk, PairProducts, Pattern,
 };
 use crate::patch::basis::{SparseWeights, Weights};
 use crate::patch::PatchTable;
@@ -197,6 +197,58 @@ impl Evaluator for CpuEvaluator {
         })
     }
 
+    /// [`Self::evaluate_edges`]'s kernel, each edge's 2 · per points kept in a small
+    /// per-job buffer (in cache) and turned at once into its per samples' products
+    /// ([`PairProducts::of`], so bitwise those of the points). Chunks hold whole pairs,
+    /// about `chunk_samples / 2` products.
+    fn evaluate_edge_products(
+        &self,
+        table: &PatchTable,
+        edges: &EdgePairs,
+        sink: &mut dyn FnMut(PairChunk<'_>) -> Result<()>,
+    ) -> Result<()> {
+        edges.check(table.len())?;
+        if edges.is_empty() {
+            return Ok(());
+        }
+        let per = edges.samples as usize;
+        let cached = EdgeWeights::cached(table, edges);
+        let weights: &EdgeWeights = &cached;
+        let pairs_per_chunk = (self.chunk_samples / (2 * per)).max(1);
+        let mut out = PRODUCTS.take();
+        if out.capacity() > 2 * per * pairs_per_chunk.min(edges.pairs.len()) {
+            out = Vec::new();
+        }
+        let mut result = Ok(());
+        for (c, chunk) in edges.pairs.chunks(pairs_per_chunk).enumerate() {
+            out.resize(chunk.len() * per, PairProducts::default());
+            out.par_chunks_mut(per)
+                .zip(chunk.par_iter())
+                .with_min_len(64)
+                .for_each_init(
+                    || (vec![DVec3::ZERO; 2 * per], vec![DVec3::ZERO; 2 * per]),
+                    |(p, n), (o, pair)| {
+                        weights.pair(table, pair, p, n);
+                        for (k, o) in o.iter_mut().enumerate() {
+                            *o = PairProducts::of(
+                                [p[2 * k], p[2 * k + 1]],
+                                [n[2 * k], n[2 * k + 1]],
+                            );
+                        }
+                    },
+                );
+            result = sink(PairChunk {
+                first: c * pairs_per_chunk * per,
+                pairs: &out,
+            });
+            if result.is_err() {
+                break;
+            }
+        }
+        PRODUCTS.set(out);
+        result
+    }
+
     /// Grids run the f32 SIMD kernel (see [`GridWeightsF32`]): control points relative to
     /// each patch's first point, f32 weights computed once per call, corners overwritten
     /// with the input vertices rounded once. Point lists are evaluated in f64 and rounded.
@@ -223,6 +275,12 @@ thread_local! {
     /// for the call, so a nested call just gets new ones.
     static BUFFERS: std::cell::Cell<(Vec<DVec3>, Vec<DVec3>)> =
         const { std::cell::Cell::new((Vec::new(), Vec::new())) };
+}
+
+thread_local! {
+    /// The products buffer of [`CpuEvaluator::evaluate_edge_products`], kept per calling
+    /// thread between calls as [`BUFFERS`] is.
+    static PRODUCTS: std::cell::Cell<Vec<PairProducts>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 /// This thread's result buffers, dropped where much larger than `need` samples.
@@ -387,18 +445,19 @@ impl EdgeWeights {
             let at = 3 * e.from as usize + e.to as usize;
             let d = &self.dense[at];
             // The dense kernel adds the terms a sample's sparse list skips: ±0 on a finite
-            // point, which leaves every sum bitwise as it is (see `SparseWeights`).
-            let dense = self.avx
-                && geometry == table.stride
-                && d.idx
-                    .iter()
-                    .all(|&j| table.patch(patch)[j as usize].is_finite());
+            // point, which leaves every sum bitwise as it is (see `SparseWeights`). It says
+            // whether every sum came out finite: then every point it multiplied was finite
+            // (a product with a non-finite point is ±∞ or NaN, and a sum that takes one
+            // stays non-finite), so its values are the sparse ones; else the sparse
+            // evaluation below writes them again.
+            #[allow(unused_mut)]
+            let mut done = false;
             #[cfg(target_arch = "x86_64")]
-            if dense {
+            if self.avx && geometry == table.stride {
                 // SAFETY: `avx` says the CPU has AVX (checked by has_avx).
-                unsafe { edge_side_avx(table, patch, d, self.per, side, p, n) };
+                done = unsafe { edge_side_avx(table, patch, d, self.per, side, p, n) };
             }
-            if !dense {
+            if !done {
                 let w = &self.w[at * self.per..(at + 1) * self.per];
                 for (i, w) in w.iter().enumerate() {
                     let sp = table.eval_sparse(patch, w);
@@ -429,7 +488,9 @@ fn has_avx() -> bool {
 /// [`EDGE_LANES`] samples per register, each sum the same products added in the same order
 /// as [`PatchTable::eval_sparse`] and the normal computed as [`crate::patch::unit_normal`]
 /// does (cross product, dot, sqrt, division, each lane by lane, no fused operations), so
-/// bitwise its values. Writes sample i to `p[2 i + side]`, `n[2 i + side]`.
+/// bitwise its values where every point it multiplies is finite. Writes sample i to
+/// `p[2 i + side]`, `n[2 i + side]`; returns whether every sum (all lanes, padding
+/// included) was finite, which holds only where every point it multiplied was.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 fn edge_side_avx(
@@ -440,8 +501,11 @@ fn edge_side_avx(
     side: usize,
     p: &mut [DVec3],
     n: &mut [DVec3],
-) {
+) -> bool {
     use std::arch::x86_64::*;
+    // x − x summed over the sums of every block: +0 while all are finite, NaN from the
+    // first sum that is ±∞ or NaN on.
+    let mut nonfinite = _mm256_setzero_pd();
     let c = table.patch(patch);
     let flat = table.flat_normals[patch];
     let terms = d.idx.len();
@@ -487,6 +551,14 @@ fn edge_side_avx(
                 tz = _mm256_add_pd(tz, _mm256_mul_pd(wt, cz));
             }
         }
+        let all = _mm256_add_pd(
+            _mm256_add_pd(_mm256_add_pd(px, py), _mm256_add_pd(pz, sx)),
+            _mm256_add_pd(
+                _mm256_add_pd(sy, sz),
+                _mm256_add_pd(_mm256_add_pd(tx, ty), tz),
+            ),
+        );
+        nonfinite = _mm256_add_pd(nonfinite, _mm256_sub_pd(all, all));
         // S_s × S_t as DVec3::cross, |·| as DVec3::length, then the division.
         let nx = _mm256_sub_pd(_mm256_mul_pd(sy, tz), _mm256_mul_pd(ty, sz));
         let ny = _mm256_sub_pd(_mm256_mul_pd(sz, tx), _mm256_mul_pd(tz, sx));
@@ -514,6 +586,7 @@ fn edge_side_avx(
             };
         }
     }
+    _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(nonfinite, nonfinite)) == 0
 }
 
 // ---- f32 grid kernel ----
