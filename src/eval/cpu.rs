@@ -344,16 +344,20 @@ const EDGE_LANES: usize = 4;
 /// The weights of one (from, to) pair for the AVX edge kernel.
 #[derive(Default)]
 struct DenseEdgeWeights {
-    /// Geometry control points with a nonzero weight at some sample, increasing.
-    idx: Vec<u8>,
-    /// For each block of [`EDGE_LANES`] samples and each point of `idx`: `EDGE_LANES`
-    /// values of w, ∂w/∂s, ∂w/∂t (padding samples 0).
+    /// For each block of [`EDGE_LANES`] samples and each geometry control point with a
+    /// nonzero weight at some sample (in increasing order): `EDGE_LANES` values of w,
+    /// ∂w/∂s, ∂w/∂t (padding samples 0).
     data: Vec<f64>,
-    /// For each block and each point of `idx`: which of w (bit 0), ∂w/∂s (bit 1) and
-    /// ∂w/∂t (bit 2) has a nonzero value in some sample of the block. The kernel skips
-    /// the others: their products are ±0 on a finite point, and adding ±0 to a sum that
-    /// started at +0 leaves it bitwise as it is (such a sum is never −0).
-    nonzero: Vec<u8>,
+    /// The terms the kernel adds, per block and per value (w, ∂w/∂s, ∂w/∂t): those points,
+    /// in increasing order, where that value is nonzero in some sample of the
+    /// block, each as (offset of its [`EDGE_LANES`] values in `data`, point). The others
+    /// are skipped: their products are ±0 on a finite point, and adding ±0 to a sum that
+    /// started at +0 leaves it bitwise as it is (such a sum is never −0). Lists, not
+    /// per-point flags, so that the kernel runs counted loops instead of a branch per
+    /// point and value.
+    terms: Vec<(u32, u8)>,
+    /// Block b's lists are `terms[ranges[b][c]..ranges[b][c + 1]]` for value c.
+    ranges: Vec<[u32; 4]>,
 }
 
 thread_local! {
@@ -404,7 +408,6 @@ impl EdgeWeights {
                     .filter(|&j| samples.iter().any(|s| s.terms().0.contains(&j)))
                     .collect();
                 let mut data = vec![0.0; blocks * idx.len() * 3 * EDGE_LANES];
-                let mut nonzero = vec![0u8; blocks * idx.len()];
                 for (i, s) in samples.iter().enumerate() {
                     let (blk, l) = (i / EDGE_LANES, i % EDGE_LANES);
                     for (k, &j) in idx.iter().enumerate() {
@@ -413,11 +416,30 @@ impl EdgeWeights {
                         let v = [s.full.w[j], s.full.ws[j], s.full.wt[j]];
                         for (c, &x) in v.iter().enumerate() {
                             data[o + c * EDGE_LANES] = x;
-                            nonzero[blk * idx.len() + k] |= u8::from(x != 0.0) << c;
                         }
                     }
                 }
-                dense.push(DenseEdgeWeights { idx, data, nonzero });
+                let mut terms = Vec::new();
+                let mut ranges = Vec::with_capacity(blocks);
+                for blk in 0..blocks {
+                    let mut r = [0u32; 4];
+                    for (c, start) in r[..3].iter_mut().enumerate() {
+                        *start = terms.len() as u32;
+                        for (k, &j) in idx.iter().enumerate() {
+                            let o = (blk * idx.len() + k) * 3 * EDGE_LANES + c * EDGE_LANES;
+                            if data[o..o + EDGE_LANES].iter().any(|&x| x != 0.0) {
+                                terms.push((o as u32, j));
+                            }
+                        }
+                    }
+                    r[3] = terms.len() as u32;
+                    ranges.push(r);
+                }
+                dense.push(DenseEdgeWeights {
+                    data,
+                    terms,
+                    ranges,
+                });
             }
         }
         EdgeWeights {
@@ -508,49 +530,32 @@ fn edge_side_avx(
     let mut nonfinite = _mm256_setzero_pd();
     let c = table.patch(patch);
     let flat = table.flat_normals[patch];
-    let terms = d.idx.len();
     let lanes = |v: __m256d| {
         let mut a = [0.0f64; EDGE_LANES];
         // SAFETY: stores four f64 into a four-element array.
         unsafe { _mm256_storeu_pd(a.as_mut_ptr(), v) };
         a
     };
-    for (blk, wb) in d.data.chunks_exact(terms * 3 * EDGE_LANES).enumerate() {
-        let z = _mm256_setzero_pd();
-        let [mut px, mut py, mut pz, mut sx, mut sy, mut sz, mut tx, mut ty, mut tz] = [z; 9];
-        let nonzero = &d.nonzero[blk * terms..(blk + 1) * terms];
-        for ((&j, w3), &nz) in d
-            .idx
-            .iter()
-            .zip(wb.chunks_exact(3 * EDGE_LANES))
-            .zip(nonzero)
-        {
+    // Adds w · c_j for each term of `list` to the three sums `acc`, in order.
+    let add = |list: &[(u32, u8)], acc: &mut [__m256d; 3]| {
+        for &(o, j) in list {
             let cj = c[j as usize];
-            let (cx, cy, cz) = (
-                _mm256_set1_pd(cj.x),
-                _mm256_set1_pd(cj.y),
-                _mm256_set1_pd(cj.z),
-            );
-            // SAFETY (each load): reads four f64 of the 12 in `w3`.
-            if nz & 1 != 0 {
-                let w = unsafe { _mm256_loadu_pd(w3.as_ptr()) };
-                px = _mm256_add_pd(px, _mm256_mul_pd(w, cx));
-                py = _mm256_add_pd(py, _mm256_mul_pd(w, cy));
-                pz = _mm256_add_pd(pz, _mm256_mul_pd(w, cz));
-            }
-            if nz & 2 != 0 {
-                let ws = unsafe { _mm256_loadu_pd(w3.as_ptr().add(EDGE_LANES)) };
-                sx = _mm256_add_pd(sx, _mm256_mul_pd(ws, cx));
-                sy = _mm256_add_pd(sy, _mm256_mul_pd(ws, cy));
-                sz = _mm256_add_pd(sz, _mm256_mul_pd(ws, cz));
-            }
-            if nz & 4 != 0 {
-                let wt = unsafe { _mm256_loadu_pd(w3.as_ptr().add(2 * EDGE_LANES)) };
-                tx = _mm256_add_pd(tx, _mm256_mul_pd(wt, cx));
-                ty = _mm256_add_pd(ty, _mm256_mul_pd(wt, cy));
-                tz = _mm256_add_pd(tz, _mm256_mul_pd(wt, cz));
-            }
+            let w = &d.data[o as usize..o as usize + EDGE_LANES];
+            // SAFETY: reads the four f64 of `w`.
+            let w = unsafe { _mm256_loadu_pd(w.as_ptr()) };
+            acc[0] = _mm256_add_pd(acc[0], _mm256_mul_pd(w, _mm256_set1_pd(cj.x)));
+            acc[1] = _mm256_add_pd(acc[1], _mm256_mul_pd(w, _mm256_set1_pd(cj.y)));
+            acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(w, _mm256_set1_pd(cj.z)));
         }
+    };
+    for (blk, r) in d.ranges.iter().enumerate() {
+        let z = _mm256_setzero_pd();
+        let [r0, r1, r2, r3] = r.map(|x| x as usize);
+        let (mut pv, mut sv, mut tv) = ([z; 3], [z; 3], [z; 3]);
+        add(&d.terms[r0..r1], &mut pv);
+        add(&d.terms[r1..r2], &mut sv);
+        add(&d.terms[r2..r3], &mut tv);
+        let ([px, py, pz], [sx, sy, sz], [tx, ty, tz]) = (pv, sv, tv);
         let all = _mm256_add_pd(
             _mm256_add_pd(_mm256_add_pd(px, py), _mm256_add_pd(pz, sx)),
             _mm256_add_pd(
