@@ -193,7 +193,9 @@ impl Evaluator for CpuEvaluator {
                 .zip(nrm.par_chunks_mut(2 * per))
                 .zip(chunk.par_iter())
                 .with_min_len(64)
-                .for_each(|((p, n), pair)| weights.pair(table, pair, p, n));
+                .for_each_init(Vec::new, |lanes, ((p, n), pair)| {
+                    weights.pair(table, pair, p, n, lanes)
+                });
         })
     }
 
@@ -225,18 +227,9 @@ impl Evaluator for CpuEvaluator {
             out.par_chunks_mut(per)
                 .zip(chunk.par_iter())
                 .with_min_len(64)
-                .for_each_init(
-                    || (vec![DVec3::ZERO; 2 * per], vec![DVec3::ZERO; 2 * per]),
-                    |(p, n), (o, pair)| {
-                        weights.pair(table, pair, p, n);
-                        for (k, o) in o.iter_mut().enumerate() {
-                            *o = PairProducts::of(
-                                [p[2 * k], p[2 * k + 1]],
-                                [n[2 * k], n[2 * k + 1]],
-                            );
-                        }
-                    },
-                );
+                .for_each_init(PairScratch::default, |scratch, (o, pair)| {
+                    weights.pair_products(table, pair, o, scratch)
+                });
             result = sink(PairChunk {
                 first: c * pairs_per_chunk * per,
                 pairs: &out,
@@ -360,6 +353,13 @@ struct DenseEdgeWeights {
     ranges: Vec<[u32; 4]>,
 }
 
+impl DenseEdgeWeights {
+    /// Lanes of the kernel's blocks (samples rounded up to whole blocks).
+    fn lanes(&self) -> usize {
+        self.ranges.len() * EDGE_LANES
+    }
+}
+
 thread_local! {
     /// The edge weights of the last call on this thread: a streaming caller (statistics)
     /// evaluates many small edge patterns of one kind and sample count.
@@ -452,7 +452,7 @@ impl EdgeWeights {
     }
 
     /// Evaluates one pair's 2 · per points into `p` and `n`; the ends are the input
-    /// vertices as they are.
+    /// vertices as they are. `lanes` is scratch for the lane kernel.
     #[inline]
     fn pair(
         &self,
@@ -460,26 +460,25 @@ impl EdgeWeights {
         pair: &[super::EdgeSide; 2],
         p: &mut [DVec3],
         n: &mut [DVec3],
+        lanes: &mut Vec<f64>,
     ) {
-        let geometry = table.kind.geometry();
         for (side, e) in pair.iter().enumerate() {
             let patch = e.patch as usize;
             let at = 3 * e.from as usize + e.to as usize;
-            let d = &self.dense[at];
-            // The dense kernel adds the terms a sample's sparse list skips: ±0 on a finite
-            // point, which leaves every sum bitwise as it is (see `SparseWeights`). It says
-            // whether every sum came out finite: then every point it multiplied was finite
-            // (a product with a non-finite point is ±∞ or NaN, and a sum that takes one
-            // stays non-finite), so its values are the sparse ones; else the sparse
-            // evaluation below writes them again.
-            #[allow(unused_mut)]
-            let mut done = false;
-            #[cfg(target_arch = "x86_64")]
-            if self.avx && geometry == table.stride {
-                // SAFETY: `avx` says the CPU has AVX (checked by has_avx).
-                done = unsafe { edge_side_avx(table, patch, d, self.per, side, p, n) };
-            }
-            if !done {
+            if self.side_lanes(table, e, lanes) {
+                let l = self.dense[at].lanes();
+                for i in 0..self.per {
+                    let v = |k: usize| {
+                        DVec3::new(
+                            lanes[k * l + i],
+                            lanes[(k + 1) * l + i],
+                            lanes[(k + 2) * l + i],
+                        )
+                    };
+                    p[2 * i + side] = v(0);
+                    n[2 * i + side] = v(3);
+                }
+            } else {
                 let w = &self.w[at * self.per..(at + 1) * self.per];
                 for (i, w) in w.iter().enumerate() {
                     let sp = table.eval_sparse(patch, w);
@@ -493,6 +492,77 @@ impl EdgeWeights {
             }
         }
     }
+
+    /// The lane kernel on side `e` into `lanes` (resized), where it runs and its values
+    /// are those of the sparse evaluation: the dense kernel adds the terms a sample's
+    /// sparse list skips, ±0 on a finite point, which leaves every sum bitwise as it is
+    /// (see `SparseWeights`); it says whether every sum came out finite, and then every
+    /// point it multiplied was finite (a product with a non-finite point is ±∞ or NaN, and
+    /// a sum that takes one stays non-finite). `false`: evaluate the side sparsely.
+    #[inline]
+    fn side_lanes(&self, table: &PatchTable, e: &super::EdgeSide, lanes: &mut Vec<f64>) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx && table.kind.geometry() == table.stride {
+            let d = &self.dense[3 * e.from as usize + e.to as usize];
+            lanes.resize(6 * d.lanes(), 0.0);
+            // SAFETY: `avx` says the CPU has AVX (checked by has_avx).
+            return unsafe { edge_side_avx(table, e.patch as usize, d, lanes) };
+        }
+        let _ = (table, e, lanes);
+        false
+    }
+
+    /// The products of one pair's samples into `out` (`per` of them): both sides by the
+    /// lane kernel and the products lane by lane, or where a side cannot take the lane
+    /// kernel, the points by [`Self::pair`] and [`PairProducts::of`]; bitwise the same
+    /// either way. `scratch` holds the lanes of both sides and the points.
+    #[inline]
+    fn pair_products(
+        &self,
+        table: &PatchTable,
+        pair: &[super::EdgeSide; 2],
+        out: &mut [PairProducts],
+        scratch: &mut PairScratch,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if self.side_lanes(table, &pair[0], &mut scratch.a)
+            && self.side_lanes(table, &pair[1], &mut scratch.b)
+        {
+            let l = self.dense[3 * pair[0].from as usize + pair[0].to as usize].lanes();
+            // The ends: the input vertices as they are.
+            for (e, v) in pair.iter().zip([&mut scratch.a, &mut scratch.b]) {
+                let patch = e.patch as usize;
+                let mut set = |i: usize, q: DVec3| {
+                    v[i] = q.x;
+                    v[l + i] = q.y;
+                    v[2 * l + i] = q.z;
+                };
+                set(0, table.corner(patch, e.from as usize));
+                if self.per > 1 {
+                    set(self.per - 1, table.corner(patch, e.to as usize));
+                }
+            }
+            // SAFETY: `side_lanes` ran the lane kernel, so the CPU has AVX.
+            unsafe { products_avx(&scratch.a, &scratch.b, l, out) };
+            return;
+        }
+        let (p, n) = (&mut scratch.p, &mut scratch.n);
+        p.resize(2 * self.per, DVec3::ZERO);
+        n.resize(2 * self.per, DVec3::ZERO);
+        self.pair(table, pair, p, n, &mut scratch.a);
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = PairProducts::of([p[2 * k], p[2 * k + 1]], [n[2 * k], n[2 * k + 1]]);
+        }
+    }
+}
+
+/// Per-job buffers of [`EdgeWeights::pair_products`].
+#[derive(Default)]
+struct PairScratch {
+    a: Vec<f64>,
+    b: Vec<f64>,
+    p: Vec<DVec3>,
+    n: Vec<DVec3>,
 }
 
 fn has_avx() -> bool {
@@ -509,33 +579,32 @@ fn has_avx() -> bool {
 /// One side of an edge (patch `patch`, every geometry point finite, no normal field):
 /// [`EDGE_LANES`] samples per register, each sum the same products added in the same order
 /// as [`PatchTable::eval_sparse`] and the normal computed as [`crate::patch::unit_normal`]
-/// does (cross product, dot, sqrt, division, each lane by lane, no fused operations), so
-/// bitwise its values where every point it multiplies is finite. Writes sample i to
-/// `p[2 i + side]`, `n[2 i + side]`; returns whether every sum (all lanes, padding
+/// does (cross product, dot, sqrt, division, each lane by lane, no fused operations, the
+/// flat normal where the length is not above [`crate::patch::MIN_NORMAL_LEN_F64`] or not
+/// finite), so bitwise its values where every point it multiplies is finite. Writes lanes:
+/// `out[c · L + i]` for sample i (L = `d.lanes()`) is its position's x, y, z for c = 0, 1,
+/// 2 and its unit normal's for c = 3, 4, 5; returns whether every sum (all lanes, padding
 /// included) was finite, which holds only where every point it multiplied was.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-fn edge_side_avx(
-    table: &PatchTable,
-    patch: usize,
-    d: &DenseEdgeWeights,
-    per: usize,
-    side: usize,
-    p: &mut [DVec3],
-    n: &mut [DVec3],
-) -> bool {
+fn edge_side_avx(table: &PatchTable, patch: usize, d: &DenseEdgeWeights, out: &mut [f64]) -> bool {
     use std::arch::x86_64::*;
+    let lanes = d.lanes();
+    let out = &mut out[..6 * lanes];
     // x − x summed over the sums of every block: +0 while all are finite, NaN from the
     // first sum that is ±∞ or NaN on.
     let mut nonfinite = _mm256_setzero_pd();
     let c = table.patch(patch);
     let flat = table.flat_normals[patch];
-    let lanes = |v: __m256d| {
-        let mut a = [0.0f64; EDGE_LANES];
-        // SAFETY: stores four f64 into a four-element array.
-        unsafe { _mm256_storeu_pd(a.as_mut_ptr(), v) };
-        a
-    };
+    let (fx, fy, fz) = (
+        _mm256_set1_pd(flat.x),
+        _mm256_set1_pd(flat.y),
+        _mm256_set1_pd(flat.z),
+    );
+    let (min_len, inf) = (
+        _mm256_set1_pd(crate::patch::MIN_NORMAL_LEN_F64),
+        _mm256_set1_pd(f64::INFINITY),
+    );
     // Adds w · c_j for each term of `list` to the three sums `acc`, in order.
     let add = |list: &[(u32, u8)], acc: &mut [__m256d; 3]| {
         for &(o, j) in list {
@@ -573,25 +642,73 @@ fn edge_side_avx(
             _mm256_mul_pd(nz, nz),
         );
         let len = _mm256_sqrt_pd(dot);
-        let [px, py, pz] = [lanes(px), lanes(py), lanes(pz)];
-        let [ux, uy, uz] = [
-            lanes(_mm256_div_pd(nx, len)),
-            lanes(_mm256_div_pd(ny, len)),
-            lanes(_mm256_div_pd(nz, len)),
+        // len > MIN and len < ∞, both false on NaN: `len.is_finite()` for len ≥ 0.
+        let ok = _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_GT_OQ>(len, min_len),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(len, inf),
+        );
+        let values = [
+            px,
+            py,
+            pz,
+            _mm256_blendv_pd(fx, _mm256_div_pd(nx, len), ok),
+            _mm256_blendv_pd(fy, _mm256_div_pd(ny, len), ok),
+            _mm256_blendv_pd(fz, _mm256_div_pd(nz, len), ok),
         ];
-        let len = lanes(len);
-        let first = blk * EDGE_LANES;
-        for l in 0..EDGE_LANES.min(per - first) {
-            let q = 2 * (first + l) + side;
-            p[q] = DVec3::new(px[l], py[l], pz[l]);
-            n[q] = if len[l] > crate::patch::MIN_NORMAL_LEN_F64 && len[l].is_finite() {
-                DVec3::new(ux[l], uy[l], uz[l])
-            } else {
-                flat
-            };
+        for (k, v) in values.into_iter().enumerate() {
+            let o = k * lanes + blk * EDGE_LANES;
+            let dst = &mut out[o..o + EDGE_LANES];
+            // SAFETY: writes the four f64 of `dst`.
+            unsafe { _mm256_storeu_pd(dst.as_mut_ptr(), v) };
         }
     }
     _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(nonfinite, nonfinite)) == 0
+}
+
+/// The products of one pair's samples from both sides' lanes (`a`, `b` as
+/// [`edge_side_avx`] writes them, corner positions already set), `per` samples:
+/// [`PairProducts::of`] lane by lane (the same products and sums in the same order).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn products_avx(a: &[f64], b: &[f64], lanes: usize, out: &mut [PairProducts]) {
+    use std::arch::x86_64::*;
+    let per = out.len();
+    let (a, b) = (&a[..6 * lanes], &b[..6 * lanes]);
+    let load = |v: &[f64], k: usize, at: usize| {
+        let v = &v[k * lanes + at..k * lanes + at + EDGE_LANES];
+        // SAFETY: reads the four f64 of `v`.
+        unsafe { _mm256_loadu_pd(v.as_ptr()) }
+    };
+    for at in (0..per).step_by(EDGE_LANES) {
+        let [apx, apy, apz, anx, any, anz] = std::array::from_fn(|k| load(a, k, at));
+        let [bpx, bpy, bpz, bnx, bny, bnz] = std::array::from_fn(|k| load(b, k, at));
+        // n0 · n1 and |p0 − p1|² as DVec3::dot: (x x + y y) + z z.
+        let cos = _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(anx, bnx), _mm256_mul_pd(any, bny)),
+            _mm256_mul_pd(anz, bnz),
+        );
+        let (dx, dy, dz) = (
+            _mm256_sub_pd(apx, bpx),
+            _mm256_sub_pd(apy, bpy),
+            _mm256_sub_pd(apz, bpz),
+        );
+        let gap2 = _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
+            _mm256_mul_pd(dz, dz),
+        );
+        let (mut c, mut g) = ([0.0f64; EDGE_LANES], [0.0f64; EDGE_LANES]);
+        // SAFETY: each stores four f64 into a four-element array.
+        unsafe {
+            _mm256_storeu_pd(c.as_mut_ptr(), cos);
+            _mm256_storeu_pd(g.as_mut_ptr(), gap2);
+        }
+        for (l, o) in out[at..(at + EDGE_LANES).min(per)].iter_mut().enumerate() {
+            *o = PairProducts {
+                cos: c[l],
+                gap2: g[l],
+            };
+        }
+    }
 }
 
 // ---- f32 grid kernel ----
