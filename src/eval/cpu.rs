@@ -199,10 +199,11 @@ impl Evaluator for CpuEvaluator {
         })
     }
 
-    /// [`Self::evaluate_edges`]'s kernel, each edge's 2 · per points kept in a small
-    /// per-job buffer (in cache) and turned at once into its per samples' products
-    /// ([`PairProducts::of`], so bitwise those of the points). Chunks hold whole pairs,
-    /// about `chunk_samples / 2` products.
+    /// [`Self::evaluate_edges`]'s kernel on both sides of each edge into small per-job
+    /// lane buffers (in cache), the products computed from them at once, lane by lane, as
+    /// [`PairProducts::of`] computes them (bitwise those of the points; a side the lane
+    /// kernel cannot take goes through the points). Chunks hold whole pairs, about
+    /// `chunk_samples / 2` products.
     fn evaluate_edge_products(
         &self,
         table: &PatchTable,
