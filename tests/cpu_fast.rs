@@ -4,7 +4,8 @@
 //! identical to whole ones; corner samples equal to the input vertices bit for bit on every
 //! backend (the harness's `evaluators`) in both precisions. The edge pattern of the
 //! statistics (`EdgePairs`, `Evaluator::evaluate_edges`): bitwise its explicit point list
-//! on the CPU, within f32 rounding of the f64 reference on every backend.
+//! on the CPU, within f32 rounding of the f64 reference on every backend; its per-sample
+//! products (`Evaluator::evaluate_edge_products`) bitwise those of the points.
 
 mod common;
 mod eval_cases;
@@ -17,7 +18,8 @@ use rayon::prelude::*;
 
 use g1tess::eval::cpu::{grid_weights, CpuEvaluator, F32Kernel, GridWeightsF32};
 use g1tess::eval::{
-    grid_corners, grid_len, to_f32, Chunk, EdgePairs, EdgeSide, Evaluator, PatchPoint, Pattern,
+    grid_corners, grid_len, to_f32, Chunk, EdgePairs, EdgeSide, Evaluator, PairProducts,
+    PatchPoint, Pattern,
 };
 use g1tess::output::stats::{edge_pairs, SAMPLES_PER_EDGE};
 use g1tess::patch::PatchTable;
@@ -279,6 +281,35 @@ fn run_edges(
     (pos, nrm, chunks)
 }
 
+/// Every result of `evaluate_edge_products` as bits (cos, gap²), checking that chunks
+/// arrive in order and counting them.
+fn run_products(
+    ev: &dyn Evaluator,
+    table: &PatchTable,
+    edges: &EdgePairs,
+) -> (Vec<[u64; 2]>, usize) {
+    let (mut out, mut chunks) = (Vec::new(), 0);
+    ev.evaluate_edge_products(table, edges, &mut |c| {
+        assert_eq!(c.first, out.len(), "chunks arrive in order");
+        out.extend(c.pairs.iter().map(|s| [s.cos.to_bits(), s.gap2.to_bits()]));
+        chunks += 1;
+        Ok(())
+    })
+    .unwrap();
+    (out, chunks)
+}
+
+/// The products of the points `pos`/`nrm` (each sample on its two patches), as bits.
+fn products_of(pos: &[DVec3], nrm: &[DVec3]) -> Vec<[u64; 2]> {
+    pos.chunks_exact(2)
+        .zip(nrm.chunks_exact(2))
+        .map(|(p, n)| {
+            let s = PairProducts::of([p[0], p[1]], [n[0], n[1]]);
+            [s.cos.to_bits(), s.gap2.to_bits()]
+        })
+        .collect()
+}
+
 /// An evaluator with only `evaluate`: `evaluate_edges` is the trait's default (the points
 /// expanded a bounded run at a time), what the GPU backend runs.
 struct ViaPoints(CpuEvaluator);
@@ -385,30 +416,62 @@ fn edge_pairs_are_bitwise_the_point_list_on_the_cpu() {
                     bits(&vp) == bits(&pos) && bits(&vn) == bits(&nrm),
                     "{what}: default"
                 );
+                // Products: the CPU's own (whole, and one pair per chunk), and the trait's
+                // default through points in chunks of 5 (so samples split between chunks).
+                let want = products_of(&pos, &nrm);
+                assert_eq!(want.len(), per * edges.pairs.len());
+                let (cp, _) = run_products(&CpuEvaluator::default(), &table, edges);
+                assert!(cp == want, "{what}: products");
+                let (cp, chunks) =
+                    run_products(&CpuEvaluator::with_chunk_samples(7), &table, edges);
+                assert_eq!(chunks, edges.pairs.len().div_ceil((7 / (2 * per)).max(1)));
+                assert!(cp == want, "{what}: products chunked");
+                let (vp, _) = run_products(
+                    &ViaPoints(CpuEvaluator::with_chunk_samples(5)),
+                    &table,
+                    edges,
+                );
+                assert!(vp == want, "{what}: products by default");
             }
         }
     }
 }
 
 /// A patch with a control point that is not finite is evaluated point by point, as the
-/// point list is (the lane kernel would add 0 × ∞ where a sample's weight vanishes); bad
-/// patch numbers and slots are errors.
+/// point list is (the lane kernel would add 0 × ∞ where a sample's weight vanishes), and so
+/// is one whose huge finite point overflows the lane sums; bad patch numbers and slots are
+/// errors.
 #[test]
 fn edge_pairs_on_a_non_finite_patch_and_bad_input() {
     let mesh = load("spot.obj");
-    let mut table =
-        PatchTable::build(&mesh, g1tess::patch::Scheme::G1, &Default::default()).unwrap();
-    // An interior (Gregory) point of patch 0.
-    table.points[15] = DVec3::new(f64::INFINITY, 0.0, 1.0);
-    let edges = all_orders(3, 21);
-    let (pos, nrm, _) = run_edges(&CpuEvaluator::default(), &table, &edges);
-    let (rp, rn) = CpuEvaluator::default()
-        .evaluate_all(&table, &Pattern::Points(edges.points()))
-        .unwrap();
+    let built = PatchTable::build(&mesh, g1tess::patch::Scheme::G1, &Default::default()).unwrap();
     let bits = |v: &[DVec3]| -> Vec<[u64; 3]> {
         v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
     };
-    assert!(bits(&pos) == bits(&rp) && bits(&nrm) == bits(&rn));
+    let edges = all_orders(3, 21);
+    // An interior (Gregory) point of patch 0, a point of patch 1's boundary cubic from
+    // corner 0 (point 1), and corner 2 of patch 2 (point 8) at a finite 1e308, whose
+    // derivative sums overflow.
+    for (at, bad) in [
+        (15, DVec3::new(f64::INFINITY, 0.0, 1.0)),
+        (15, DVec3::new(0.0, f64::NAN, 1.0)),
+        (18 + 1, DVec3::new(0.0, 0.0, f64::NEG_INFINITY)),
+        (36 + 8, DVec3::new(1e308, -1e308, 1e308)),
+    ] {
+        let mut table = built.clone();
+        table.points[at] = bad;
+        let (pos, nrm, _) = run_edges(&CpuEvaluator::default(), &table, &edges);
+        let (rp, rn) = CpuEvaluator::default()
+            .evaluate_all(&table, &Pattern::Points(edges.points()))
+            .unwrap();
+        assert!(
+            bits(&pos) == bits(&rp) && bits(&nrm) == bits(&rn),
+            "{at} {bad}"
+        );
+        let (cp, _) = run_products(&CpuEvaluator::default(), &table, &edges);
+        assert!(cp == products_of(&rp, &rn), "{at} {bad}: products");
+    }
+    let table = built;
     let side = |patch, from, to| EdgeSide { patch, from, to };
     for (pair, want) in [
         ([side(0, 0, 1), side(table.len() as u32, 1, 0)], "patch"),

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use super::{
     evaluate_f32_via_f64, grid_barycentrics, grid_corners, grid_len, Chunk, ChunkF32, EdgePairs,
-    Evaluator, Pattern,
+    Evaluator, PairChunk, PairProducts, Pattern,
 };
 use crate::patch::basis::{SparseWeights, Weights};
 use crate::patch::PatchTable;
@@ -193,8 +193,54 @@ impl Evaluator for CpuEvaluator {
                 .zip(nrm.par_chunks_mut(2 * per))
                 .zip(chunk.par_iter())
                 .with_min_len(64)
-                .for_each(|((p, n), pair)| weights.pair(table, pair, p, n));
+                .for_each_init(Vec::new, |lanes, ((p, n), pair)| {
+                    weights.pair(table, pair, p, n, lanes)
+                });
         })
+    }
+
+    /// [`Self::evaluate_edges`]'s kernel on both sides of each edge into small per-job
+    /// lane buffers (in cache), the products computed from them at once, lane by lane, as
+    /// [`PairProducts::of`] computes them (bitwise those of the points; a side the lane
+    /// kernel cannot take goes through the points). Chunks hold whole pairs, about
+    /// `chunk_samples / 2` products.
+    fn evaluate_edge_products(
+        &self,
+        table: &PatchTable,
+        edges: &EdgePairs,
+        sink: &mut dyn FnMut(PairChunk<'_>) -> Result<()>,
+    ) -> Result<()> {
+        edges.check(table.len())?;
+        if edges.is_empty() {
+            return Ok(());
+        }
+        let per = edges.samples as usize;
+        let cached = EdgeWeights::cached(table, edges);
+        let weights: &EdgeWeights = &cached;
+        let pairs_per_chunk = (self.chunk_samples / (2 * per)).max(1);
+        let mut out = PRODUCTS.take();
+        if out.capacity() > 2 * per * pairs_per_chunk.min(edges.pairs.len()) {
+            out = Vec::new();
+        }
+        let mut result = Ok(());
+        for (c, chunk) in edges.pairs.chunks(pairs_per_chunk).enumerate() {
+            out.resize(chunk.len() * per, PairProducts::default());
+            out.par_chunks_mut(per)
+                .zip(chunk.par_iter())
+                .with_min_len(64)
+                .for_each_init(PairScratch::default, |scratch, (o, pair)| {
+                    weights.pair_products(table, pair, o, scratch)
+                });
+            result = sink(PairChunk {
+                first: c * pairs_per_chunk * per,
+                pairs: &out,
+            });
+            if result.is_err() {
+                break;
+            }
+        }
+        PRODUCTS.set(out);
+        result
     }
 
     /// Grids run the f32 SIMD kernel (see [`GridWeightsF32`]): control points relative to
@@ -223,6 +269,12 @@ thread_local! {
     /// for the call, so a nested call just gets new ones.
     static BUFFERS: std::cell::Cell<(Vec<DVec3>, Vec<DVec3>)> =
         const { std::cell::Cell::new((Vec::new(), Vec::new())) };
+}
+
+thread_local! {
+    /// The products buffer of [`CpuEvaluator::evaluate_edge_products`], kept per calling
+    /// thread between calls as [`BUFFERS`] is.
+    static PRODUCTS: std::cell::Cell<Vec<PairProducts>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 /// This thread's result buffers, dropped where much larger than `need` samples.
@@ -286,16 +338,27 @@ const EDGE_LANES: usize = 4;
 /// The weights of one (from, to) pair for the AVX edge kernel.
 #[derive(Default)]
 struct DenseEdgeWeights {
-    /// Geometry control points with a nonzero weight at some sample, increasing.
-    idx: Vec<u8>,
-    /// For each block of [`EDGE_LANES`] samples and each point of `idx`: `EDGE_LANES`
-    /// values of w, ∂w/∂s, ∂w/∂t (padding samples 0).
+    /// For each block of [`EDGE_LANES`] samples and each geometry control point with a
+    /// nonzero weight at some sample (in increasing order): `EDGE_LANES` values of w,
+    /// ∂w/∂s, ∂w/∂t (padding samples 0).
     data: Vec<f64>,
-    /// For each block and each point of `idx`: which of w (bit 0), ∂w/∂s (bit 1) and
-    /// ∂w/∂t (bit 2) has a nonzero value in some sample of the block. The kernel skips
-    /// the others: their products are ±0 on a finite point, and adding ±0 to a sum that
-    /// started at +0 leaves it bitwise as it is (such a sum is never −0).
-    nonzero: Vec<u8>,
+    /// The terms the kernel adds, per block and per value (w, ∂w/∂s, ∂w/∂t): those points,
+    /// in increasing order, where that value is nonzero in some sample of the
+    /// block, each as (offset of its [`EDGE_LANES`] values in `data`, point). The others
+    /// are skipped: their products are ±0 on a finite point, and adding ±0 to a sum that
+    /// started at +0 leaves it bitwise as it is (such a sum is never −0). Lists, not
+    /// per-point flags, so that the kernel runs counted loops instead of a branch per
+    /// point and value.
+    terms: Vec<(u32, u8)>,
+    /// Block b's lists are `terms[ranges[b][c]..ranges[b][c + 1]]` for value c.
+    ranges: Vec<[u32; 4]>,
+}
+
+impl DenseEdgeWeights {
+    /// Lanes of the kernel's blocks (samples rounded up to whole blocks).
+    fn lanes(&self) -> usize {
+        self.ranges.len() * EDGE_LANES
+    }
 }
 
 thread_local! {
@@ -346,7 +409,6 @@ impl EdgeWeights {
                     .filter(|&j| samples.iter().any(|s| s.terms().0.contains(&j)))
                     .collect();
                 let mut data = vec![0.0; blocks * idx.len() * 3 * EDGE_LANES];
-                let mut nonzero = vec![0u8; blocks * idx.len()];
                 for (i, s) in samples.iter().enumerate() {
                     let (blk, l) = (i / EDGE_LANES, i % EDGE_LANES);
                     for (k, &j) in idx.iter().enumerate() {
@@ -355,11 +417,30 @@ impl EdgeWeights {
                         let v = [s.full.w[j], s.full.ws[j], s.full.wt[j]];
                         for (c, &x) in v.iter().enumerate() {
                             data[o + c * EDGE_LANES] = x;
-                            nonzero[blk * idx.len() + k] |= u8::from(x != 0.0) << c;
                         }
                     }
                 }
-                dense.push(DenseEdgeWeights { idx, data, nonzero });
+                let mut terms = Vec::new();
+                let mut ranges = Vec::with_capacity(blocks);
+                for blk in 0..blocks {
+                    let mut r = [0u32; 4];
+                    for (c, start) in r[..3].iter_mut().enumerate() {
+                        *start = terms.len() as u32;
+                        for (k, &j) in idx.iter().enumerate() {
+                            let o = (blk * idx.len() + k) * 3 * EDGE_LANES + c * EDGE_LANES;
+                            if data[o..o + EDGE_LANES].iter().any(|&x| x != 0.0) {
+                                terms.push((o as u32, j));
+                            }
+                        }
+                    }
+                    r[3] = terms.len() as u32;
+                    ranges.push(r);
+                }
+                dense.push(DenseEdgeWeights {
+                    data,
+                    terms,
+                    ranges,
+                });
             }
         }
         EdgeWeights {
@@ -372,7 +453,7 @@ impl EdgeWeights {
     }
 
     /// Evaluates one pair's 2 · per points into `p` and `n`; the ends are the input
-    /// vertices as they are.
+    /// vertices as they are. `lanes` is scratch for the lane kernel.
     #[inline]
     fn pair(
         &self,
@@ -380,25 +461,25 @@ impl EdgeWeights {
         pair: &[super::EdgeSide; 2],
         p: &mut [DVec3],
         n: &mut [DVec3],
+        lanes: &mut Vec<f64>,
     ) {
-        let geometry = table.kind.geometry();
         for (side, e) in pair.iter().enumerate() {
             let patch = e.patch as usize;
             let at = 3 * e.from as usize + e.to as usize;
-            let d = &self.dense[at];
-            // The dense kernel adds the terms a sample's sparse list skips: ±0 on a finite
-            // point, which leaves every sum bitwise as it is (see `SparseWeights`).
-            let dense = self.avx
-                && geometry == table.stride
-                && d.idx
-                    .iter()
-                    .all(|&j| table.patch(patch)[j as usize].is_finite());
-            #[cfg(target_arch = "x86_64")]
-            if dense {
-                // SAFETY: `avx` says the CPU has AVX (checked by has_avx).
-                unsafe { edge_side_avx(table, patch, d, self.per, side, p, n) };
-            }
-            if !dense {
+            if self.side_lanes(table, e, lanes) {
+                let l = self.dense[at].lanes();
+                for i in 0..self.per {
+                    let v = |k: usize| {
+                        DVec3::new(
+                            lanes[k * l + i],
+                            lanes[(k + 1) * l + i],
+                            lanes[(k + 2) * l + i],
+                        )
+                    };
+                    p[2 * i + side] = v(0);
+                    n[2 * i + side] = v(3);
+                }
+            } else {
                 let w = &self.w[at * self.per..(at + 1) * self.per];
                 for (i, w) in w.iter().enumerate() {
                     let sp = table.eval_sparse(patch, w);
@@ -412,6 +493,77 @@ impl EdgeWeights {
             }
         }
     }
+
+    /// The lane kernel on side `e` into `lanes` (resized), where it runs and its values
+    /// are those of the sparse evaluation: the dense kernel adds the terms a sample's
+    /// sparse list skips, ±0 on a finite point, which leaves every sum bitwise as it is
+    /// (see `SparseWeights`); it says whether every sum came out finite, and then every
+    /// point it multiplied was finite (a product with a non-finite point is ±∞ or NaN, and
+    /// a sum that takes one stays non-finite). `false`: evaluate the side sparsely.
+    #[inline]
+    fn side_lanes(&self, table: &PatchTable, e: &super::EdgeSide, lanes: &mut Vec<f64>) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx && table.kind.geometry() == table.stride {
+            let d = &self.dense[3 * e.from as usize + e.to as usize];
+            lanes.resize(6 * d.lanes(), 0.0);
+            // SAFETY: `avx` says the CPU has AVX (checked by has_avx).
+            return unsafe { edge_side_avx(table, e.patch as usize, d, lanes) };
+        }
+        let _ = (table, e, lanes);
+        false
+    }
+
+    /// The products of one pair's samples into `out` (`per` of them): both sides by the
+    /// lane kernel and the products lane by lane, or where a side cannot take the lane
+    /// kernel, the points by [`Self::pair`] and [`PairProducts::of`]; bitwise the same
+    /// either way. `scratch` holds the lanes of both sides and the points.
+    #[inline]
+    fn pair_products(
+        &self,
+        table: &PatchTable,
+        pair: &[super::EdgeSide; 2],
+        out: &mut [PairProducts],
+        scratch: &mut PairScratch,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if self.side_lanes(table, &pair[0], &mut scratch.a)
+            && self.side_lanes(table, &pair[1], &mut scratch.b)
+        {
+            let l = self.dense[3 * pair[0].from as usize + pair[0].to as usize].lanes();
+            // The ends: the input vertices as they are.
+            for (e, v) in pair.iter().zip([&mut scratch.a, &mut scratch.b]) {
+                let patch = e.patch as usize;
+                let mut set = |i: usize, q: DVec3| {
+                    v[i] = q.x;
+                    v[l + i] = q.y;
+                    v[2 * l + i] = q.z;
+                };
+                set(0, table.corner(patch, e.from as usize));
+                if self.per > 1 {
+                    set(self.per - 1, table.corner(patch, e.to as usize));
+                }
+            }
+            // SAFETY: `side_lanes` ran the lane kernel, so the CPU has AVX.
+            unsafe { products_avx(&scratch.a, &scratch.b, l, out) };
+            return;
+        }
+        let (p, n) = (&mut scratch.p, &mut scratch.n);
+        p.resize(2 * self.per, DVec3::ZERO);
+        n.resize(2 * self.per, DVec3::ZERO);
+        self.pair(table, pair, p, n, &mut scratch.a);
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = PairProducts::of([p[2 * k], p[2 * k + 1]], [n[2 * k], n[2 * k + 1]]);
+        }
+    }
+}
+
+/// Per-job buffers of [`EdgeWeights::pair_products`].
+#[derive(Default)]
+struct PairScratch {
+    a: Vec<f64>,
+    b: Vec<f64>,
+    p: Vec<DVec3>,
+    n: Vec<DVec3>,
 }
 
 fn has_avx() -> bool {
@@ -428,65 +580,60 @@ fn has_avx() -> bool {
 /// One side of an edge (patch `patch`, every geometry point finite, no normal field):
 /// [`EDGE_LANES`] samples per register, each sum the same products added in the same order
 /// as [`PatchTable::eval_sparse`] and the normal computed as [`crate::patch::unit_normal`]
-/// does (cross product, dot, sqrt, division, each lane by lane, no fused operations), so
-/// bitwise its values. Writes sample i to `p[2 i + side]`, `n[2 i + side]`.
+/// does (cross product, dot, sqrt, division, each lane by lane, no fused operations, the
+/// flat normal where the length is not above [`crate::patch::MIN_NORMAL_LEN_F64`] or not
+/// finite), so bitwise its values where every point it multiplies is finite. Writes lanes:
+/// `out[c · L + i]` for sample i (L = `d.lanes()`) is its position's x, y, z for c = 0, 1,
+/// 2 and its unit normal's for c = 3, 4, 5; returns whether every sum (all lanes, padding
+/// included) was finite, which holds only where every point it multiplied was.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-fn edge_side_avx(
-    table: &PatchTable,
-    patch: usize,
-    d: &DenseEdgeWeights,
-    per: usize,
-    side: usize,
-    p: &mut [DVec3],
-    n: &mut [DVec3],
-) {
+fn edge_side_avx(table: &PatchTable, patch: usize, d: &DenseEdgeWeights, out: &mut [f64]) -> bool {
     use std::arch::x86_64::*;
+    let lanes = d.lanes();
+    let out = &mut out[..6 * lanes];
+    // x − x summed over the sums of every block: +0 while all are finite, NaN from the
+    // first sum that is ±∞ or NaN on.
+    let mut nonfinite = _mm256_setzero_pd();
     let c = table.patch(patch);
     let flat = table.flat_normals[patch];
-    let terms = d.idx.len();
-    let lanes = |v: __m256d| {
-        let mut a = [0.0f64; EDGE_LANES];
-        // SAFETY: stores four f64 into a four-element array.
-        unsafe { _mm256_storeu_pd(a.as_mut_ptr(), v) };
-        a
-    };
-    for (blk, wb) in d.data.chunks_exact(terms * 3 * EDGE_LANES).enumerate() {
-        let z = _mm256_setzero_pd();
-        let [mut px, mut py, mut pz, mut sx, mut sy, mut sz, mut tx, mut ty, mut tz] = [z; 9];
-        let nonzero = &d.nonzero[blk * terms..(blk + 1) * terms];
-        for ((&j, w3), &nz) in d
-            .idx
-            .iter()
-            .zip(wb.chunks_exact(3 * EDGE_LANES))
-            .zip(nonzero)
-        {
+    let (fx, fy, fz) = (
+        _mm256_set1_pd(flat.x),
+        _mm256_set1_pd(flat.y),
+        _mm256_set1_pd(flat.z),
+    );
+    let (min_len, inf) = (
+        _mm256_set1_pd(crate::patch::MIN_NORMAL_LEN_F64),
+        _mm256_set1_pd(f64::INFINITY),
+    );
+    // Adds w · c_j for each term of `list` to the three sums `acc`, in order.
+    let add = |list: &[(u32, u8)], acc: &mut [__m256d; 3]| {
+        for &(o, j) in list {
             let cj = c[j as usize];
-            let (cx, cy, cz) = (
-                _mm256_set1_pd(cj.x),
-                _mm256_set1_pd(cj.y),
-                _mm256_set1_pd(cj.z),
-            );
-            // SAFETY (each load): reads four f64 of the 12 in `w3`.
-            if nz & 1 != 0 {
-                let w = unsafe { _mm256_loadu_pd(w3.as_ptr()) };
-                px = _mm256_add_pd(px, _mm256_mul_pd(w, cx));
-                py = _mm256_add_pd(py, _mm256_mul_pd(w, cy));
-                pz = _mm256_add_pd(pz, _mm256_mul_pd(w, cz));
-            }
-            if nz & 2 != 0 {
-                let ws = unsafe { _mm256_loadu_pd(w3.as_ptr().add(EDGE_LANES)) };
-                sx = _mm256_add_pd(sx, _mm256_mul_pd(ws, cx));
-                sy = _mm256_add_pd(sy, _mm256_mul_pd(ws, cy));
-                sz = _mm256_add_pd(sz, _mm256_mul_pd(ws, cz));
-            }
-            if nz & 4 != 0 {
-                let wt = unsafe { _mm256_loadu_pd(w3.as_ptr().add(2 * EDGE_LANES)) };
-                tx = _mm256_add_pd(tx, _mm256_mul_pd(wt, cx));
-                ty = _mm256_add_pd(ty, _mm256_mul_pd(wt, cy));
-                tz = _mm256_add_pd(tz, _mm256_mul_pd(wt, cz));
-            }
+            let w = &d.data[o as usize..o as usize + EDGE_LANES];
+            // SAFETY: reads the four f64 of `w`.
+            let w = unsafe { _mm256_loadu_pd(w.as_ptr()) };
+            acc[0] = _mm256_add_pd(acc[0], _mm256_mul_pd(w, _mm256_set1_pd(cj.x)));
+            acc[1] = _mm256_add_pd(acc[1], _mm256_mul_pd(w, _mm256_set1_pd(cj.y)));
+            acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(w, _mm256_set1_pd(cj.z)));
         }
+    };
+    for (blk, r) in d.ranges.iter().enumerate() {
+        let z = _mm256_setzero_pd();
+        let [r0, r1, r2, r3] = r.map(|x| x as usize);
+        let (mut pv, mut sv, mut tv) = ([z; 3], [z; 3], [z; 3]);
+        add(&d.terms[r0..r1], &mut pv);
+        add(&d.terms[r1..r2], &mut sv);
+        add(&d.terms[r2..r3], &mut tv);
+        let ([px, py, pz], [sx, sy, sz], [tx, ty, tz]) = (pv, sv, tv);
+        let all = _mm256_add_pd(
+            _mm256_add_pd(_mm256_add_pd(px, py), _mm256_add_pd(pz, sx)),
+            _mm256_add_pd(
+                _mm256_add_pd(sy, sz),
+                _mm256_add_pd(_mm256_add_pd(tx, ty), tz),
+            ),
+        );
+        nonfinite = _mm256_add_pd(nonfinite, _mm256_sub_pd(all, all));
         // S_s × S_t as DVec3::cross, |·| as DVec3::length, then the division.
         let nx = _mm256_sub_pd(_mm256_mul_pd(sy, tz), _mm256_mul_pd(ty, sz));
         let ny = _mm256_sub_pd(_mm256_mul_pd(sz, tx), _mm256_mul_pd(tz, sx));
@@ -496,21 +643,70 @@ fn edge_side_avx(
             _mm256_mul_pd(nz, nz),
         );
         let len = _mm256_sqrt_pd(dot);
-        let [px, py, pz] = [lanes(px), lanes(py), lanes(pz)];
-        let [ux, uy, uz] = [
-            lanes(_mm256_div_pd(nx, len)),
-            lanes(_mm256_div_pd(ny, len)),
-            lanes(_mm256_div_pd(nz, len)),
+        // len > MIN and len < ∞, both false on NaN: `len.is_finite()` for len ≥ 0.
+        let ok = _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_GT_OQ>(len, min_len),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(len, inf),
+        );
+        let values = [
+            px,
+            py,
+            pz,
+            _mm256_blendv_pd(fx, _mm256_div_pd(nx, len), ok),
+            _mm256_blendv_pd(fy, _mm256_div_pd(ny, len), ok),
+            _mm256_blendv_pd(fz, _mm256_div_pd(nz, len), ok),
         ];
-        let len = lanes(len);
-        let first = blk * EDGE_LANES;
-        for l in 0..EDGE_LANES.min(per - first) {
-            let q = 2 * (first + l) + side;
-            p[q] = DVec3::new(px[l], py[l], pz[l]);
-            n[q] = if len[l] > crate::patch::MIN_NORMAL_LEN_F64 && len[l].is_finite() {
-                DVec3::new(ux[l], uy[l], uz[l])
-            } else {
-                flat
+        for (k, v) in values.into_iter().enumerate() {
+            let o = k * lanes + blk * EDGE_LANES;
+            let dst = &mut out[o..o + EDGE_LANES];
+            // SAFETY: writes the four f64 of `dst`.
+            unsafe { _mm256_storeu_pd(dst.as_mut_ptr(), v) };
+        }
+    }
+    _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(nonfinite, nonfinite)) == 0
+}
+
+/// The products of one pair's samples from both sides' lanes (`a`, `b` as
+/// [`edge_side_avx`] writes them, corner positions already set), `per` samples:
+/// [`PairProducts::of`] lane by lane (the same products and sums in the same order).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn products_avx(a: &[f64], b: &[f64], lanes: usize, out: &mut [PairProducts]) {
+    use std::arch::x86_64::*;
+    let per = out.len();
+    let (a, b) = (&a[..6 * lanes], &b[..6 * lanes]);
+    let load = |v: &[f64], k: usize, at: usize| {
+        let v = &v[k * lanes + at..k * lanes + at + EDGE_LANES];
+        // SAFETY: reads the four f64 of `v`.
+        unsafe { _mm256_loadu_pd(v.as_ptr()) }
+    };
+    for at in (0..per).step_by(EDGE_LANES) {
+        let [apx, apy, apz, anx, any, anz] = std::array::from_fn(|k| load(a, k, at));
+        let [bpx, bpy, bpz, bnx, bny, bnz] = std::array::from_fn(|k| load(b, k, at));
+        // n0 · n1 and |p0 − p1|² as DVec3::dot: (x x + y y) + z z.
+        let cos = _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(anx, bnx), _mm256_mul_pd(any, bny)),
+            _mm256_mul_pd(anz, bnz),
+        );
+        let (dx, dy, dz) = (
+            _mm256_sub_pd(apx, bpx),
+            _mm256_sub_pd(apy, bpy),
+            _mm256_sub_pd(apz, bpz),
+        );
+        let gap2 = _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
+            _mm256_mul_pd(dz, dz),
+        );
+        let (mut c, mut g) = ([0.0f64; EDGE_LANES], [0.0f64; EDGE_LANES]);
+        // SAFETY: each stores four f64 into a four-element array.
+        unsafe {
+            _mm256_storeu_pd(c.as_mut_ptr(), cos);
+            _mm256_storeu_pd(g.as_mut_ptr(), gap2);
+        }
+        for (l, o) in out[at..(at + EDGE_LANES).min(per)].iter_mut().enumerate() {
+            *o = PairProducts {
+                cos: c[l],
+                gap2: g[l],
             };
         }
     }

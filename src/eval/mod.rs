@@ -188,6 +188,84 @@ pub fn evaluate_edges_via_points(
     Ok(())
 }
 
+/// What the continuity statistics need of one sample of an edge pattern (the sample on its
+/// two patches, points `p0, p1` and unit normals `n0, n1`): `cos = n0 · n1` and
+/// `gap2 = |p0 − p1|²`, each computed as [`PairProducts::of`] does (glam's `dot` and
+/// `length_squared`, unfused, in their order), so bitwise the same wherever computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PairProducts {
+    pub cos: f64,
+    pub gap2: f64,
+}
+
+impl PairProducts {
+    /// The products of one sample on its two patches.
+    #[inline]
+    pub fn of(p: [DVec3; 2], n: [DVec3; 2]) -> PairProducts {
+        PairProducts {
+            cos: n[0].dot(n[1]),
+            gap2: (p[0] - p[1]).length_squared(),
+        }
+    }
+}
+
+/// A run of [`PairProducts`] of an edge pattern: `first` is the index of its first sample
+/// (sample k is points 2k and 2k + 1 of [`EdgePairs::points`]).
+pub struct PairChunk<'a> {
+    pub first: usize,
+    pub pairs: &'a [PairProducts],
+}
+
+/// [`Evaluator::evaluate_edge_products`] through [`Evaluator::evaluate_edges`]: the
+/// points' chunks checked to arrive in order, a sample split between two chunks joined.
+/// The default of `evaluate_edge_products`.
+pub fn edge_products_via_points(
+    evaluator: &(impl Evaluator + ?Sized),
+    table: &PatchTable,
+    edges: &EdgePairs,
+    sink: &mut dyn FnMut(PairChunk<'_>) -> Result<()>,
+) -> Result<()> {
+    let mut pending: Option<(DVec3, DVec3)> = None;
+    let mut next = 0usize;
+    let mut out = Vec::new();
+    evaluator.evaluate_edges(table, edges, &mut |chunk| {
+        let (mut pos, mut nrm) = (chunk.positions, chunk.normals);
+        if chunk.first != next || pos.len() != nrm.len() {
+            return Err(crate::Error::Invalid(format!(
+                "evaluator delivered points from {} where {next} was due",
+                chunk.first
+            )));
+        }
+        next += pos.len();
+        out.clear();
+        if let (Some((p0, n0)), Some(&p1), Some(&n1)) = (pending, pos.first(), nrm.first()) {
+            out.push(PairProducts::of([p0, p1], [n0, n1]));
+            pending = None;
+            (pos, nrm) = (&pos[1..], &nrm[1..]);
+        }
+        out.extend(
+            pos.chunks_exact(2)
+                .zip(nrm.chunks_exact(2))
+                .map(|(p, n)| PairProducts::of([p[0], p[1]], [n[0], n[1]])),
+        );
+        if pos.len() % 2 == 1 {
+            pending = Some((pos[pos.len() - 1], nrm[nrm.len() - 1]));
+        }
+        // With a sample pending from the last chunk, `out` starts with that sample.
+        sink(PairChunk {
+            first: chunk.first / 2,
+            pairs: &out,
+        })
+    })?;
+    if next != edges.len() || pending.is_some() {
+        return Err(crate::Error::Invalid(format!(
+            "evaluator returned {next} of {} edge points",
+            edges.len()
+        )));
+    }
+    Ok(())
+}
+
 /// A backend that evaluates positions and unit normals of a patch table.
 pub trait Evaluator {
     /// Which backend and device, for reports ("cpu (2 threads)", the adapter's name, ...).
@@ -232,6 +310,20 @@ pub trait Evaluator {
         sink: &mut dyn FnMut(Chunk<'_>) -> Result<()>,
     ) -> Result<()> {
         evaluate_edges_via_points(self, table, edges, sink)
+    }
+
+    /// The [`PairProducts`] of every sample of `edges` on `table`, chunk by chunk in
+    /// sample order: bitwise [`PairProducts::of`] of the points [`Self::evaluate_edges`]
+    /// gives. The default pairs those points ([`edge_products_via_points`]); the CPU
+    /// backend computes each edge's products right after its points, while they are in
+    /// cache.
+    fn evaluate_edge_products(
+        &self,
+        table: &PatchTable,
+        edges: &EdgePairs,
+        sink: &mut dyn FnMut(PairChunk<'_>) -> Result<()>,
+    ) -> Result<()> {
+        edge_products_via_points(self, table, edges, sink)
     }
 
     /// Evaluates `pattern` into two whole arrays (convenience for small runs and tests).

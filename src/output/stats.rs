@@ -9,16 +9,16 @@
 //! Everything streams: the edges come from a compact [`EdgeIndex`] (or an [`Adjacency`]),
 //! a chunk of edges at a time gets the patches of its triangles (built for the chunk by a
 //! [`PatchBuilder`], or read from a whole [`PatchTable`]), its edge pattern ([`EdgePairs`]:
-//! 12 bytes per edge), one [`Evaluator::evaluate_edges`] call, and its samples are folded
-//! into running statistics. Memory beyond the mesh is the edge index (4 bytes per half-edge
+//! 12 bytes per edge), [`Evaluator::evaluate_edge_products`] calls (per sample the cos of
+//! the two normals and the squared gap, 16 bytes), and those are folded into running
+//! statistics. Memory beyond the mesh is the edge index (4 bytes per half-edge
 //! and per vertex, 4 per triangle for the chunk's patch numbering) and one chunk. The statistics are accumulated in sample
 //! order whatever the chunk size, so every chunking gives bitwise the same result.
 
-use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::eval::{EdgePairs, EdgeSide, Evaluator, PatchPoint};
+use crate::eval::{EdgePairs, EdgeSide, Evaluator, PairProducts, PatchPoint};
 use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
@@ -195,14 +195,14 @@ impl Part {
     }
 
     #[inline]
-    fn push(&mut self, p: [DVec3; 2], n: [DVec3; 2], crease: bool) {
-        let gap2 = (p[0] - p[1]).length_squared();
+    fn push(&mut self, s: PairProducts, crease: bool) {
+        let gap2 = s.gap2;
         if crease {
             self.crease_n += 1;
             self.crease_gap2 = self.crease_gap2.max(gap2);
             return;
         }
-        let c = n[0].dot(n[1]);
+        let c = s.cos;
         if self.n == 0 {
             self.shift = c;
         }
@@ -289,20 +289,17 @@ impl Fold {
         }
     }
 
-    /// Folds the samples of `pos`/`nrm` (pairs of points: each sample on its two
-    /// patches); `crease(i)` says whether sample i (counted over the whole run) lies on a
-    /// crease edge.
-    fn add<F: Fn(usize) -> bool + Sync>(&mut self, pos: &[DVec3], nrm: &[DVec3], crease: &F) {
-        let total = pos.len().min(nrm.len()) / 2;
-        let pair = |q: usize| ([pos[2 * q], pos[2 * q + 1]], [nrm[2 * q], nrm[2 * q + 1]]);
+    /// Folds the products of `samples` (each sample on its two patches); `crease(i)` says
+    /// whether sample i (counted over the whole run) lies on a crease edge.
+    fn add<F: Fn(usize) -> bool + Sync>(&mut self, samples: &[PairProducts], crease: &F) {
+        let total = samples.len();
         let mut k = 0;
         // Finish the open block.
         let done = self.pairs % BLOCK_PAIRS;
         if done != 0 {
             let take = (BLOCK_PAIRS - done).min(total);
-            for q in 0..take {
-                let (p, n) = pair(q);
-                self.open.push(p, n, crease(self.pairs + q));
+            for (q, &s) in samples[..take].iter().enumerate() {
+                self.open.push(s, crease(self.pairs + q));
             }
             k = take;
             self.pairs += take;
@@ -319,9 +316,9 @@ impl Fold {
                 .into_par_iter()
                 .map(|b| {
                     let mut part = Part::new();
-                    for q in k + b * BLOCK_PAIRS..k + (b + 1) * BLOCK_PAIRS {
-                        let (p, n) = pair(q);
-                        part.push(p, n, crease(first + q - k));
+                    let block = k + b * BLOCK_PAIRS..k + (b + 1) * BLOCK_PAIRS;
+                    for (q, &s) in block.clone().zip(&samples[block]) {
+                        part.push(s, crease(first + q - k));
                     }
                     part
                 })
@@ -333,9 +330,8 @@ impl Fold {
             self.pairs += full * BLOCK_PAIRS;
         }
         // Open the next block.
-        for q in k..total {
-            let (p, n) = pair(q);
-            self.open.push(p, n, crease(self.pairs));
+        for &s in &samples[k..total] {
+            self.open.push(s, crease(self.pairs));
             self.pairs += 1;
         }
     }
@@ -380,9 +376,9 @@ enum Patches<'a, 'm> {
     Builder(&'a PatchBuilder<'m>),
 }
 
-/// Interior edges per evaluation call within a chunk: their samples (42 points of 48 bytes
-/// each, about 1 MB) are folded while they are in cache.
-const EVAL_EDGES: usize = 512;
+/// Interior edges per evaluation call within a chunk: their samples' products (21 of 16
+/// bytes per edge, about 0.7 MB) are folded while they are in cache.
+const EVAL_EDGES: usize = 2048;
 
 /// Slot of a triangle never built (in [`run`]'s per-triangle numbering).
 const NEVER: u32 = u32::MAX;
@@ -544,8 +540,6 @@ impl Batch {
             Patches::Builder(_) => &self.table,
         };
         let batch = &self.edges;
-        let mut pending: Option<(DVec3, DVec3)> = None;
-        let mut next = 0usize;
         let first_pair = fold.pairs;
         let crease = |i: usize| {
             batch
@@ -554,14 +548,7 @@ impl Batch {
         };
         // Without crease edges in the chunk no sample needs looking up.
         let creases = self.creases;
-        let add = |fold: &mut Fold, pos: &[DVec3], nrm: &[DVec3]| {
-            if creases == 0 {
-                fold.add(pos, nrm, &|_| false);
-            } else {
-                fold.add(pos, nrm, &crease);
-            }
-        };
-        // The chunk is evaluated a few edges at a time, so that the samples are folded
+        // The chunk is evaluated a few edges at a time, so that the products are folded
         // while they are still in cache.
         let mut sub = EdgePairs {
             samples: SAMPLES_PER_EDGE,
@@ -570,34 +557,34 @@ impl Batch {
         for pairs in self.pattern.pairs.chunks(EVAL_EDGES) {
             sub.pairs.clear();
             sub.pairs.extend_from_slice(pairs);
-            let base = next;
-            evaluator.evaluate_edges(table, &sub, &mut |chunk| {
-                let (mut pos, mut nrm) = (chunk.positions, chunk.normals);
-                if base + chunk.first != next || pos.len() != nrm.len() {
+            let mut next = 0;
+            evaluator.evaluate_edge_products(table, &sub, &mut |chunk| {
+                if chunk.first != next {
                     return Err(Error::Invalid(format!(
-                        "evaluator delivered points from {} where {} was due",
-                        chunk.first,
-                        next - base
+                        "evaluator delivered samples from {} where {next} was due",
+                        chunk.first
                     )));
                 }
-                next += pos.len();
-                if let (Some((p0, n0)), Some(p1), Some(n1)) = (pending, pos.first(), nrm.first()) {
-                    add(fold, &[p0, *p1], &[n0, *n1]);
-                    pending = None;
-                    (pos, nrm) = (&pos[1..], &nrm[1..]);
-                }
-                add(fold, pos, nrm);
-                if pos.len() % 2 == 1 {
-                    pending = Some((pos[pos.len() - 1], nrm[nrm.len() - 1]));
+                next += chunk.pairs.len();
+                if creases == 0 {
+                    fold.add(chunk.pairs, &|_| false);
+                } else {
+                    fold.add(chunk.pairs, &crease);
                 }
                 Ok(())
             })?;
+            if 2 * next != sub.len() {
+                return Err(Error::Invalid(format!(
+                    "evaluator returned {next} of {} edge samples",
+                    sub.len() / 2
+                )));
+            }
         }
         let expected = batch.len() * SAMPLES_PER_EDGE as usize;
-        if fold.pairs - first_pair != expected || pending.is_some() {
+        if fold.pairs - first_pair != expected {
             return Err(Error::Invalid(format!(
-                "evaluator returned {next} of {} edge points",
-                2 * expected
+                "evaluator returned {} of {expected} edge samples",
+                fold.pairs - first_pair
             )));
         }
         Ok(())
