@@ -142,6 +142,8 @@ fn auto_prefers_the_cpu_to_a_software_adapter() {
         );
         assert!(err.contains(&adapters[0].name), "{err}");
         assert!(err.contains("using the CPU backend"), "{err}");
+        // One sentence, not the source's line breaks kept as runs of spaces.
+        assert!(!err.contains("  "), "{err}");
     } else {
         assert!(backend.starts_with("gpu ("), "{backend}");
         assert!(err.starts_with("gpu: "), "{err}");
