@@ -133,7 +133,17 @@ fn patch_points_into(
     fallbacks: &mut usize,
     out: &mut [DVec3; 18],
 ) {
-    let edges: [EdgeData; 3] = std::array::from_fn(|k| {
+    // Edge k's data, built in place: three named values, not an array built by a closure
+    // (which was called out of line and its 264-byte results copied).
+    #[inline(always)]
+    fn edge(
+        k: usize,
+        q: &[DVec3; 3],
+        n: &[DVec3; 3],
+        ids: &[u32; 3],
+        curves: &[Option<[DVec3; 4]>; 3],
+        fallbacks: &mut usize,
+    ) -> EdgeData {
         let (a, b) = (k, (k + 1) % 3);
         let v = if let Some(c) = curves[k] {
             c
@@ -144,14 +154,18 @@ fn patch_points_into(
             [r[3], r[2], r[1], r[0]]
         };
         edge_data(v, n[a], n[b], fallbacks)
-    });
+    }
+    let e0 = edge(0, &q, &n, &ids, &curves, fallbacks);
+    let e1 = edge(1, &q, &n, &ids, &curves, fallbacks);
+    let e2 = edge(2, &q, &n, &ids, &curves, fallbacks);
+    let edges: [&EdgeData; 3] = [&e0, &e1, &e2];
     for k in 0..3 {
         out[4 * k..4 * k + 4].copy_from_slice(&edges[k].l[..4]);
     }
     for k in 0..3 {
-        let e = &edges[k];
-        let prev = &edges[(k + 2) % 3];
-        let next = &edges[(k + 1) % 3];
+        let e = edges[k];
+        let prev = edges[(k + 2) % 3];
+        let next = edges[(k + 1) % 3];
         let d0 = prev.l[3] - 0.5 * (e.l[0] + e.l[1]);
         let d3 = next.l[1] - 0.5 * (e.l[3] + e.l[4]);
         let ratio = |d: DVec3, w: DVec3| {
