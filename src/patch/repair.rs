@@ -18,8 +18,10 @@
 //!
 //! **What no repair that keeps G1 can avoid** ([`corner_bound`]). At a corner A of
 //! triangle f (unit face normal n_f) with normal N whose two edges of f are not crease
-//! edges, every scheme's boundary curves leave A along the chords projected on the plane
-//! normal to N, so S_s × S_t = 2 Area a b (n_f · N) N there (a, b > 0 the tangent lengths).
+//! edges, every scheme's boundary curves leave A in the plane normal to N, so
+//! S_s × S_t = c N there (c = 2 Area a b (n_f · N) for tangents along the chords projected
+//! on that plane, a, b > 0 their lengths; G1's Walton–Meek tangents add the far ends'
+//! normals projected, so there c depends on all three corners' normals).
 //! Along such an edge A → B the patch's normal is λ(u) n(u), n(u) the edge's continuous
 //! nonzero normal field from N_A to N_B; a certified patch has J = λ (n · n_f) > 0 on the
 //! whole edge, so λ keeps one sign σ, the patch's, and σ (n_f · N) > 0 at every such
@@ -55,7 +57,19 @@
 //! below 0.01; and among the 8 trials of largest gain the one the certificate finds
 //! with the fewest uncertified patches around it, where that is fewer than now, is kept
 //! (the measure's grid can miss a fold the certificate sees). At most 12 rounds, and
-//! none after two that leave as many patches uncertified as before. What it
+//! none after two that leave as many patches uncertified as before. Then, up to 3 times
+//! while it helps, *joint moves*: the patches left are clustered (those whose one-ring
+//! groups overlap) and the normals of all the groups of a cluster move together
+//! ([`joint_corners`]: a pattern search on the sphere, group by group, 8 directions, steps
+//! 0.2 down to 0.0125 radians, each group facing its triangles as the moves require),
+//! lowering the corner shortfall of [`corner_values`], the grid shortfall and the
+//! Lagrange shortfall of the patches around; a cluster's result is kept where the
+//! certificate counts fewer uncertified patches around it, and the rounds run again.
+//! The corner values matter because a G1 patch's end tangent at a corner is not the
+//! chord projected on the corner's tangent plane alone: the Walton–Meek tangent adds a
+//! multiple of the far end's normal projected there, so the corner's Jacobian depends on
+//! the normals of all three corners, and the corner condition n_f · N > 0 does not make
+//! it positive (Suzanne's eye patches fold at such corners). What it
 //! leaves uncertified is reported (`crease_free_left`, and how many of those patches
 //! have a corner where a crease is forced) and goes through steps 2 to 8 (the
 //! fallback); other schemes start there. Steps 9 to 11 run in every case.
@@ -799,298 +813,412 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         bad = (0..verdicts.len() as u32)
             .filter(|&t| verdicts[t as usize] != Verdict::Valid)
             .collect();
-        let mut phase_rounds = 0;
-        let (mut fewest_bad, mut stalled) = (bad.len(), 0);
-        while !bad.is_empty()
-            && phase_rounds
-                < if fallback {
-                    MAX_ROUNDS
-                } else {
-                    CREASE_FREE_ROUNDS
-                }
-        {
-            phase_rounds += 1;
-            rounds += 1;
-            let mut improved = false;
-            // The crease-free phase measures on a finer grid: the folds it meets sit between
-            // the points of the coarse one.
-            let grid = if fallback { &grid } else { &grid_fine };
-            for &t in &bad.clone() {
-                let tri = t as usize;
-                if verdicts[tri] == Verdict::Valid {
-                    continue;
-                }
-                // The best move of one corner group of this patch: (badness of the patches
-                // around the group after it, group, new normal).
-                let mut best: Option<(f64, Vec<(u32, DVec3)>)> = None;
-                let corner_normals = work.corner_normals[tri];
-                let mean = corner_normals
-                    .iter()
-                    .copied()
-                    .sum::<DVec3>()
-                    .try_normalize();
-                let own: Vec<u32> = (0..3).map(|k| groups.of_corner[3 * tri + k]).collect();
-                // Candidate moves: one group at a time, then the patch's three groups together
-                // towards its face normal.
-                let mut candidates: Vec<Vec<(u32, DVec3)>> = Vec::new();
-                for &g in own.iter().filter(|g| !groups.frozen.contains(g)) {
-                    let cur = groups.normal(&work, g);
-                    let f: Vec<DVec3> = groups
-                        .corners(g)
-                        .iter()
-                        .map(|&c| faces[c as usize / 3])
-                        .collect();
-                    let mut targets = vec![central(&f, cur), faces[tri]];
-                    targets.extend(mean);
-                    for target in targets {
-                        for w in WEIGHTS {
-                            candidates.push(vec![(g, towards(cur, target, w))]);
-                        }
+        let mut joint_done = 0;
+        let mut refused: HashSet<Vec<u64>> = HashSet::new();
+        loop {
+            let mut phase_rounds = 0;
+            let (mut fewest_bad, mut stalled) = (bad.len(), 0);
+            while !bad.is_empty()
+                && phase_rounds
+                    < if fallback {
+                        MAX_ROUNDS
+                    } else {
+                        CREASE_FREE_ROUNDS
                     }
-                    // The nearest normals facing all of the group's triangles by a margin.
-                    for m in FACING_STEPS {
-                        if let Some(n) = nearest_facing(cur, &f, m) {
-                            candidates.push(vec![(g, n)]);
-                        }
-                    }
-                }
-                for w in WEIGHTS {
-                    candidates.push(
-                        own.iter()
-                            .filter(|g| !groups.frozen.contains(g))
-                            .map(|&g| (g, towards(groups.normal(&work, g), faces[tri], w)))
-                            .collect(),
-                    );
-                }
-                // Two or three of its groups together towards the central normal of all their
-                // faces (a sliver's close corners need nearly the same normal: their curves to
-                // the far corner must not cross).
-                let sets: [&[usize]; 4] = [&[0, 1], &[1, 2], &[2, 0], &[0, 1, 2]];
-                for set in sets {
-                    let gs: Vec<u32> = set.iter().map(|&k| own[k]).collect();
-                    if gs.iter().any(|g| {
-                        gs.iter().filter(|h| *h == g).count() > 1 || groups.frozen.contains(g)
-                    }) {
+            {
+                phase_rounds += 1;
+                rounds += 1;
+                let mut improved = false;
+                // The crease-free phase measures on a finer grid: the folds it meets sit between
+                // the points of the coarse one.
+                let grid = if fallback { &grid } else { &grid_fine };
+                for &t in &bad.clone() {
+                    let tri = t as usize;
+                    if verdicts[tri] == Verdict::Valid {
                         continue;
                     }
-                    let f: Vec<DVec3> = gs
+                    // The best move of one corner group of this patch: (badness of the patches
+                    // around the group after it, group, new normal).
+                    let mut best: Option<(f64, Vec<(u32, DVec3)>)> = None;
+                    let corner_normals = work.corner_normals[tri];
+                    let mean = corner_normals
                         .iter()
-                        .flat_map(|&g| groups.corners(g))
-                        .map(|&c| faces[c as usize / 3])
-                        .collect();
-                    let target = central(&f, faces[tri]);
+                        .copied()
+                        .sum::<DVec3>()
+                        .try_normalize();
+                    let own: Vec<u32> = (0..3).map(|k| groups.of_corner[3 * tri + k]).collect();
+                    // Candidate moves: one group at a time, then the patch's three groups together
+                    // towards its face normal.
+                    let mut candidates: Vec<Vec<(u32, DVec3)>> = Vec::new();
+                    for &g in own.iter().filter(|g| !groups.frozen.contains(g)) {
+                        let cur = groups.normal(&work, g);
+                        let f: Vec<DVec3> = groups
+                            .corners(g)
+                            .iter()
+                            .map(|&c| faces[c as usize / 3])
+                            .collect();
+                        let mut targets = vec![central(&f, cur), faces[tri]];
+                        targets.extend(mean);
+                        for target in targets {
+                            for w in WEIGHTS {
+                                candidates.push(vec![(g, towards(cur, target, w))]);
+                            }
+                        }
+                        // The nearest normals facing all of the group's triangles by a margin.
+                        for m in FACING_STEPS {
+                            if let Some(n) = nearest_facing(cur, &f, m) {
+                                candidates.push(vec![(g, n)]);
+                            }
+                        }
+                    }
                     for w in WEIGHTS {
                         candidates.push(
-                            gs.iter()
-                                .map(|&g| (g, towards(groups.normal(&work, g), target, w)))
+                            own.iter()
+                                .filter(|g| !groups.frozen.contains(g))
+                                .map(|&g| (g, towards(groups.normal(&work, g), faces[tri], w)))
                                 .collect(),
                         );
                     }
-                    // Crease-free phase: the groups together, each to its nearest normal
-                    // facing its own triangles by a margin.
-                    for m in FACING_STEPS.iter().filter(|_| !fallback) {
-                        let moves: Option<Vec<(u32, DVec3)>> = gs
+                    // Two or three of its groups together towards the central normal of all their
+                    // faces (a sliver's close corners need nearly the same normal: their curves to
+                    // the far corner must not cross).
+                    let sets: [&[usize]; 4] = [&[0, 1], &[1, 2], &[2, 0], &[0, 1, 2]];
+                    for set in sets {
+                        let gs: Vec<u32> = set.iter().map(|&k| own[k]).collect();
+                        if gs.iter().any(|g| {
+                            gs.iter().filter(|h| *h == g).count() > 1 || groups.frozen.contains(g)
+                        }) {
+                            continue;
+                        }
+                        let f: Vec<DVec3> = gs
                             .iter()
-                            .map(|&g| {
-                                let f: Vec<DVec3> = groups
-                                    .corners(g)
-                                    .iter()
-                                    .map(|&c| faces[c as usize / 3])
-                                    .collect();
-                                nearest_facing(groups.normal(&work, g), &f, *m).map(|n| (g, n))
-                            })
+                            .flat_map(|&g| groups.corners(g))
+                            .map(|&c| faces[c as usize / 3])
                             .collect();
-                        candidates.extend(moves);
-                    }
-                    // And one normal for all of them, the nearest to their mean facing
-                    // all of their triangles (a sliver's close corners).
-                    let mean = gs
-                        .iter()
-                        .map(|&g| groups.normal(&work, g))
-                        .sum::<DVec3>()
-                        .try_normalize();
-                    for m in FACING_STEPS.iter().filter(|_| !fallback) {
-                        if let Some(n) = mean.and_then(|x| nearest_facing(x, &f, *m)) {
-                            candidates.push(gs.iter().map(|&g| (g, n)).collect());
+                        let target = central(&f, faces[tri]);
+                        for w in WEIGHTS {
+                            candidates.push(
+                                gs.iter()
+                                    .map(|&g| (g, towards(groups.normal(&work, g), target, w)))
+                                    .collect(),
+                            );
+                        }
+                        // Crease-free phase: the groups together, each to its nearest normal
+                        // facing its own triangles by a margin.
+                        for m in FACING_STEPS.iter().filter(|_| !fallback) {
+                            let moves: Option<Vec<(u32, DVec3)>> = gs
+                                .iter()
+                                .map(|&g| {
+                                    let f: Vec<DVec3> = groups
+                                        .corners(g)
+                                        .iter()
+                                        .map(|&c| faces[c as usize / 3])
+                                        .collect();
+                                    nearest_facing(groups.normal(&work, g), &f, *m).map(|n| (g, n))
+                                })
+                                .collect();
+                            candidates.extend(moves);
+                        }
+                        // And one normal for all of them, the nearest to their mean facing
+                        // all of their triangles (a sliver's close corners).
+                        let mean = gs
+                            .iter()
+                            .map(|&g| groups.normal(&work, g))
+                            .sum::<DVec3>()
+                            .try_normalize();
+                        for m in FACING_STEPS.iter().filter(|_| !fallback) {
+                            if let Some(n) = mean.and_then(|x| nearest_facing(x, &f, *m)) {
+                                candidates.push(gs.iter().map(|&g| (g, n)).collect());
+                            }
                         }
                     }
-                }
-                // Crease-free phase: every trial, (gain, moves, ring).
-                let mut scored: Vec<Trial> = Vec::new();
-                // The badness of each ring as it is now, by ring.
-                let mut now_of: HashMap<Vec<u32>, f64> = HashMap::new();
-                let measure = |table: &PatchTable| {
-                    if fallback {
-                        badness(table, grid)
-                    } else {
-                        badness(table, grid) + lagrange_shortfall(table)
-                    }
-                };
-                // Smallest cosine of a normal to the face normals of group `g`.
-                let facing = |g: u32, n: DVec3| {
-                    groups
-                        .corners(g)
-                        .iter()
-                        .map(|&c| faces[c as usize / 3])
-                        .filter(|x| x.length_squared() > 0.25)
-                        .map(|x| x.dot(n))
-                        .fold(f64::INFINITY, f64::min)
-                };
-                for moves in candidates {
-                    if moves
-                        .iter()
-                        .all(|&(g, n)| normal_key(n) == normal_key(groups.normal(&work, g)))
-                    {
-                        continue;
-                    }
-                    // The crease-free phase keeps every corner condition it has met: a
-                    // moved group faces all of its triangles by FACING_STEPS[0], or by no
-                    // less than before.
-                    if !fallback
-                        && moves.iter().any(|&(g, n)| {
-                            facing(g, n) < FACING_STEPS[0].min(facing(g, groups.normal(&work, g)))
-                        })
-                    {
-                        continue;
-                    }
-                    let mut ring: Vec<u32> = moves
-                        .iter()
-                        .flat_map(|&(g, _)| groups.triangles_around(g))
-                        .collect();
-                    ring.sort_unstable();
-                    ring.dedup();
-                    let now = match now_of.get(&ring) {
-                        Some(&x) => x,
-                        None => {
-                            let x = measure(&*ring_table(&work, scheme, opts, &ring, &twins)?);
-                            now_of.insert(ring.clone(), x);
-                            x
+                    // Crease-free phase: every trial, (gain, moves, ring).
+                    let mut scored: Vec<Trial> = Vec::new();
+                    // The badness of each ring as it is now, by ring.
+                    let mut now_of: HashMap<Vec<u32>, f64> = HashMap::new();
+                    let measure = |table: &PatchTable| {
+                        if fallback {
+                            badness(table, grid)
+                        } else {
+                            badness(table, grid) + lagrange_shortfall(table)
                         }
                     };
-                    let old: Vec<(u32, DVec3)> = moves
-                        .iter()
-                        .map(|&(g, _)| (g, groups.normal(&work, g)))
-                        .collect();
-                    let mut sink = Vec::new();
-                    for &(g, n) in &moves {
-                        set_group(&mut work, &groups, g, n, &mut sink);
+                    // Smallest cosine of a normal to the face normals of group `g`.
+                    let facing = |g: u32, n: DVec3| {
+                        groups
+                            .corners(g)
+                            .iter()
+                            .map(|&c| faces[c as usize / 3])
+                            .filter(|x| x.length_squared() > 0.25)
+                            .map(|x| x.dot(n))
+                            .fold(f64::INFINITY, f64::min)
+                    };
+                    for moves in candidates {
+                        if moves
+                            .iter()
+                            .all(|&(g, n)| normal_key(n) == normal_key(groups.normal(&work, g)))
+                        {
+                            continue;
+                        }
+                        // The crease-free phase keeps every corner condition it has met: a
+                        // moved group faces all of its triangles by FACING_STEPS[0], or by no
+                        // less than before.
+                        if !fallback
+                            && moves.iter().any(|&(g, n)| {
+                                facing(g, n)
+                                    < FACING_STEPS[0].min(facing(g, groups.normal(&work, g)))
+                            })
+                        {
+                            continue;
+                        }
+                        let mut ring: Vec<u32> = moves
+                            .iter()
+                            .flat_map(|&(g, _)| groups.triangles_around(g))
+                            .collect();
+                        ring.sort_unstable();
+                        ring.dedup();
+                        let now = match now_of.get(&ring) {
+                            Some(&x) => x,
+                            None => {
+                                let x = measure(&*ring_table(&work, scheme, opts, &ring, &twins)?);
+                                now_of.insert(ring.clone(), x);
+                                x
+                            }
+                        };
+                        let old: Vec<(u32, DVec3)> = moves
+                            .iter()
+                            .map(|&(g, _)| (g, groups.normal(&work, g)))
+                            .collect();
+                        let mut sink = Vec::new();
+                        for &(g, n) in &moves {
+                            set_group(&mut work, &groups, g, n, &mut sink);
+                        }
+                        let b = measure(&*ring_table(&work, scheme, opts, &ring, &twins)?);
+                        for &(g, n) in old.iter().rev() {
+                            set_group(&mut work, &groups, g, n, &mut sink);
+                        }
+                        let gain = now - b;
+                        if !fallback {
+                            scored.push((gain, moves.clone(), ring));
+                        }
+                        if gain > 1e-9 * now && best.as_ref().is_none_or(|(x, _)| gain > *x) {
+                            best = Some((gain, moves));
+                        }
                     }
-                    let b = measure(&*ring_table(&work, scheme, opts, &ring, &twins)?);
-                    for &(g, n) in old.iter().rev() {
-                        set_group(&mut work, &groups, g, n, &mut sink);
+                    // The crease-free phase prefers, among the trials of largest gain, the
+                    // one with the fewest uncertified patches around it where that is fewer
+                    // than now (the measure's grid can miss a fold the certificate sees).
+                    scored.sort_by(|a, b| b.0.total_cmp(&a.0));
+                    let mut fewest: Option<(usize, usize)> = None;
+                    for (i, (_, moves, ring)) in scored.iter().take(CERTIFY_TRIALS).enumerate() {
+                        let was = ring
+                            .iter()
+                            .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+                            .count();
+                        let Some(limit) =
+                            fewest.map_or(was.checked_sub(1), |(c, _)| c.checked_sub(1))
+                        else {
+                            break;
+                        };
+                        let old: Vec<(u32, DVec3)> = moves
+                            .iter()
+                            .map(|&(g, _)| (g, groups.normal(&work, g)))
+                            .collect();
+                        let mut sink = Vec::new();
+                        for &(g, n) in moves {
+                            set_group(&mut work, &groups, g, n, &mut sink);
+                        }
+                        let counted = uncertified_upto(
+                            &ring_table(&work, scheme, opts, ring, &twins)?,
+                            limit,
+                        );
+                        for &(g, n) in old.iter().rev() {
+                            set_group(&mut work, &groups, g, n, &mut sink);
+                        }
+                        if let Some(c) = counted {
+                            fewest = Some((c, i));
+                        }
                     }
-                    let gain = now - b;
-                    if !fallback {
-                        scored.push((gain, moves.clone(), ring));
-                    }
-                    if gain > 1e-9 * now && best.as_ref().is_none_or(|(x, _)| gain > *x) {
+                    if let Some((_, i)) = fewest {
+                        let (gain, moves, _) = scored.swap_remove(i);
                         best = Some((gain, moves));
                     }
-                }
-                // The crease-free phase prefers, among the trials of largest gain, the
-                // one with the fewest uncertified patches around it where that is fewer
-                // than now (the measure's grid can miss a fold the certificate sees).
-                scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-                let mut fewest: Option<(usize, usize)> = None;
-                for (i, (_, moves, ring)) in scored.iter().take(CERTIFY_TRIALS).enumerate() {
-                    let was = ring
-                        .iter()
-                        .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
-                        .count();
-                    let Some(limit) = fewest.map_or(was.checked_sub(1), |(c, _)| c.checked_sub(1))
-                    else {
-                        break;
-                    };
-                    let old: Vec<(u32, DVec3)> = moves
-                        .iter()
-                        .map(|&(g, _)| (g, groups.normal(&work, g)))
-                        .collect();
-                    let mut sink = Vec::new();
-                    for &(g, n) in moves {
-                        set_group(&mut work, &groups, g, n, &mut sink);
+                    if let Some((_, moves)) = best {
+                        let old: Vec<(u32, DVec3)> = moves
+                            .iter()
+                            .map(|&(g, _)| (g, groups.normal(&work, g)))
+                            .collect();
+                        let mut ring = Vec::new();
+                        for &(g, n) in &moves {
+                            set_group(&mut work, &groups, g, n, &mut ring);
+                        }
+                        ring.sort_unstable();
+                        ring.dedup();
+                        let was = ring
+                            .iter()
+                            .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+                            .count();
+                        let Some(v) = verdicts_upto(&work, (scheme, opts, &twins), &ring, was)?
+                        else {
+                            // The certificate disagrees with the sampled measure: undo.
+                            for &(g, n) in old.iter().rev() {
+                                set_group(&mut work, &groups, g, n, &mut ring);
+                            }
+                            continue;
+                        };
+                        for (i, &r) in ring.iter().enumerate() {
+                            verdicts[r as usize] = v[i];
+                            changed.insert(r);
+                        }
+                        touched.extend(moves.iter().map(|&(g, _)| g));
+                        improved = true;
+                    } else if !fallback {
+                        continue;
+                    } else if let Some(cut) = best_cut(
+                        &mut work,
+                        &mut groups,
+                        tri,
+                        &faces,
+                        (scheme, opts, &twins),
+                        &verdicts,
+                        grid,
+                    )? {
+                        // No move of one normal helps: the fan of one corner's vertex is cut along
+                        // one or two of its edges into two groups, each with its own normal (a new
+                        // crease there), kept only where the certificate counts fewer uncertified
+                        // patches.
+                        for (&r, &v) in cut.ring.iter().zip(&cut.verdicts) {
+                            verdicts[r as usize] = v;
+                            changed.insert(r);
+                        }
+                        touched.insert(cut.groups[0]);
+                        touched.insert(cut.groups[1]);
+                        in_cuts.extend(cut.groups);
+                        cuts.push(cut.groups);
+                        splits += 1;
+                        improved = true;
                     }
-                    let counted =
-                        uncertified_upto(&ring_table(&work, scheme, opts, ring, &twins)?, limit);
+                }
+                bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
+                // The crease-free phase stops after two rounds that certify nothing more.
+                if bad.len() < fewest_bad {
+                    fewest_bad = bad.len();
+                    stalled = 0;
+                } else {
+                    stalled += 1;
+                }
+                if !fallback && stalled >= 2 {
+                    break;
+                }
+                if !improved {
+                    break;
+                }
+            }
+            bad = (0..verdicts.len() as u32)
+                .filter(|&t| verdicts[t as usize] != Verdict::Valid)
+                .collect();
+            if fallback || joint_done >= JOINT_PASSES || bad.is_empty() {
+                break;
+            }
+            joint_done += 1;
+            // Crease-free phase, once its rounds stall: the normals of every group within one
+            // ring of the patches left move together ([`joint_corners`]), one cluster of them
+            // at a time (those whose rings share a group), kept where the certificate counts
+            // fewer uncertified patches around them; then the rounds again.
+            let regions: Vec<Vec<u32>> = bad
+                .iter()
+                .map(|&t| {
+                    let mut r: Vec<u32> = (0..3)
+                        .map(|k| groups.of_corner[3 * t as usize + k])
+                        .flat_map(|g| groups.triangles_around(g).collect::<Vec<_>>())
+                        .flat_map(|t| (0..3).map(move |k| 3 * t as usize + k))
+                        .map(|c| groups.of_corner[c])
+                        .filter(|&g| !forced[g as usize] && !groups.frozen.contains(&g))
+                        .collect();
+                    r.sort_unstable();
+                    r.dedup();
+                    r
+                })
+                .collect();
+            let mut clusters: Vec<Vec<u32>> = Vec::new();
+            for r in regions {
+                let mut merged = r;
+                clusters.retain(|c| {
+                    if c.iter().any(|g| merged.binary_search(g).is_ok()) {
+                        merged.extend_from_slice(c);
+                        merged.sort_unstable();
+                        merged.dedup();
+                        false
+                    } else {
+                        true
+                    }
+                });
+                if !merged.is_empty() {
+                    clusters.push(merged);
+                }
+            }
+            let mut any = false;
+            for region in clusters {
+                let old: Vec<(u32, DVec3)> = region
+                    .iter()
+                    .map(|&g| (g, groups.normal(&work, g)))
+                    .collect();
+                // A cluster refused before with the same normals is not tried again.
+                let key: Vec<u64> = old
+                    .iter()
+                    .flat_map(|&(g, n)| std::iter::once(g as u64).chain(normal_key(n)))
+                    .collect();
+                if refused.contains(&key) {
+                    continue;
+                }
+                let moved = joint_corners(
+                    &mut work,
+                    mesh,
+                    &groups,
+                    &faces,
+                    &region,
+                    (scheme, opts, &twins),
+                    &grid,
+                )?;
+                let mut ring: Vec<u32> = region
+                    .iter()
+                    .flat_map(|&g| groups.triangles_around(g))
+                    .collect();
+                ring.sort_unstable();
+                ring.dedup();
+                let was = ring
+                    .iter()
+                    .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+                    .count();
+                let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
+                let now = v.iter().filter(|x| **x != Verdict::Valid).count();
+                if now >= was {
+                    let mut sink = Vec::new();
                     for &(g, n) in old.iter().rev() {
                         set_group(&mut work, &groups, g, n, &mut sink);
                     }
-                    if let Some(c) = counted {
-                        fewest = Some((c, i));
-                    }
-                }
-                if let Some((_, i)) = fewest {
-                    let (gain, moves, _) = scored.swap_remove(i);
-                    best = Some((gain, moves));
-                }
-                if let Some((_, moves)) = best {
-                    let old: Vec<(u32, DVec3)> = moves
-                        .iter()
-                        .map(|&(g, _)| (g, groups.normal(&work, g)))
-                        .collect();
-                    let mut ring = Vec::new();
-                    for &(g, n) in &moves {
-                        set_group(&mut work, &groups, g, n, &mut ring);
-                    }
-                    ring.sort_unstable();
-                    ring.dedup();
-                    let was = ring
-                        .iter()
-                        .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
-                        .count();
-                    let Some(v) = verdicts_upto(&work, (scheme, opts, &twins), &ring, was)? else {
-                        // The certificate disagrees with the sampled measure: undo.
-                        for &(g, n) in old.iter().rev() {
-                            set_group(&mut work, &groups, g, n, &mut ring);
-                        }
-                        continue;
-                    };
-                    for (i, &r) in ring.iter().enumerate() {
-                        verdicts[r as usize] = v[i];
-                        changed.insert(r);
-                    }
-                    touched.extend(moves.iter().map(|&(g, _)| g));
-                    improved = true;
-                } else if !fallback {
+                    refused.insert(key);
                     continue;
-                } else if let Some(cut) = best_cut(
-                    &mut work,
-                    &mut groups,
-                    tri,
-                    &faces,
-                    (scheme, opts, &twins),
-                    &verdicts,
-                    grid,
-                )? {
-                    // No move of one normal helps: the fan of one corner's vertex is cut along
-                    // one or two of its edges into two groups, each with its own normal (a new
-                    // crease there), kept only where the certificate counts fewer uncertified
-                    // patches.
-                    for (&r, &v) in cut.ring.iter().zip(&cut.verdicts) {
-                        verdicts[r as usize] = v;
-                        changed.insert(r);
-                    }
-                    touched.insert(cut.groups[0]);
-                    touched.insert(cut.groups[1]);
-                    in_cuts.extend(cut.groups);
-                    cuts.push(cut.groups);
-                    splits += 1;
-                    improved = true;
                 }
+                for (i, &r) in ring.iter().enumerate() {
+                    verdicts[r as usize] = v[i];
+                    changed.insert(r);
+                }
+                touched.extend(
+                    moved
+                        .iter()
+                        .zip(&old)
+                        .filter(|(a, b)| a.1 != b.1)
+                        .map(|(a, _)| a.0),
+                );
+                any = true;
             }
-            bad.retain(|&t| verdicts[t as usize] != Verdict::Valid);
-            // The crease-free phase stops after two rounds that certify nothing more.
-            if bad.len() < fewest_bad {
-                fewest_bad = bad.len();
-                stalled = 0;
-            } else {
-                stalled += 1;
-            }
-            if !fallback && stalled >= 2 {
+            if !any {
                 break;
             }
-            if !improved {
-                break;
-            }
+            bad = (0..verdicts.len() as u32)
+                .filter(|&t| verdicts[t as usize] != Verdict::Valid)
+                .collect();
         }
     }
     // Where the search leaves a G1 patch uncertified, the same isolation as for a
@@ -2612,4 +2740,141 @@ fn corner_bound(mesh: &Mesh, faces: &[DVec3], groups: &Groups) -> (f64, Vec<bool
         })
         .collect();
     (bound, forced)
+}
+
+/// Scaled corner Jacobians below which [`joint_corners`] pushes a corner up.
+const CORNER_AIM: f64 = 0.1;
+
+/// Most sweeps over its groups of one [`joint_corners`].
+const JOINT_SWEEPS: usize = 24;
+
+/// Most passes of [`joint_corners`] in the crease-free phase.
+const JOINT_PASSES: usize = 3;
+
+/// Weight of [`corner_shortfall`] in [`joint_corners`]'s measure.
+const CORNER_WEIGHT: f64 = 10.0;
+
+/// The smallest scaled Jacobian of the G1 patch of triangle `t` of `work` at its three
+/// corners, from the Walton–Meek end tangents alone: at corner k the patch's S_s × S_t is
+/// along the cross product of the tangents of its two boundary curves there, and each
+/// tangent depends on the normals of both of its curve's ends (not only on the corner's:
+/// the Walton–Meek tangent is the chord projected plus a multiple of the far end's normal
+/// projected). The value is the smaller of that cross product along the face normal and
+/// along the corner's normal (a patch turned inside out at the corner), over the tangents'
+/// lengths.
+fn corner_values(work: &Mesh, t: usize) -> [f64; 3] {
+    let tri = work.triangles[t];
+    let q = tri.map(|v| work.positions[v as usize]);
+    let n = work.corner_normals[t];
+    let nf = crate::mesh::normals::face_normal(q);
+    std::array::from_fn(|k| {
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let a = super::g1::walton_meek_offsets(q[k], n[k], q[i], n[i])[0];
+        let b = super::g1::walton_meek_offsets(q[k], n[k], q[j], n[j])[0];
+        let s = a.length() * b.length();
+        if s.is_nan() || s <= 0.0 {
+            return -1.0;
+        }
+        let c = a.cross(b);
+        (c.dot(nf) / s).min(c.dot(n[k]) / s)
+    })
+}
+
+/// The corner shortfall of the triangles `tris`: the sum of the squares of their
+/// [`corner_values`] below [`CORNER_AIM`].
+fn corner_shortfall(work: &Mesh, tris: &[u32]) -> f64 {
+    tris.iter()
+        .flat_map(|&t| corner_values(work, t as usize))
+        .map(|v| (CORNER_AIM - v).max(0.0).powi(2))
+        .sum()
+}
+
+/// Crease-free joint move of the normals of the groups `region` (a pattern search on the
+/// sphere, each group in turn, 8 directions, steps from 0.2 down to 0.0125 radians):
+/// lowers [`corner_shortfall`] of the triangles around them, plus a small pull towards each
+/// group's input normal; every moved group keeps facing its triangles by
+/// `FACING_STEPS[0]` (or by no less than before). Returns the moved groups' new normals,
+/// `work` left with them.
+fn joint_corners(
+    work: &mut Mesh,
+    mesh: &Mesh,
+    groups: &Groups,
+    faces: &[DVec3],
+    region: &[u32],
+    (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
+    grid: &[[f64; 3]],
+) -> Result<Vec<(u32, DVec3)>> {
+    let facing = |g: u32, n: DVec3| {
+        groups
+            .corners(g)
+            .iter()
+            .map(|&c| faces[c as usize / 3])
+            .filter(|x| x.length_squared() > 0.25)
+            .map(|x| x.dot(n))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let input = |g: u32| {
+        let c = groups.corners(g)[0] as usize;
+        mesh.corner_normals[c / 3][c % 3]
+    };
+    let around: Vec<Vec<u32>> = region
+        .iter()
+        .map(|&g| {
+            let mut r: Vec<u32> = groups.triangles_around(g).collect();
+            r.sort_unstable();
+            r.dedup();
+            r
+        })
+        .collect();
+    const PULL: f64 = 1e-3;
+    let mut sink = Vec::new();
+    let mut step: f64 = 0.2;
+    let mut sweeps = 0;
+    while step >= 0.0125 && sweeps < JOINT_SWEEPS {
+        sweeps += 1;
+        let mut better = false;
+        for (i, &g) in region.iter().enumerate() {
+            let cur = groups.normal(work, g);
+            // (shortfall, shortfall plus the pull towards the input normal)
+            let score = |work: &Mesh, n: DVec3| -> Result<(f64, f64)> {
+                let table = ring_patches(work, scheme, opts, &around[i], twins)?;
+                let short = CORNER_WEIGHT * corner_shortfall(work, &around[i])
+                    + badness(&table, grid)
+                    + lagrange_shortfall(&table);
+                Ok((short, short + PULL * (1.0 - n.dot(input(g)))))
+            };
+            let (short, now) = score(work, cur)?;
+            if short <= 0.0 {
+                continue;
+            }
+            let u = cur.any_orthonormal_vector();
+            let v = cur.cross(u);
+            let floor = FACING_STEPS[0].min(facing(g, cur));
+            let mut best = (now, cur);
+            for d in 0..8 {
+                let phi = d as f64 * std::f64::consts::FRAC_PI_4;
+                let n = (cur + step.tan() * (phi.cos() * u + phi.sin() * v)).normalize();
+                if facing(g, n) < floor {
+                    continue;
+                }
+                set_group(work, groups, g, n, &mut sink);
+                let s = score(work, n)?.1;
+                if s < best.0 - 1e-12 {
+                    best = (s, n);
+                }
+            }
+            set_group(work, groups, g, best.1, &mut sink);
+            sink.clear();
+            if best.1 != cur {
+                better = true;
+            }
+        }
+        if !better {
+            step /= 2.0;
+        }
+    }
+    Ok(region
+        .iter()
+        .map(|&g| (g, groups.normal(work, g)))
+        .collect())
 }
