@@ -606,6 +606,22 @@ impl Groups {
             .flat_map(|&h| self.list[h as usize].iter().map(|&c| c / 3))
     }
 
+    /// The face normals (`faces`, by triangle) of the triangles of group `g`, less those
+    /// of degenerate triangles (a zero normal: they face every way).
+    fn face_normals<'a>(&'a self, g: u32, faces: &'a [DVec3]) -> impl Iterator<Item = DVec3> + 'a {
+        self.corners(g)
+            .iter()
+            .map(|&c| faces[c as usize / 3])
+            .filter(|x| x.length_squared() > 0.25)
+    }
+
+    /// The smallest cosine of `n` to [`Self::face_normals`] of group `g` (+∞ for none).
+    fn facing(&self, g: u32, faces: &[DVec3], n: DVec3) -> f64 {
+        self.face_normals(g, faces)
+            .map(|x| x.dot(n))
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// The normal of group `g` in `mesh`.
     fn normal(&self, mesh: &Mesh, g: u32) -> DVec3 {
         let c = self.list[g as usize][0] as usize;
@@ -730,12 +746,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                 if forced[g as usize] {
                     continue;
                 }
-                let f: Vec<DVec3> = groups
-                    .corners(g)
-                    .iter()
-                    .map(|&c| faces[c as usize / 3])
-                    .filter(|x| x.length_squared() > 0.25)
-                    .collect();
+                let f: Vec<DVec3> = groups.face_normals(g, &faces).collect();
                 let cur = groups.normal(&work, g);
                 if f.iter().all(|x| x.dot(cur) >= FACING) {
                     continue;
@@ -943,16 +954,6 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                             badness(table, grid) + lagrange_shortfall(table)
                         }
                     };
-                    // Smallest cosine of a normal to the face normals of group `g`.
-                    let facing = |g: u32, n: DVec3| {
-                        groups
-                            .corners(g)
-                            .iter()
-                            .map(|&c| faces[c as usize / 3])
-                            .filter(|x| x.length_squared() > 0.25)
-                            .map(|x| x.dot(n))
-                            .fold(f64::INFINITY, f64::min)
-                    };
                     for moves in candidates {
                         if moves
                             .iter()
@@ -965,8 +966,12 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
                         // less than before.
                         if !fallback
                             && moves.iter().any(|&(g, n)| {
-                                facing(g, n)
-                                    < FACING_STEPS[0].min(facing(g, groups.normal(&work, g)))
+                                groups.facing(g, &faces, n)
+                                    < FACING_STEPS[0].min(groups.facing(
+                                        g,
+                                        &faces,
+                                        groups.normal(&work, g),
+                                    ))
                             })
                         {
                             continue;
@@ -1345,12 +1350,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         // the others, nearest to the input first.
         let mut options: Vec<DVec3> = ws.iter().map(|&w| towards(cur, n0, w)).collect();
         if !in_cuts.contains(&g) {
-            let f: Vec<DVec3> = groups
-                .corners(g)
-                .iter()
-                .map(|&c| faces[c as usize / 3])
-                .filter(|x| x.length_squared() > 0.25)
-                .collect();
+            let f: Vec<DVec3> = groups.face_normals(g, &faces).collect();
             options.extend(
                 FACING_STEPS
                     .iter()
@@ -1506,9 +1506,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         }
         let faces_of = |gs: &[u32]| -> Vec<DVec3> {
             gs.iter()
-                .flat_map(|&g| groups.corners(g))
-                .map(|&c| faces[c as usize / 3])
-                .filter(|x| x.length_squared() > 0.25)
+                .flat_map(|&g| groups.face_normals(g, &faces))
                 .collect()
         };
         let all = faces_of(own);
@@ -2725,12 +2723,7 @@ fn corner_bound(mesh: &Mesh, faces: &[DVec3], groups: &Groups) -> (f64, Vec<bool
     let forced = (0..groups.list.len() as u32)
         .map(|g| {
             // Degenerate triangles (zero face normal) face every way.
-            let f: Vec<DVec3> = groups
-                .corners(g)
-                .iter()
-                .map(|&c| faces[c as usize / 3])
-                .filter(|x| x.length_squared() > 0.25)
-                .collect();
+            let f: Vec<DVec3> = groups.face_normals(g, faces).collect();
             let n = groups.normal(mesh, g);
             // Quick case: the group's own normal faces all of them.
             if f.iter().all(|x| x.dot(n) > NO_HEMISPHERE) {
@@ -2804,15 +2797,6 @@ fn joint_corners(
     (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
     grid: &[[f64; 3]],
 ) -> Result<Vec<(u32, DVec3)>> {
-    let facing = |g: u32, n: DVec3| {
-        groups
-            .corners(g)
-            .iter()
-            .map(|&c| faces[c as usize / 3])
-            .filter(|x| x.length_squared() > 0.25)
-            .map(|x| x.dot(n))
-            .fold(f64::INFINITY, f64::min)
-    };
     let input = |g: u32| {
         let c = groups.corners(g)[0] as usize;
         mesh.corner_normals[c / 3][c % 3]
@@ -2849,12 +2833,12 @@ fn joint_corners(
             }
             let u = cur.any_orthonormal_vector();
             let v = cur.cross(u);
-            let floor = FACING_STEPS[0].min(facing(g, cur));
+            let floor = FACING_STEPS[0].min(groups.facing(g, faces, cur));
             let mut best = (now, cur);
             for d in 0..8 {
                 let phi = d as f64 * std::f64::consts::FRAC_PI_4;
                 let n = (cur + step.tan() * (phi.cos() * u + phi.sin() * v)).normalize();
-                if facing(g, n) < floor {
+                if groups.facing(g, faces, n) < floor {
                     continue;
                 }
                 set_group(work, groups, g, n, &mut sink);
