@@ -587,6 +587,70 @@ fn padded(bytes: u64) -> u64 {
     bytes.max(16).div_ceil(16) * 16
 }
 
+/// A buffer of at least `size` bytes ([`padded`]).
+fn new_buffer(
+    device: &wgpu::Device,
+    label: &str,
+    size: u64,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: padded(size),
+        usage,
+        mapped_at_creation: false,
+    })
+}
+
+/// Replaces `buf` with a new buffer of `bytes` when it is smaller; true when it did (its
+/// bind group must then be made again).
+fn grow(
+    device: &wgpu::Device,
+    buf: &mut wgpu::Buffer,
+    bytes: u64,
+    label: &str,
+    usage: wgpu::BufferUsages,
+) -> bool {
+    if buf.size() >= bytes {
+        return false;
+    }
+    *buf = new_buffer(device, label, bytes, usage);
+    true
+}
+
+/// Validates the WGSL generated from shaders/`file` for `kind` and makes its module.
+fn checked_module(
+    device: &wgpu::Device,
+    file: &str,
+    kind: PatchKind,
+    precision: Precision,
+    source: String,
+) -> Result<wgpu::ShaderModule> {
+    shaders::validate(&source, precision)
+        .map_err(|e| Error::Gpu(format!("shaders/{file} ({kind:?}): {e}")))?;
+    Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(file),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    }))
+}
+
+/// The compute pipeline of `module`'s entry point `entry`.
+fn compute_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+) -> wgpu::ComputePipeline {
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(layout),
+        module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
 fn entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
@@ -693,13 +757,13 @@ impl GpuTessellator {
         let max_binding = (limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
         let max_groups = limits.max_compute_workgroups_per_dimension;
         let topology = Topology::new(mesh, &mesh.adjacency())?;
-        let source = tess_module_source(table.kind, precision)?;
-        shaders::validate(&source, precision)
-            .map_err(|e| Error::Gpu(format!("shaders/tessellate.wgsl ({:?}): {e}", table.kind)))?;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tessellate.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
+        let module = checked_module(
+            device,
+            "tessellate.wgsl",
+            table.kind,
+            precision,
+            tess_module_source(table.kind, precision)?,
+        )?;
         let layout0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("g1tess tessellate eval"),
             entries: &[
@@ -723,16 +787,7 @@ impl GpuTessellator {
             bind_group_layouts: &[Some(&layout0), Some(&layout1)],
             immediate_size: 0,
         });
-        let make = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let make = |entry: &str| compute_pipeline(device, &pipeline_layout, &module, entry);
         let data = match precision {
             Precision::F32 => patch_bytes::<f32>(table),
             Precision::F64 => patch_bytes::<f64>(table),
@@ -749,14 +804,7 @@ impl GpuTessellator {
             }
         }
         use wgpu::BufferUsages as U;
-        let buffer = |label, size: u64, usage| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: padded(size),
-                usage,
-                mapped_at_creation: false,
-            })
-        };
+        let buffer = |label, size: u64, usage| new_buffer(device, label, size, usage);
         let params = buffer(
             "tess params",
             std::mem::size_of::<Params>() as u64,
@@ -957,15 +1005,13 @@ impl GpuTessellator {
         use wgpu::BufferUsages as U;
         let mut rebind0 = false;
         if use_table {
-            if self.grid_w.size() < table_bytes {
-                self.grid_w = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("tess grid weights"),
-                    size: padded(table_bytes),
-                    usage: U::STORAGE | U::COPY_DST,
-                    mapped_at_creation: false,
-                });
-                rebind0 = true;
-            }
+            rebind0 = grow(
+                device,
+                &mut self.grid_w,
+                table_bytes,
+                "tess grid weights",
+                U::STORAGE | U::COPY_DST,
+            );
             let w = match self.precision {
                 Precision::F32 => grid_weight_bytes::<f32>(self.kind, level),
                 Precision::F64 => grid_weight_bytes::<f64>(self.kind, level),
@@ -981,26 +1027,21 @@ impl GpuTessellator {
                 &self.grid_w,
             );
         }
-        let mut rebind1 = false;
-        if self.vertices.size() < vertex_bytes {
-            self.vertices = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("tess vertices"),
-                size: padded(vertex_bytes),
-                usage: Self::VERTEX_USAGE,
-                mapped_at_creation: false,
-            });
-            rebind1 = true;
-        }
-        if self.indices.size() < index_bytes {
-            self.indices = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("tess indices"),
-                size: padded(index_bytes),
-                usage: Self::INDEX_USAGE,
-                mapped_at_creation: false,
-            });
-            rebind1 = true;
-        }
-        if rebind1 {
+        let grew_vertices = grow(
+            device,
+            &mut self.vertices,
+            vertex_bytes,
+            "tess vertices",
+            Self::VERTEX_USAGE,
+        );
+        let grew_indices = grow(
+            device,
+            &mut self.indices,
+            index_bytes,
+            "tess indices",
+            Self::INDEX_USAGE,
+        );
+        if grew_vertices || grew_indices {
             self.group1 = Self::bind1(
                 device,
                 &self.layout1,
@@ -1081,17 +1122,13 @@ impl GpuTessellator {
             }
         }
         let topo = &self.topology;
-        let source = tess_levels_module_source(self.kind, self.precision)?;
-        shaders::validate(&source, self.precision).map_err(|e| {
-            Error::Gpu(format!(
-                "shaders/tessellate_levels.wgsl ({:?}): {e}",
-                self.kind
-            ))
-        })?;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tessellate_levels.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
+        let module = checked_module(
+            device,
+            "tessellate_levels.wgsl",
+            self.kind,
+            self.precision,
+            tess_levels_module_source(self.kind, self.precision)?,
+        )?;
         let layout1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("g1tess tessellate levels"),
             entries: &[
@@ -1109,25 +1146,9 @@ impl GpuTessellator {
             bind_group_layouts: &[Some(&self.layout0), Some(&layout1)],
             immediate_size: 0,
         });
-        let make = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let make = |entry: &str| compute_pipeline(device, &pipeline_layout, &module, entry);
         use wgpu::BufferUsages as U;
-        let buffer = |label, size: u64, usage| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: padded(size),
-                usage,
-                mapped_at_creation: false,
-            })
-        };
+        let buffer = |label, size: u64, usage| new_buffer(device, label, size, usage);
         let mut statics_data: Vec<u32> = topo
             .patch_edges
             .iter()
@@ -1352,26 +1373,15 @@ impl GpuTessellator {
             }
         };
         self.level_tess(device, max_level)?;
-        let grow = |buf: &mut wgpu::Buffer, bytes: u64, label, usage| {
-            if buf.size() < bytes {
-                *buf = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: padded(bytes),
-                    usage,
-                    mapped_at_creation: false,
-                });
-                true
-            } else {
-                false
-            }
-        };
         let a = grow(
+            device,
             &mut self.vertices,
             cap.vertices * VERTEX_BYTES,
             "tess vertices",
             Self::VERTEX_USAGE,
         );
         let b = grow(
+            device,
             &mut self.indices,
             cap.indices * 4,
             "tess indices",
