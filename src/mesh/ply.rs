@@ -601,6 +601,58 @@ fn push_face(
     Ok(())
 }
 
+/// One record's values, as the binary and the ASCII reader collect them.
+struct Record {
+    slots: [f64; VERTEX_SLOTS],
+    /// The vertex indices of a face.
+    list: Vec<f64>,
+    /// A face's texture coordinates (`texcoord` list), when it has them.
+    uvlist: Vec<f64>,
+    has_uvlist: bool,
+}
+
+impl Record {
+    fn new() -> Record {
+        Record {
+            slots: [f64::NAN; VERTEX_SLOTS],
+            list: Vec::new(),
+            uvlist: Vec::new(),
+            has_uvlist: false,
+        }
+    }
+
+    /// Empties it for the next record (the lists keep their memory).
+    fn clear(&mut self) {
+        self.slots = [f64::NAN; VERTEX_SLOTS];
+        self.list.clear();
+        self.uvlist.clear();
+        self.has_uvlist = false;
+    }
+
+    /// Adds the record to `body` when it is a vertex or a face (other elements are
+    /// read and skipped).
+    fn finish(
+        &self,
+        el: &Element,
+        tys: &[Ty; VERTEX_SLOTS],
+        want: &Want,
+        body: &mut Body,
+        err: &dyn Fn(String) -> Error,
+    ) -> Result<()> {
+        match el.name.as_str() {
+            "vertex" => push_vertex(&self.slots, tys, want, body, err),
+            "face" => push_face(
+                &self.list,
+                self.has_uvlist.then_some(self.uvlist.as_slice()),
+                want.nv,
+                body,
+                err,
+            ),
+            _ => Ok(()),
+        }
+    }
+}
+
 fn slot_types(el: &Element) -> [Ty; VERTEX_SLOTS] {
     let mut tys = [Ty::F32; VERTEX_SLOTS];
     for p in &el.props {
@@ -621,16 +673,13 @@ fn binary(
 ) -> Result<()> {
     let file = path.display().to_string();
     let mut pos = 0usize;
-    let mut list = Vec::new();
-    let mut uvlist = Vec::new();
+    let mut rec = Record::new();
     for el in elements {
         if el.props.is_empty() {
             // Records of nothing: no bytes to read.
             continue;
         }
         let tys = slot_types(el);
-        let is_vertex = el.name == "vertex";
-        let is_face = el.name == "face";
         for r in 0..el.count {
             let err = |m: String| Error::mesh(&file, format!("{} {r}: {m}", echo(&el.name)));
             let truncated = || {
@@ -639,10 +688,7 @@ fn binary(
                     r, el.count
                 ))
             };
-            let mut slots = [f64::NAN; VERTEX_SLOTS];
-            list.clear();
-            uvlist.clear();
-            let mut has_uvlist = false;
+            rec.clear();
             for p in &el.props {
                 match p.list {
                     None => {
@@ -650,7 +696,7 @@ fn binary(
                         let b = data.get(pos..pos + n).ok_or_else(truncated)?;
                         pos += n;
                         if let Role::Vertex(s) = p.role {
-                            slots[s] = p.ty.decode(b, big);
+                            rec.slots[s] = p.ty.decode(b, big);
                         }
                     }
                     Some(cty) => {
@@ -671,10 +717,10 @@ fn binary(
                         let items = &data[pos..pos + bytes];
                         pos += bytes;
                         let target = match p.role {
-                            Role::Indices => Some(&mut list),
+                            Role::Indices => Some(&mut rec.list),
                             Role::TexcoordList => {
-                                has_uvlist = true;
-                                Some(&mut uvlist)
+                                rec.has_uvlist = true;
+                                Some(&mut rec.uvlist)
                             }
                             _ => None,
                         };
@@ -684,17 +730,7 @@ fn binary(
                     }
                 }
             }
-            if is_vertex {
-                push_vertex(&slots, &tys, want, body, &err)?;
-            } else if is_face {
-                push_face(
-                    &list,
-                    has_uvlist.then_some(uvlist.as_slice()),
-                    want.nv,
-                    body,
-                    &err,
-                )?;
-            }
+            rec.finish(el, &tys, want, body, &err)?;
         }
     }
     Ok(())
@@ -712,8 +748,7 @@ fn ascii(
         .split('\n')
         .enumerate()
         .map(|(i, l)| (first_line + i, l));
-    let mut list = Vec::new();
-    let mut uvlist = Vec::new();
+    let mut rec = Record::new();
     let mut last = first_line;
     for el in elements {
         if el.props.is_empty() {
@@ -721,8 +756,6 @@ fn ascii(
             continue;
         }
         let tys = slot_types(el);
-        let is_vertex = el.name == "vertex";
-        let is_face = el.name == "face";
         for r in 0..el.count {
             // The next non-blank line.
             let (line, l) =
@@ -755,16 +788,13 @@ fn ascii(
                 text::parse_f64(t)
                     .ok_or_else(|| err(format!("'{}' is not a number ({what})", echo(t))))
             };
-            let mut slots = [f64::NAN; VERTEX_SLOTS];
-            list.clear();
-            uvlist.clear();
-            let mut has_uvlist = false;
+            rec.clear();
             for p in &el.props {
                 match p.list {
                     None => {
                         let x = next(&echo(&p.name))?;
                         if let Role::Vertex(s) = p.role {
-                            slots[s] = x;
+                            rec.slots[s] = x;
                         }
                     }
                     Some(_) => {
@@ -776,7 +806,7 @@ fn ascii(
                             )));
                         }
                         if p.role == Role::TexcoordList {
-                            has_uvlist = true;
+                            rec.has_uvlist = true;
                         }
                         for _ in 0..c as usize {
                             let x = next(&echo(&p.name))?;
@@ -787,9 +817,9 @@ fn ascii(
                                             "vertex index {x} is not an integer"
                                         )));
                                     }
-                                    list.push(x)
+                                    rec.list.push(x)
                                 }
-                                Role::TexcoordList => uvlist.push(x),
+                                Role::TexcoordList => rec.uvlist.push(x),
                                 _ => {}
                             }
                         }
@@ -802,17 +832,7 @@ fn ascii(
                     echo(t)
                 )));
             }
-            if is_vertex {
-                push_vertex(&slots, &tys, want, body, &err)?;
-            } else if is_face {
-                push_face(
-                    &list,
-                    has_uvlist.then_some(uvlist.as_slice()),
-                    want.nv,
-                    body,
-                    &err,
-                )?;
-            }
+            rec.finish(el, &tys, want, body, &err)?;
         }
     }
     Ok(())
