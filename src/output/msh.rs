@@ -177,6 +177,15 @@ pub fn build(
             format!("patch {t} evaluates to a non-finite position"),
         )
     };
+    // A node on patch t: its position, finite or an error naming the patch.
+    let position = |t: usize, b: [f64; 3]| {
+        let x = table.eval(t, b).p;
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(non_finite(t))
+        }
+    };
     progress.start("placing nodes", nt as u64);
     let mut nodes = Vec::with_capacity(total);
     nodes.extend_from_slice(&mesh.positions);
@@ -196,12 +205,7 @@ pub fn build(
                     let mut b = [0.0; 3];
                     b[k] = 1.0 - g;
                     b[(k + 1) % 3] = g;
-                    let x = table.eval(t, b).p;
-                    if x.is_finite() {
-                        Ok(x)
-                    } else {
-                        Err(non_finite(t))
-                    }
+                    position(t, b)
                 })
                 .collect()
         })
@@ -220,19 +224,7 @@ pub fn build(
         let interior_nodes: Vec<Vec<DVec3>> = chunk
             .clone()
             .into_par_iter()
-            .map(|t| {
-                interior_b
-                    .iter()
-                    .map(|&b| {
-                        let x = table.eval(t, b).p;
-                        if x.is_finite() {
-                            Ok(x)
-                        } else {
-                            Err(non_finite(t))
-                        }
-                    })
-                    .collect()
-            })
+            .map(|t| interior_b.iter().map(|&b| position(t, b)).collect())
             .collect::<Result<_>>()?;
         for n in interior_nodes {
             nodes.extend(n);
