@@ -12,14 +12,9 @@ VENV=.cache/py-venv
 # Pinned so that a run is reproducible; bump together.
 PACKAGES=(gmsh==4.15.2 numpy==2.4.6 pytest==9.2.0 "dask[distributed]==2026.8.0" maturin==1.16.0)
 
-unavailable() {
-  if [ "${CI:-}" = "true" ]; then
-    echo "python: FAILED to set up: $1" >&2
-    exit 1
-  fi
-  echo "!!!!!!!! SKIP python tests: $1 !!!!!!!!" >&2
-  exit 0
-}
+WHAT="python tests"
+# shellcheck source=scripts/venv.sh
+. scripts/venv.sh
 
 have_packages() {
   [ -x "$VENV/bin/python" ] && "$VENV/bin/python" - "${PACKAGES[@]}" <<'PY' 2>/dev/null
@@ -35,25 +30,13 @@ if ! have_packages; then
   PY=$(command -v python3 || true)
   [ -n "$PY" ] || unavailable "python3 not found"
   "$PY" -c 'import sys; sys.exit(sys.version_info < (3, 9))' || unavailable "python3 is older than 3.9"
-  echo "== installing ${PACKAGES[*]} into $VENV (once)"
-  rm -rf "$VENV"
-  mkdir -p "$(dirname "$VENV")"
-  "$PY" -m venv "$VENV" || unavailable "cannot create a virtual environment"
-  "$VENV/bin/python" -m pip install -q --disable-pip-version-check "${PACKAGES[@]}" ||
-    unavailable "pip could not install ${PACKAGES[*]}"
-  have_packages || unavailable "packages not importable after installation"
+  make_venv "$PY" "${PACKAGES[@]}"
 fi
 
 # scripts/test.sh sets the environment up in the background while cargo builds.
 [ "${1:-}" = "--setup-only" ] && exit 0
 
-BIN=${G1TESS_BIN:-}
-if [ -z "$BIN" ]; then
-  echo "== cargo build --release (the g1tess binary the tests compare with)"
-  cargo build --release 2>&1
-  BIN=target/release/g1tess
-fi
-[ -x "$BIN" ] || { echo "python: FAILED: no g1tess binary at $BIN" >&2; exit 1; }
+test_binary "the g1tess binary the tests compare with"
 
 echo "== pip install . (the g1tess package: maturin, release build of python/ in target/)"
 # No build isolation: maturin comes from the environment, so nothing is downloaded here.
