@@ -486,17 +486,10 @@ def errors():
         raise AssertionError("no error for a mesh without faces")
 
 
-@check("G1 Smooth imports split normals (welded output with a crease) per corner")
-def split_normals_import():
-    # A stand-in for g1tess that writes a welded square folded along its diagonal, with
-    # one normal per face (the crease splits the normals of vertices 1 and 3).
-    s = 1 / np.sqrt(2)
-    obj_text = (
-        "v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\n"
-        "vn 0 0 1\nvn %r 0 %r\nvn 0 0 2\n"
-        "f 1//1 2//1 3//2\nf 1//1 3//3 4//1\n" % (s, s)
-    )
-    fake = os.path.join(WORK, "fake-welded-g1tess")
+def smooth_with_fake_output(name, obj_text):
+    """Runs G1 Smooth on an icosphere through a stand-in for g1tess that writes `obj_text`
+    as its output (4 vertices, 2 triangles), and returns the imported mesh data."""
+    fake = os.path.join(WORK, name)
     with open(fake, "w") as f:
         f.write(
             "#!%s\nimport json, sys\nout = sys.argv[sys.argv.index('-o') + 1]\n"
@@ -515,6 +508,20 @@ def split_normals_import():
         set_binary(BINARY)
     me = bpy.context.active_object.data
     assert (len(me.vertices), len(me.polygons)) == (4, 2)
+    return me
+
+
+@check("G1 Smooth imports split normals (welded output with a crease) per corner")
+def split_normals_import():
+    # A stand-in for g1tess that writes a welded square folded along its diagonal, with
+    # one normal per face (the crease splits the normals of vertices 1 and 3).
+    s = 1 / np.sqrt(2)
+    obj_text = (
+        "v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\n"
+        "vn 0 0 1\nvn %r 0 %r\nvn 0 0 2\n"
+        "f 1//1 2//1 3//2\nf 1//1 3//3 4//1\n" % (s, s)
+    )
+    me = smooth_with_fake_output("fake-welded-g1tess", obj_text)
     cn = mesh_array(me.corner_normals, "vector", len(me.loops), 3)
     want = np.array([[0, 0, 1], [0, 0, 1], [s, 0, s], [0, 0, 1], [0, 0, 1], [0, 0, 1]])
     assert np.abs(cn - want).max() < CUSTOM_NORMAL_TOL, cn
@@ -529,25 +536,7 @@ def uv_import():
         "vt 0 0\nvt 0.5 0\nvt 0.5 0.5\nvt 0.625 0.125\nvt 1 0.5\nvt 0.625 0.625\n"
         "f 1/1/1 2/2/1 3/3/1\nf 1/4/1 3/5/1 4/6/1\n"
     )
-    fake = os.path.join(WORK, "fake-uv-g1tess")
-    with open(fake, "w") as f:
-        f.write(
-            "#!%s\nimport json, sys\nout = sys.argv[sys.argv.index('-o') + 1]\n"
-            "open(out, 'w').write(%r)\n"
-            "print(json.dumps({'output': out, 'vertices': 4, 'triangles': 2}))\n"
-            % (sys.executable, obj_text)
-        )
-    os.chmod(fake, 0o755)
-    clear_scene()
-    obj = make_icosphere()
-    activate(obj)
-    set_binary(fake)
-    try:
-        assert bpy.ops.object.g1tess_smooth(level=2) == {"FINISHED"}
-    finally:
-        set_binary(BINARY)
-    me = bpy.context.active_object.data
-    assert (len(me.vertices), len(me.polygons)) == (4, 2)
+    me = smooth_with_fake_output("fake-uv-g1tess", obj_text)
     assert [layer.name for layer in me.uv_layers] == ["UVMap"]
     uv = mesh_array(me.uv_layers["UVMap"].data, "uv", len(me.loops), 2)
     want = np.array([[0, 0], [0.5, 0], [0.5, 0.5], [0.625, 0.125], [1, 0.5], [0.625, 0.625]])
