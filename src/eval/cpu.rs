@@ -2,7 +2,7 @@
 //! grids in f32 ([`Evaluator::evaluate_f32`]), a SIMD kernel (f32 weights in blocks of 8
 //! samples, AVX2+FMA detected at run time or portable code). Edge patterns (statistics)
 //! run an f64 lane kernel, AVX-512F (8 lanes) or AVX (4 lanes) detected at run time,
-//! bitwise the sparse reference and each other. All run in parallel over patches with rayon and stream
+//! bitwise the sparse reference. All run in parallel over patches with rayon and stream
 //! bounded chunks.
 
 use glam::DVec3;
@@ -205,9 +205,13 @@ impl Evaluator for CpuEvaluator {
     }
 
     /// [`Self::evaluate_edges`]'s kernel on both sides of each edge into small per-job
-    /// lane buffers (in cache), the products computed from them at once, lane by lane, as
-    /// [`PairProducts::of`] computes them (bitwise those of the points; a side the lane
-    /// kernel cannot take goes through the points). Chunks hold whole pairs, about
+    /// lane buffers (in cache), in its products mode (cross products and their squared
+    /// lengths instead of unit normals), the products computed from them at once, lane by
+    /// lane: gap² bitwise as [`PairProducts::of`], cos as the quotient of the cross
+    /// products' dot product by the root of their squared lengths' product, within 20u
+    /// (u = 2⁻⁵³) of [`PairProducts::of`] on the points (derivation at `products`). A side
+    /// the lane kernel cannot take (no lane kernel, a normal field, a non-finite sum) goes
+    /// through the points and [`PairProducts::of`]. Chunks hold whole pairs, about
     /// `chunk_samples / 2` products.
     fn evaluate_edge_products(
         &self,
@@ -323,8 +327,10 @@ fn stream_chunks(
 }
 
 /// Instruction set of the f64 edge kernel ([`Evaluator::evaluate_edges`] and
-/// [`Evaluator::evaluate_edge_products`]): points and products are bitwise the same with
-/// every choice (each is bitwise [`PatchTable::eval_sparse`] and [`PairProducts::of`]).
+/// [`Evaluator::evaluate_edge_products`]). Points are bitwise the same with every choice
+/// (each is bitwise [`PatchTable::eval_sparse`]); products are bitwise the same between the
+/// two lane kernels, and within the bound of [`Evaluator::evaluate_edge_products`] of
+/// those without lanes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum EdgeKernel {
     /// The widest the CPU has (detected at run time): AVX-512F (8 lanes), else AVX (4
@@ -370,6 +376,28 @@ struct EdgeWeights {
     /// Lanes of the kernel that runs ([`EdgeKernel::lanes`]): 8 (AVX-512F), 4 (AVX) or 0
     /// (none: every side evaluated sparsely).
     width: usize,
+    /// [`min_len2`], for the kernel's products mode.
+    min_len2: f64,
+}
+
+/// The largest f64 whose square root (correctly rounded) is not above
+/// [`crate::patch::MIN_NORMAL_LEN_F64`]: as the rounded square root is monotonic,
+/// `sqrt(d) > MIN_NORMAL_LEN_F64` exactly where `d > min_len2()`, so the products mode
+/// picks the flat normal at exactly the samples where the unit normals do.
+fn min_len2() -> f64 {
+    let m = crate::patch::MIN_NORMAL_LEN_F64;
+    // Neighbours of a positive finite f64 through its bits (f64::next_up is newer than
+    // the crate's minimum Rust).
+    let up = |t: f64| f64::from_bits(t.to_bits() + 1);
+    let down = |t: f64| f64::from_bits(t.to_bits() - 1);
+    let mut t = m * m;
+    while t.sqrt() > m {
+        t = down(t);
+    }
+    while up(t).sqrt() <= m {
+        t = up(t);
+    }
+    t
 }
 
 /// The weights of one (from, to) pair for the lane kernel.
@@ -498,6 +526,7 @@ impl EdgeWeights {
             w,
             dense,
             width,
+            min_len2: min_len2(),
         }
     }
 
@@ -515,7 +544,7 @@ impl EdgeWeights {
         for (side, e) in pair.iter().enumerate() {
             let patch = e.patch as usize;
             let at = 3 * e.from as usize + e.to as usize;
-            if self.side_lanes(table, e, lanes) {
+            if self.side_lanes::<false>(table, e, lanes) {
                 let l = self.dense[at].lanes();
                 for i in 0..self.per {
                     let v = |k: usize| {
@@ -548,21 +577,27 @@ impl EdgeWeights {
     /// sparse list skips, ±0 on a finite point, which leaves every sum bitwise as it is
     /// (see `SparseWeights`); it says whether every sum came out finite, and then every
     /// point it multiplied was finite (a product with a non-finite point is ±∞ or NaN, and
-    /// a sum that takes one stays non-finite). `false`: evaluate the side sparsely.
+    /// a sum that takes one stays non-finite). `false`: evaluate the side sparsely. `RAW`:
+    /// the products mode (see [`edge_side`]).
     #[inline]
-    fn side_lanes(&self, table: &PatchTable, e: &super::EdgeSide, lanes: &mut Vec<f64>) -> bool {
+    fn side_lanes<const RAW: bool>(
+        &self,
+        table: &PatchTable,
+        e: &super::EdgeSide,
+        lanes: &mut Vec<f64>,
+    ) -> bool {
         #[cfg(target_arch = "x86_64")]
         if self.width > 0 && table.kind.geometry() == table.stride {
             let d = &self.dense[3 * e.from as usize + e.to as usize];
-            lanes.resize(6 * d.lanes(), 0.0);
-            let patch = e.patch as usize;
+            lanes.resize(if RAW { 7 } else { 6 } * d.lanes(), 0.0);
+            let (patch, min) = (e.patch as usize, self.min_len2);
             // SAFETY: `width` is 8 only where the CPU has AVX-512F, else 4 only where it
             // has AVX (EdgeKernel::lanes).
             return unsafe {
                 if self.width == 8 {
-                    edge_side_avx512(table, patch, d, lanes)
+                    edge_side_avx512::<RAW>(table, patch, d, lanes, min)
                 } else {
-                    edge_side_avx(table, patch, d, lanes)
+                    edge_side_avx::<RAW>(table, patch, d, lanes, min)
                 }
             };
         }
@@ -571,9 +606,9 @@ impl EdgeWeights {
     }
 
     /// The products of one pair's samples into `out` (`per` of them): both sides by the
-    /// lane kernel and the products lane by lane ([`products`]), or where a side cannot
-    /// take the lane kernel, the points by [`Self::pair`] and [`PairProducts::of`];
-    /// bitwise the same either way. `scratch` holds the lanes of both sides and the points.
+    /// lane kernel in its products mode and the products lane by lane ([`products`]), or
+    /// where a side cannot take the lane kernel, the points by [`Self::pair`] and
+    /// [`PairProducts::of`]. `scratch` holds the lanes of both sides and the points.
     #[inline]
     fn pair_products(
         &self,
@@ -583,8 +618,8 @@ impl EdgeWeights {
         scratch: &mut PairScratch,
     ) {
         #[cfg(target_arch = "x86_64")]
-        if self.side_lanes(table, &pair[0], &mut scratch.a)
-            && self.side_lanes(table, &pair[1], &mut scratch.b)
+        if self.side_lanes::<true>(table, &pair[0], &mut scratch.a)
+            && self.side_lanes::<true>(table, &pair[1], &mut scratch.b)
         {
             let l = self.dense[3 * pair[0].from as usize + pair[0].to as usize].lanes();
             // The ends: the input vertices as they are.
@@ -673,7 +708,11 @@ trait F64Lanes: Copy {
     /// Ordered comparisons (false where either side is NaN).
     fn gt(self, o: Self) -> Self::Mask;
     fn lt(self, o: Self) -> Self::Mask;
+    fn ge(self, o: Self) -> Self::Mask;
+    fn le(self, o: Self) -> Self::Mask;
     fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    /// Every lane of `m` is set.
+    fn all(m: Self::Mask) -> bool;
     /// `a` where `m` is set, else `b`.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
     /// Some lane is NaN.
@@ -741,8 +780,22 @@ impl F64Lanes for Avx4 {
         unsafe { _mm256_cmp_pd::<_CMP_LT_OQ>(self.0, o.0) }
     }
     #[inline(always)]
+    fn ge(self, o: Self) -> Self::Mask {
+        use std::arch::x86_64::*;
+        unsafe { _mm256_cmp_pd::<_CMP_GE_OQ>(self.0, o.0) }
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> Self::Mask {
+        use std::arch::x86_64::*;
+        unsafe { _mm256_cmp_pd::<_CMP_LE_OQ>(self.0, o.0) }
+    }
+    #[inline(always)]
     fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask {
         unsafe { std::arch::x86_64::_mm256_and_pd(a, b) }
+    }
+    #[inline(always)]
+    fn all(m: Self::Mask) -> bool {
+        unsafe { std::arch::x86_64::_mm256_movemask_pd(m) == 0b1111 }
     }
     #[inline(always)]
     fn select(m: Self::Mask, a: Self, b: Self) -> Self {
@@ -820,8 +873,22 @@ impl F64Lanes for Avx8 {
         unsafe { _mm512_cmp_pd_mask::<_CMP_LT_OQ>(self.0, o.0) }
     }
     #[inline(always)]
+    fn ge(self, o: Self) -> Self::Mask {
+        use std::arch::x86_64::*;
+        unsafe { _mm512_cmp_pd_mask::<_CMP_GE_OQ>(self.0, o.0) }
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> Self::Mask {
+        use std::arch::x86_64::*;
+        unsafe { _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.0, o.0) }
+    }
+    #[inline(always)]
     fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask {
         a & b
+    }
+    #[inline(always)]
+    fn all(m: Self::Mask) -> bool {
+        m == 0xff
     }
     #[inline(always)]
     fn select(m: Self::Mask, a: Self, b: Self) -> Self {
@@ -842,28 +909,34 @@ impl F64Lanes for Avx8 {
 /// flat normal where the length is not above [`crate::patch::MIN_NORMAL_LEN_F64`] or not
 /// finite), so bitwise its values where every point it multiplies is finite. Writes lanes:
 /// `out[k · L + i]` for sample i (L = `d.lanes()`) is its position's x, y, z for k = 0, 1,
-/// 2 and its unit normal's for k = 3, 4, 5; returns whether every sum (all lanes, padding
+/// 2 and its unit normal's for k = 3, 4, 5. `RAW` (the products mode): rows 3, 4, 5 are
+/// the cross product S_s × S_t itself and row 6 its squared length as `unit_normal` sums
+/// it, where that normal is used (squared length above `min_len2`, see [`min_len2`], and
+/// finite), else the flat normal and 1. Returns whether every sum (all lanes, padding
 /// included) was finite, which holds only where every point it multiplied was.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn edge_side<V: F64Lanes>(
+fn edge_side<V: F64Lanes, const RAW: bool>(
     table: &PatchTable,
     patch: usize,
     d: &DenseEdgeWeights,
     out: &mut [f64],
+    min_len2: f64,
 ) -> bool {
     let lanes = d.lanes();
-    let out = &mut out[..6 * lanes];
+    let out = &mut out[..if RAW { 7 } else { 6 } * lanes];
     // x − x summed over the sums of every block: +0 while all are finite, NaN from the
     // first sum that is ±∞ or NaN on.
     let mut nonfinite = V::zero();
     let c = table.patch(patch);
     let flat = table.flat_normals[patch];
     let (fx, fy, fz) = (V::splat(flat.x), V::splat(flat.y), V::splat(flat.z));
-    let (min, inf) = (
-        V::splat(crate::patch::MIN_NORMAL_LEN_F64),
-        V::splat(f64::INFINITY),
-    );
+    let inf = V::splat(f64::INFINITY);
+    let min = V::splat(if RAW {
+        min_len2
+    } else {
+        crate::patch::MIN_NORMAL_LEN_F64
+    });
     // (No closures here: a closure is a function of its own, without the caller's target
     // features, and would call every intrinsic out of line.)
     for (blk, r) in d.ranges.iter().enumerate() {
@@ -876,20 +949,38 @@ fn edge_side<V: F64Lanes>(
         let ([px, py, pz], [sx, sy, sz], [tx, ty, tz]) = (pv, sv, tv);
         let all = (px.add(py).add(pz.add(sx))).add(sy.add(sz).add(tx.add(ty).add(tz)));
         nonfinite = nonfinite.add(all.sub(all));
-        // S_s × S_t as DVec3::cross, |·| as DVec3::length, then the division.
+        // S_s × S_t as DVec3::cross, its squared length as DVec3::length.
         let nx = sy.mul(tz).sub(ty.mul(sz));
         let ny = sz.mul(tx).sub(tz.mul(sx));
         let nz = sx.mul(ty).sub(tx.mul(sy));
-        let len = nx.mul(nx).add(ny.mul(ny)).add(nz.mul(nz)).sqrt();
-        // len > MIN and len < ∞, both false on NaN: `len.is_finite()` for len ≥ 0.
-        let ok = V::and(len.gt(min), len.lt(inf));
+        let dot = nx.mul(nx).add(ny.mul(ny)).add(nz.mul(nz));
         let at = blk * V::N;
         px.store(&mut out[at..]);
         py.store(&mut out[lanes + at..]);
         pz.store(&mut out[2 * lanes + at..]);
-        V::select(ok, nx.div(len), fx).store(&mut out[3 * lanes + at..]);
-        V::select(ok, ny.div(len), fy).store(&mut out[4 * lanes + at..]);
-        V::select(ok, nz.div(len), fz).store(&mut out[5 * lanes + at..]);
+        let normal = if RAW {
+            // dot > min_len2 exactly where sqrt(dot) > MIN; dot < ∞ where sqrt(dot) < ∞
+            // (both false on NaN).
+            let ok = V::and(dot.gt(min), dot.lt(inf));
+            V::select(ok, dot, V::splat(1.0)).store(&mut out[6 * lanes + at..]);
+            [
+                V::select(ok, nx, fx),
+                V::select(ok, ny, fy),
+                V::select(ok, nz, fz),
+            ]
+        } else {
+            let len = dot.sqrt();
+            // len > MIN and len < ∞, both false on NaN: `len.is_finite()` for len ≥ 0.
+            let ok = V::and(len.gt(min), len.lt(inf));
+            [
+                V::select(ok, nx.div(len), fx),
+                V::select(ok, ny.div(len), fy),
+                V::select(ok, nz.div(len), fz),
+            ]
+        };
+        normal[0].store(&mut out[3 * lanes + at..]);
+        normal[1].store(&mut out[4 * lanes + at..]);
+        normal[2].store(&mut out[5 * lanes + at..]);
     }
     !nonfinite.any_nan()
 }
@@ -908,11 +999,11 @@ fn add_terms<V: F64Lanes>(list: &[(u32, u8)], c: &[DVec3], data: &[f64], acc: &m
     }
 }
 
-/// The six rows at lane `at` of `v` (rows of `lanes` values).
+/// The seven rows of the products mode at lane `at` of `v` (rows of `lanes` values).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn rows6<V: F64Lanes>(v: &[f64], lanes: usize, at: usize) -> [V; 6] {
-    let mut r = [V::zero(); 6];
+fn rows7<V: F64Lanes>(v: &[f64], lanes: usize, at: usize) -> [V; 7] {
+    let mut r = [V::zero(); 7];
     for (k, x) in r.iter_mut().enumerate() {
         *x = V::load(&v[k * lanes + at..]);
     }
@@ -920,21 +1011,47 @@ fn rows6<V: F64Lanes>(v: &[f64], lanes: usize, at: usize) -> [V; 6] {
 }
 
 /// The products of one pair's samples from both sides' lanes (`a`, `b` as [`edge_side`]
-/// writes them, corner positions already set), `per` samples: [`PairProducts::of`] lane
-/// by lane (the same products and sums in the same order).
+/// writes them in its products mode, corner positions already set), `per` samples:
+/// gap² as [`PairProducts::of`] (the same operations in the same order, bitwise), and cos
+/// from the two cross products c_a, c_b and their squared lengths d_a, d_b as
+/// `(c_a · c_b) / sqrt(d_a · d_b)`: one square root and one division per sample where
+/// the unit normals take two and six. Where `d_a · d_b` is not a normal finite number
+/// (cross products shorter than about 1e-77 or longer than 1e77) the block takes the unit
+/// normals `c / sqrt(d)`, exactly those of the points, and their dot product: bitwise
+/// [`PairProducts::of`].
+///
+/// Error of the quotient (u = 2⁻⁵³, c_a, c_b the computed cross products, ĉ = c/|c|):
+/// the unit normals' route gives |c| to 2.5u (3u in the squared length, halved, and the
+/// sqrt's u), each component of c/|c| to 3.5u and their dot product to 3u more, so
+/// |cos_points − ĉ_a · ĉ_b| ≤ 10u (Σ|ĉ_aj ĉ_bj| ≤ 1); the quotient has 3u · |c_a||c_b|
+/// in the dot product, 7u in d_a · d_b, 4.5u after its sqrt and u in the division, so
+/// |cos − ĉ_a · ĉ_b| ≤ 8.5u. Hence |cos − cos_points| ≤ 18.5u + O(u²) < 20u ≈ 2.2e-15;
+/// a flat normal f (a unit vector to a few u, taken with d = 1) adds its own rounding.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn products<V: F64Lanes>(a: &[f64], b: &[f64], lanes: usize, out: &mut [PairProducts]) {
     let per = out.len();
-    let (a, b) = (&a[..6 * lanes], &b[..6 * lanes]);
+    let (a, b) = (&a[..7 * lanes], &b[..7 * lanes]);
+    let (tiny, huge) = (V::splat(f64::MIN_POSITIVE), V::splat(f64::MAX));
     let (mut c, mut g) = ([0.0f64; 8], [0.0f64; 8]);
     for at in (0..per).step_by(V::N) {
-        let [apx, apy, apz, anx, any, anz] = rows6::<V>(a, lanes, at);
-        let [bpx, bpy, bpz, bnx, bny, bnz] = rows6::<V>(b, lanes, at);
-        // n0 · n1 and |p0 − p1|² as DVec3::dot: (x x + y y) + z z.
-        let cos = anx.mul(bnx).add(any.mul(bny)).add(anz.mul(bnz));
+        let [apx, apy, apz, acx, acy, acz, ad] = rows7::<V>(a, lanes, at);
+        let [bpx, bpy, bpz, bcx, bcy, bcz, bd] = rows7::<V>(b, lanes, at);
+        // |p0 − p1|² as DVec3::length_squared: (x x + y y) + z z.
         let (dx, dy, dz) = (apx.sub(bpx), apy.sub(bpy), apz.sub(bpz));
         let gap2 = dx.mul(dx).add(dy.mul(dy)).add(dz.mul(dz));
+        let q = ad.mul(bd);
+        let cos = if V::all(V::and(q.ge(tiny), q.le(huge))) {
+            let dot = acx.mul(bcx).add(acy.mul(bcy)).add(acz.mul(bcz));
+            dot.div(q.sqrt())
+        } else {
+            // The unit normals, as `edge_side` computes them outside the products mode
+            // (the flat normal f with d = 1 gives f / 1 = f), and n0 · n1 as DVec3::dot.
+            let (la, lb) = (ad.sqrt(), bd.sqrt());
+            let (ax, ay, az) = (acx.div(la), acy.div(la), acz.div(la));
+            let (bx, by, bz) = (bcx.div(lb), bcy.div(lb), bcz.div(lb));
+            ax.mul(bx).add(ay.mul(by)).add(az.mul(bz))
+        };
         cos.store(&mut c);
         gap2.store(&mut g);
         for (l, o) in out[at..(at + V::N).min(per)].iter_mut().enumerate() {
@@ -948,21 +1065,28 @@ fn products<V: F64Lanes>(a: &[f64], b: &[f64], lanes: usize, out: &mut [PairProd
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-fn edge_side_avx(table: &PatchTable, patch: usize, d: &DenseEdgeWeights, out: &mut [f64]) -> bool {
-    edge_side::<Avx4>(table, patch, d, out)
+fn edge_side_avx<const RAW: bool>(
+    table: &PatchTable,
+    patch: usize,
+    d: &DenseEdgeWeights,
+    out: &mut [f64],
+    min_len2: f64,
+) -> bool {
+    edge_side::<Avx4, RAW>(table, patch, d, out, min_len2)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 // AVX-512 intrinsics and the avx512f target feature are stable since Rust 1.89.
 #[clippy::msrv = "1.89"]
-fn edge_side_avx512(
+fn edge_side_avx512<const RAW: bool>(
     table: &PatchTable,
     patch: usize,
     d: &DenseEdgeWeights,
     out: &mut [f64],
+    min_len2: f64,
 ) -> bool {
-    edge_side::<Avx8>(table, patch, d, out)
+    edge_side::<Avx8, RAW>(table, patch, d, out, min_len2)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -1377,4 +1501,16 @@ fn check_weights(table: &PatchTable, weights: &GridWeightsF32) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    /// `min_len2` is the exact threshold: its root is not above the minimum length, the
+    /// next f64's is.
+    #[test]
+    fn min_len2_is_the_square_root_threshold() {
+        let (t, m) = (super::min_len2(), crate::patch::MIN_NORMAL_LEN_F64);
+        let next = f64::from_bits(t.to_bits() + 1);
+        assert!(t > 0.0 && t.sqrt() <= m && next.sqrt() > m, "{t:e}");
+    }
 }
