@@ -4,8 +4,11 @@
 //! identical to whole ones; corner samples equal to the input vertices bit for bit on every
 //! backend (the harness's `evaluators`) in both precisions. The edge pattern of the
 //! statistics (`EdgePairs`, `Evaluator::evaluate_edges`): bitwise its explicit point list
-//! on the CPU, within f32 rounding of the f64 reference on every backend; its per-sample
-//! products (`Evaluator::evaluate_edge_products`) bitwise those of the points.
+//! on the CPU with every edge kernel (AVX-512F, AVX, sparse), within f32 rounding of the
+//! f64 reference on every backend; its per-sample products
+//! (`Evaluator::evaluate_edge_products`): gap² bitwise those of the points and cos within
+//! `PAIR_COS_TOLERANCE` of them (bitwise where they go through the points), bitwise the
+//! same with both lane widths.
 
 mod common;
 mod eval_cases;
@@ -16,10 +19,10 @@ use eval_cases::{
 use glam::DVec3;
 use rayon::prelude::*;
 
-use g1tess::eval::cpu::{grid_weights, CpuEvaluator, F32Kernel, GridWeightsF32};
+use g1tess::eval::cpu::{grid_weights, CpuEvaluator, EdgeKernel, F32Kernel, GridWeightsF32};
 use g1tess::eval::{
     grid_corners, grid_len, to_f32, Chunk, EdgePairs, EdgeSide, Evaluator, PairProducts,
-    PatchPoint, Pattern,
+    PatchPoint, Pattern, PAIR_COS_TOLERANCE,
 };
 use g1tess::output::stats::{edge_pairs, SAMPLES_PER_EDGE};
 use g1tess::patch::PatchTable;
@@ -310,6 +313,27 @@ fn products_of(pos: &[DVec3], nrm: &[DVec3]) -> Vec<[u64; 2]> {
         .collect()
 }
 
+/// Products `got` against `want`, those of the points (as bits): gap² bitwise, cos
+/// bitwise or within `PAIR_COS_TOLERANCE` (the CPU's lane kernel takes cos from the
+/// unnormalised cross products, a few u from the unit normals' dot product: derivation at
+/// the constant). Returns how many cos differ.
+fn assert_products_close(got: &[[u64; 2]], want: &[[u64; 2]], what: &str) -> usize {
+    assert_eq!(got.len(), want.len(), "{what}");
+    let mut differ = 0;
+    for (k, (g, w)) in got.iter().zip(want).enumerate() {
+        assert_eq!(g[1], w[1], "{what}: gap² of sample {k}");
+        if g[0] != w[0] {
+            let (a, b) = (f64::from_bits(g[0]), f64::from_bits(w[0]));
+            assert!(
+                (a - b).abs() <= PAIR_COS_TOLERANCE,
+                "{what}: cos of sample {k}: {a:e} against {b:e}"
+            );
+            differ += 1;
+        }
+    }
+    differ
+}
+
 /// An evaluator with only `evaluate`: `evaluate_edges` is the trait's default (the points
 /// expanded a bounded run at a time), what the GPU backend runs.
 struct ViaPoints(CpuEvaluator);
@@ -347,15 +371,18 @@ fn all_orders(patches: usize, samples: u32) -> EdgePairs {
     EdgePairs { samples, pairs }
 }
 
+/// Whether `a` and `b` are the same vectors bit for bit.
+fn same_bits(a: &[DVec3], b: &[DVec3]) -> bool {
+    let bits = |p: &DVec3| p.to_array().map(f64::to_bits);
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| bits(x) == bits(y))
+}
+
 /// On the CPU the edge pattern is bitwise `Pattern::Points` of its point list and
 /// `PatchTable::eval` at each point, for every scheme, in any chunking and through the
 /// trait's default; its ends are the input vertices bit for bit; exact sample counts
 /// (2 × 21 per interior edge).
 #[test]
 fn edge_pairs_are_bitwise_the_point_list_on_the_cpu() {
-    let bits = |v: &[DVec3]| -> Vec<[u64; 3]> {
-        v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
-    };
     for name in ["fandisk.obj", "spot.obj"] {
         let mesh = load(name);
         let adj = mesh.adjacency();
@@ -370,7 +397,13 @@ fn edge_pairs_are_bitwise_the_point_list_on_the_cpu() {
                 all_orders(40, 2),
                 all_orders(40, 5),
             ];
-            for edges in &patterns {
+            for (pattern, edges) in patterns.iter().enumerate() {
+                // Chunks of 7 points (one pair each when a pair has more) and, through the
+                // default, of 5 (samples split between chunks) on the small patterns; on
+                // the mesh's (thousands of pairs) 889 = 21 pairs of 42 points and 7, and
+                // 887, odd (samples split), so that its thousands of chunks do not each
+                // start a parallel job.
+                let (chunk, via) = if pattern == 0 { (889, 887) } else { (7, 5) };
                 let points = edges.points();
                 assert_eq!(points.len(), edges.len());
                 let (pos, nrm, _) = run_edges(&CpuEvaluator::default(), &table, edges);
@@ -379,13 +412,10 @@ fn edge_pairs_are_bitwise_the_point_list_on_the_cpu() {
                     .evaluate_all(&table, &Pattern::Points(points.clone()))
                     .unwrap();
                 let what = format!("{name} {what} {} samples", edges.samples);
-                assert!(bits(&pos) == bits(&rp) && bits(&nrm) == bits(&rn), "{what}");
+                assert!(same_bits(&pos, &rp) && same_bits(&nrm, &rn), "{what}");
                 for (k, pp) in points.iter().enumerate().step_by(7) {
                     let r = table.eval(pp.patch as usize, pp.b);
-                    assert!(
-                        bits(&[pos[k], nrm[k]]) == bits(&[r.p, r.n]),
-                        "{what} {pp:?}"
-                    );
+                    assert!(same_bits(&[pos[k], nrm[k]], &[r.p, r.n]), "{what} {pp:?}");
                 }
                 // Ends: slot `from` at sample 0, slot `to` at the last sample.
                 let per = edges.samples as usize;
@@ -400,20 +430,21 @@ fn edge_pairs_are_bitwise_the_point_list_on_the_cpu() {
                     }
                 }
                 let (tp, tn, chunks) =
-                    run_edges(&CpuEvaluator::with_chunk_samples(7), &table, edges);
-                // Chunks hold whole pairs: one pair each when a pair has more than 7 points.
-                assert_eq!(chunks, edges.pairs.len().div_ceil((7 / (2 * per)).max(1)));
+                    run_edges(&CpuEvaluator::with_chunk_samples(chunk), &table, edges);
+                // Chunks hold whole pairs (at least one).
+                let pairs_per_chunk = (chunk / (2 * per)).max(1);
+                assert_eq!(chunks, edges.pairs.len().div_ceil(pairs_per_chunk));
                 assert!(
-                    bits(&tp) == bits(&pos) && bits(&tn) == bits(&nrm),
+                    same_bits(&tp, &pos) && same_bits(&tn, &nrm),
                     "{what}: chunked"
                 );
                 let (vp, vn, _) = run_edges(
-                    &ViaPoints(CpuEvaluator::with_chunk_samples(5)),
+                    &ViaPoints(CpuEvaluator::with_chunk_samples(via)),
                     &table,
                     edges,
                 );
                 assert!(
-                    bits(&vp) == bits(&pos) && bits(&vn) == bits(&nrm),
+                    same_bits(&vp, &pos) && same_bits(&vn, &nrm),
                     "{what}: default"
                 );
                 // Products: the CPU's own (whole, and one pair per chunk), and the trait's
@@ -421,17 +452,34 @@ fn edge_pairs_are_bitwise_the_point_list_on_the_cpu() {
                 let want = products_of(&pos, &nrm);
                 assert_eq!(want.len(), per * edges.pairs.len());
                 let (cp, _) = run_products(&CpuEvaluator::default(), &table, edges);
-                assert!(cp == want, "{what}: products");
-                let (cp, chunks) =
-                    run_products(&CpuEvaluator::with_chunk_samples(7), &table, edges);
-                assert_eq!(chunks, edges.pairs.len().div_ceil((7 / (2 * per)).max(1)));
-                assert!(cp == want, "{what}: products chunked");
+                assert_products_close(&cp, &want, &format!("{what}: products"));
+                let (tp, chunks) =
+                    run_products(&CpuEvaluator::with_chunk_samples(chunk), &table, edges);
+                assert_eq!(chunks, edges.pairs.len().div_ceil(pairs_per_chunk));
+                assert!(tp == cp, "{what}: products chunked");
                 let (vp, _) = run_products(
-                    &ViaPoints(CpuEvaluator::with_chunk_samples(5)),
+                    &ViaPoints(CpuEvaluator::with_chunk_samples(via)),
                     &table,
                     edges,
                 );
                 assert!(vp == want, "{what}: products by default");
+                // The other edge kernels: the same points; AVX (4 lanes) the same products
+                // as the widest (8 lanes with AVX-512F), the sparse kernel those of the
+                // points.
+                for kernel in [EdgeKernel::Avx, EdgeKernel::Sparse] {
+                    let ev = CpuEvaluator {
+                        edge_kernel: kernel,
+                        ..Default::default()
+                    };
+                    let (kp, kn, _) = run_edges(&ev, &table, edges);
+                    assert!(
+                        same_bits(&kp, &pos) && same_bits(&kn, &nrm),
+                        "{what}: {kernel:?} points"
+                    );
+                    let (kc, _) = run_products(&ev, &table, edges);
+                    let same = if kernel.lanes() == 0 { &want } else { &cp };
+                    assert!(kc == *same, "{what}: {kernel:?} products");
+                }
             }
         }
     }
@@ -469,7 +517,13 @@ fn edge_pairs_on_a_non_finite_patch_and_bad_input() {
             "{at} {bad}"
         );
         let (cp, _) = run_products(&CpuEvaluator::default(), &table, &edges);
-        assert!(cp == products_of(&rp, &rn), "{at} {bad}: products");
+        // Sides that weigh the bad point go through the points (bitwise), the others
+        // through the lanes.
+        assert_products_close(
+            &cp,
+            &products_of(&rp, &rn),
+            &format!("{at} {bad}: products"),
+        );
     }
     let table = built;
     let side = |patch, from, to| EdgeSide { patch, from, to };
@@ -498,6 +552,41 @@ fn edge_pairs_on_a_non_finite_patch_and_bad_input() {
     };
     assert_eq!(EdgePairs::default().points(), Vec::<PatchPoint>::new());
     assert_eq!(edges.point(0), start);
+}
+
+/// The lane kernel's products where the unnormalised route cannot be taken or a normal is
+/// the flat one: a table scaled by 1e-60 (squared cross products about 1e-240, their
+/// product below the normal range) and by 1e60 (their product overflows) gives the unit
+/// normals' products bitwise; a patch collapsed to the origin (S_s × S_t = 0: the flat
+/// normal at every sample) gives them within the tolerance, and the flat normal itself.
+#[test]
+fn edge_products_of_tiny_huge_and_collapsed_patches() {
+    let mesh = load("spot.obj");
+    let built = PatchTable::build(&mesh, g1tess::patch::Scheme::G1, &Default::default()).unwrap();
+    let edges = edge_pairs(&mesh, &mesh.adjacency());
+    let points = |table: &PatchTable| {
+        let (p, n, _) = run_edges(&CpuEvaluator::default(), table, &edges);
+        (products_of(&p, &n), n)
+    };
+    for scale in [1e-60, 1e60] {
+        let mut table = built.clone();
+        table.points.iter_mut().for_each(|p| *p *= scale);
+        let (want, _) = points(&table);
+        let (cp, _) = run_products(&CpuEvaluator::default(), &table, &edges);
+        assert!(cp == want, "scaled by {scale:e}");
+    }
+    let mut table = built.clone();
+    let stride = table.stride;
+    table.points[..stride].fill(DVec3::ZERO);
+    let (want, nrm) = points(&table);
+    let (cp, _) = run_products(&CpuEvaluator::default(), &table, &edges);
+    assert_products_close(&cp, &want, "collapsed patch 0");
+    let on_patch_0: Vec<usize> = (0..edges.len())
+        .filter(|&k| edges.pairs[k / 42][k % 2].patch == 0)
+        .collect();
+    // Patch 0 has three interior edges, 21 samples each.
+    assert_eq!(on_patch_0.len(), 3 * 21);
+    assert!(on_patch_0.iter().all(|&k| nrm[k] == table.flat_normals[0]));
 }
 
 /// The edge pattern on every backend (the harness's `evaluators`; the GPU through the

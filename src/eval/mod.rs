@@ -190,8 +190,10 @@ pub fn evaluate_edges_via_points(
 
 /// What the continuity statistics need of one sample of an edge pattern (the sample on its
 /// two patches, points `p0, p1` and unit normals `n0, n1`): `cos = n0 · n1` and
-/// `gap2 = |p0 − p1|²`, each computed as [`PairProducts::of`] does (glam's `dot` and
-/// `length_squared`, unfused, in their order), so bitwise the same wherever computed.
+/// `gap2 = |p0 − p1|²`. `gap2` is always bitwise [`PairProducts::of`] (glam's
+/// `length_squared`, unfused, in its order); `cos` is within [`PAIR_COS_TOLERANCE`] of
+/// [`PairProducts::of`] (a backend may compute it from the unnormalised normals, see
+/// [`Evaluator::evaluate_edge_products`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PairProducts {
     pub cos: f64,
@@ -208,6 +210,13 @@ impl PairProducts {
         }
     }
 }
+
+/// How far [`Evaluator::evaluate_edge_products`] may put a sample's cos from
+/// [`PairProducts::of`] on the same points: 32 u (u = 2⁻⁵³, 2⁻⁴⁸ ≈ 3.6e-15). The CPU's
+/// quotient of the unnormalised cross products is within 18.5u + O(u²) of it (derivation
+/// at the CPU's `products`), and a flat fallback normal, a unit vector to a few u, adds its
+/// own rounding; 32u bounds both.
+pub const PAIR_COS_TOLERANCE: f64 = 1.0 / (1u64 << 48) as f64;
 
 /// A run of [`PairProducts`] of an edge pattern: `first` is the index of its first sample
 /// (sample k is points 2k and 2k + 1 of [`EdgePairs::points`]).
@@ -313,10 +322,12 @@ pub trait Evaluator {
     }
 
     /// The [`PairProducts`] of every sample of `edges` on `table`, chunk by chunk in
-    /// sample order: bitwise [`PairProducts::of`] of the points [`Self::evaluate_edges`]
-    /// gives. The default pairs those points ([`edge_products_via_points`]); the CPU
-    /// backend computes each edge's products right after its points, while they are in
-    /// cache.
+    /// sample order: those of the points [`Self::evaluate_edges`] gives, `gap2` bitwise
+    /// [`PairProducts::of`] and `cos` within [`PAIR_COS_TOLERANCE`] of it. The default
+    /// pairs those points ([`edge_products_via_points`], bitwise [`PairProducts::of`]); the
+    /// CPU backend computes each edge's products right after its points, while they are in
+    /// cache, its cos from the cross products S_s × S_t without normalising them (one
+    /// square root and one division per sample instead of two and six).
     fn evaluate_edge_products(
         &self,
         table: &PatchTable,
