@@ -168,7 +168,10 @@
 //! is surely negative (below −1e-9 |S_s| |S_t| on a grid of level 8) is counted as
 //! uncertified without it, and where the search picks the trial with the fewest
 //! uncertified patches, the trials are certified in order of their measure, each only
-//! as far as it could still win. None of this changes what the search chooses.
+//! as far as it could still win. [`judge`]'s cheap refusals (inside out, the Lagrange
+//! element) come before the certificate, which is then not asked at all (the patches
+//! close to folding are those it subdivides most), and the grids' basis weights are
+//! computed once ([`Grid`]). None of this changes what the search chooses.
 //!
 //! The report gives the number of vertices touched, the largest angle between a new and an
 //! input normal, and the largest distance between the repaired and the unrepaired surface
@@ -196,8 +199,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::basis::Weights;
 use super::validity::{check_patch, check_table, PatchCounts, Verdict};
-use super::{PatchBuilder, PatchTable, Scheme, SchemeOptions, TriangleBuilder};
+use super::{PatchBuilder, PatchKind, PatchTable, Scheme, SchemeOptions, TriangleBuilder};
 use crate::mesh::adjacency::{EdgeIndex, EdgeUse};
 use crate::mesh::creases::normal_key;
 use crate::mesh::Mesh;
@@ -707,8 +711,8 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     } else {
         Vec::new()
     };
-    let grid = grid_points(BADNESS_LEVEL);
-    let grid_fine = grid_points(FINE_LEVEL);
+    let grid = Grid::of(scheme.kind(), BADNESS_LEVEL);
+    let grid_fine = Grid::of(scheme.kind(), FINE_LEVEL);
     let (lower_bound, forced) = corner_bound(mesh, &faces, &groups);
     let mut crease_free_left: Vec<u32> = Vec::new();
     let mut rounds = 0;
@@ -1592,13 +1596,16 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     let after = finals
         .iter()
         .fold(PatchCounts::default(), PatchCounts::with);
-    let grid = grid_points(DISTANCE_LEVEL);
+    let grid = Grid::of(table.kind, DISTANCE_LEVEL);
     let max_distance = changed
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
-            grid.iter()
-                .map(|&b| (table.eval(i, b).p - table0.eval(t as usize, b).p).length())
+            grid.weights
+                .iter()
+                .map(|w| {
+                    (table.eval_weights(i, w).p - table0.eval_weights(t as usize, w).p).length()
+                })
                 .fold(0.0, f64::max)
         })
         .reduce(|| 0.0, f64::max);
@@ -1658,7 +1665,7 @@ fn isolate_sliver(
     (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
     verdicts: &mut [Verdict],
     changed: &mut HashSet<u32>,
-    grid: &[[f64; 3]],
+    grid: &Grid,
     any: bool,
 ) -> Result<Option<[u32; 9]>> {
     let tri_t = work.triangles[t as usize];
@@ -1807,7 +1814,7 @@ fn flatten_cascade(
     verdicts: &mut [Verdict],
     changed: &mut HashSet<u32>,
     touched: &mut HashSet<u32>,
-    grid: &[[f64; 3]],
+    grid: &Grid,
 ) -> Result<usize> {
     let (scheme, opts, twins) = ctx;
     let mut flat: HashSet<u32> = HashSet::new();
@@ -1855,7 +1862,7 @@ fn flatten_corner(
     faces: &[DVec3],
     (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
     c: u32,
-    grid: &[[f64; 3]],
+    grid: &Grid,
 ) -> Result<()> {
     let v = work.triangles[c as usize / 3][c as usize % 3];
     let mut sink = Vec::new();
@@ -2005,7 +2012,7 @@ fn flatten_corner(
 /// best so far).
 fn fewest_uncertified(
     n: usize,
-    grid: &[[f64; 3]],
+    grid: &Grid,
     mut table_of: impl FnMut(usize) -> Result<RingTable>,
 ) -> Result<Option<usize>> {
     let mut b = Vec::with_capacity(n);
@@ -2090,7 +2097,7 @@ fn best_cut(
     faces: &[DVec3],
     (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
     verdicts: &[Verdict],
-    grid: &[[f64; 3]],
+    grid: &Grid,
 ) -> Result<Option<Cut>> {
     let nf = faces[t];
     // Cuts are scored by the fewest uncertified patches around their vertex, then the
@@ -2369,15 +2376,22 @@ fn verdicts_of(
 /// rounding of the evaluation: J is negative there) is counted without its certificate,
 /// which cannot prove it valid; the others are certified after them.
 fn uncertified_upto(table: &RingTable, limit: usize) -> Option<usize> {
-    let grid = grid_points(SURE_LEVEL);
+    let grid = Grid::of(table.kind, SURE_LEVEL);
     // Smallest J / (|S_s| |S_t|) on the grid, and whether J is surely negative there.
     let low: Vec<(f64, bool)> = (0..table.len())
         .map(|i| {
-            grid.iter().fold((f64::INFINITY, false), |(m, sure), &b| {
-                let (j, scale) = super::validity::jacobian(table, i, b);
-                let sj = if scale > 0.0 { j / scale } else { -1.0 };
-                (m.min(sj), sure || j < -1e-9 * scale)
-            })
+            grid.weights
+                .iter()
+                .fold((f64::INFINITY, false), |(m, sure), w| {
+                    // `validity::jacobian` through the grid's weights (bitwise the same).
+                    let p = table.eval_weights(i, w);
+                    let (j, scale) = (
+                        p.ds.cross(p.dt).dot(table.flat_normals[i]),
+                        p.ds.length() * p.dt.length(),
+                    );
+                    let sj = if scale > 0.0 { j / scale } else { -1.0 };
+                    (m.min(sj), sure || j < -1e-9 * scale)
+                })
         })
         .collect();
     let mut n = low.iter().filter(|x| x.1).count();
@@ -2448,15 +2462,18 @@ const LAGRANGE_MARGIN: f64 = 1e-6;
 /// certificate (along the face normal) accepts but which meets its neighbours across
 /// smooth edges at cos = −1 (two copies of one triangle in both orders, glued along two
 /// edges, one of them facing away from the normals of all three vertices).
+///
+/// These two checks come first and are cheap; a patch they refuse is not certified at all
+/// (the search only tells valid from not valid, so its verdict is the same whatever the
+/// certificate would say, and the patches close to folding are the ones whose certificate
+/// subdivides the most).
 fn judge(table: &PatchTable, i: usize, normals: [DVec3; 3]) -> Verdict {
-    let v = certify(table, i);
-    if v == Verdict::Valid
-        && ((table.scheme == Scheme::G1 && lagrange3_bound(table, i) <= LAGRANGE_MARGIN)
-            || inside_out(table, i, normals))
+    if inside_out(table, i, normals)
+        || (table.scheme == Scheme::G1 && lagrange3_bound(table, i) <= LAGRANGE_MARGIN)
     {
         return Verdict::Undecided;
     }
-    v
+    certify(table, i)
 }
 
 /// Whether the normal of patch `i` of `table` at a corner turns away from that corner's
@@ -2503,12 +2520,12 @@ fn forget_verdicts() {
 /// How far the patches of `table` are from a scaled Jacobian J/(|S_s| |S_t|) of
 /// [`MARGIN`] everywhere: the sum over the points of `grid` of its shortfall (0 for
 /// patches well inside the valid ones). The search's measure between certificates.
-fn badness(table: &PatchTable, grid: &[[f64; 3]]) -> f64 {
+fn badness(table: &PatchTable, grid: &Grid) -> f64 {
     let mut sum = 0.0;
     for i in 0..table.len() {
         let nf = table.flat_normals[i];
-        for &b in grid {
-            let p = table.eval(i, b);
+        for w in &grid.weights {
+            let p = table.eval_weights(i, w);
             let scale = p.ds.length() * p.dt.length();
             let sj = if scale > 0.0 {
                 p.ds.cross(p.dt).dot(nf) / scale
@@ -2537,6 +2554,34 @@ fn lagrange_shortfall(table: &PatchTable) -> f64 {
         .sum()
 }
 
+/// A barycentric grid with the basis weights of one patch kind at its points, computed
+/// once ([`Grid::of`]): [`PatchTable::eval`] computes them at every call, and evaluating
+/// through them ([`PatchTable::eval_weights`]) gives bitwise the same result.
+struct Grid {
+    weights: Vec<Weights>,
+}
+
+/// Grids made so far, by patch kind and level (a handful: the search's levels).
+static GRIDS: Mutex<Vec<(PatchKind, u32, Arc<Grid>)>> = Mutex::new(Vec::new());
+
+impl Grid {
+    /// The grid of `level` segments per edge ([`grid_points`]) for patches of `kind`.
+    fn of(kind: PatchKind, level: u32) -> Arc<Grid> {
+        let mut list = GRIDS.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((.., g)) = list.iter().find(|(k, l, _)| *k == kind && *l == level) {
+            return g.clone();
+        }
+        let g = Arc::new(Grid {
+            weights: grid_points(level)
+                .into_iter()
+                .map(|b| kind.weights(b))
+                .collect(),
+        });
+        list.push((kind, level, g.clone()));
+        g
+    }
+}
+
 /// The barycentric points of a grid of `level` segments per edge.
 fn grid_points(level: u32) -> Vec<[f64; 3]> {
     let n = level as f64;
@@ -2557,13 +2602,27 @@ fn grid_points(level: u32) -> Vec<[f64; 3]> {
 fn lagrange3_bound(table: &PatchTable, i: usize) -> f64 {
     static BOUND: std::sync::OnceLock<super::lagrange::JacobianBound> = std::sync::OnceLock::new();
     let bound = BOUND.get_or_init(|| super::lagrange::JacobianBound::new(3));
-    let x: Vec<DVec3> = super::lagrange::triangle_nodes(3)
-        .iter()
-        .map(|&[a, b]| {
-            let (u, v) = (a as f64 / 3.0, b as f64 / 3.0);
-            table.eval(i, [1.0 - u - v, u, v]).p
-        })
-        .collect();
+    // The basis weights at the element's nodes, computed once (G1's kind is the only one
+    // the search asks about; any other is evaluated plainly, bitwise the same).
+    static NODES: std::sync::OnceLock<Vec<Weights>> = std::sync::OnceLock::new();
+    let node = |&[a, b]: &[u32; 2]| {
+        let (u, v) = (a as f64 / 3.0, b as f64 / 3.0);
+        [1.0 - u - v, u, v]
+    };
+    if table.kind != PatchKind::Gregory {
+        let x: Vec<DVec3> = super::lagrange::triangle_nodes(3)
+            .iter()
+            .map(|n| table.eval(i, node(n)).p)
+            .collect();
+        return bound.min_scaled(&x, table.flat_normals[i]);
+    }
+    let nodes = NODES.get_or_init(|| {
+        super::lagrange::triangle_nodes(3)
+            .iter()
+            .map(|n| PatchKind::Gregory.weights(node(n)))
+            .collect()
+    });
+    let x: Vec<DVec3> = nodes.iter().map(|w| table.eval_weights(i, w).p).collect();
     bound.min_scaled(&x, table.flat_normals[i])
 }
 
@@ -2795,7 +2854,7 @@ fn joint_corners(
     faces: &[DVec3],
     region: &[u32],
     (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
-    grid: &[[f64; 3]],
+    grid: &Grid,
 ) -> Result<Vec<(u32, DVec3)>> {
     let input = |g: u32| {
         let c = groups.corners(g)[0] as usize;
