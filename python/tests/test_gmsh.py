@@ -77,10 +77,10 @@ def test_node_order_matches_gmsh_reference_nodes(cli, tmp_path, g):
 # The repair certifies every G1 patch and refuses patches whose cubic element may fold, so
 # none is left. Suzanne's doubled triangle (elements 270 and 271: the same three vertices
 # in both orders, standing in the symmetry plane x = 0, on its non-manifold edges) is
-# degenerate without the repair, its input normals lying in its plane. The repair gives
-# each copy normals leaning to its own side, so the copies' boundary curves on those
-# non-manifold edges differ, and each element gets edge nodes of its own there, on its own
-# patch.
+# degenerate without the repair, its input normals lying in its plane. The repair splits
+# it off the surface: each copy gets its own face normal at its corners (a flat patch),
+# and the surface's normals at the ends of the edge it stands on turn perpendicular to
+# that edge, so all four uses of that non-manifold edge share one straight curve.
 REPAIRED_FLAGGED = {"stanford-bunny.obj": 0, "suzanne.obj": 0, "spot.obj": 0, "fandisk.obj": 0}
 # Suzanne's doubled triangle (element tags).
 DOUBLED = {270, 271}

@@ -45,6 +45,20 @@
 //! 1. Every patch gets its verdict. If all are certified valid, nothing changes at all (the
 //!    mesh and every patch stay bit for bit as they were).
 //!
+//! *Fins* (G1, first). A doubled triangle (two triangles on the same three vertices in
+//! both orders, glued along their edges: Suzanne's 269 and 270) with a copy uncertified
+//! is split off the surface ([`split_fin`]): each of its six corners gets its own group
+//! with its triangle's face normal, so both copies are flat patches with straight edges
+//! (between the two copies the crease direction of opposite normals is the edge itself),
+//! and where the fin stands on the surface (an edge with more than two uses, which gets no
+//! shared crease curve) the surface's groups at both of its ends get their normals
+//! projected perpendicular to it: every use then builds the same straight segment, and
+//! the output stays watertight there. Only the fin's own two-use edges (between its two
+//! sides) become creases; no edge of the surface does. Kept where the certificate counts
+//! fewer uncertified patches around; these groups are left alone by every later step (the
+//! flattening makes every corner at a fin vertex flat, which keeps the edge straight), and
+//! if the search still broke a fin's straight edge the search runs again without fins.
+//!
 //! *Crease-free phase* (G1, between steps 1 and 2). Each normal group at a corner of an
 //! uncertified patch that faces some of its triangles by less than a cosine of 0.05 (where a crease is not
 //! forced) gets the nearest normal facing all of them by 0.05 ([`nearest_facing`]: the
@@ -168,7 +182,10 @@
 //! is surely negative (below −1e-9 |S_s| |S_t| on a grid of level 8) is counted as
 //! uncertified without it, and where the search picks the trial with the fewest
 //! uncertified patches, the trials are certified in order of their measure, each only
-//! as far as it could still win. None of this changes what the search chooses.
+//! as far as it could still win. [`judge`]'s cheap refusals (inside out, the Lagrange
+//! element) come before the certificate, which is then not asked at all (the patches
+//! close to folding are those it subdivides most), and the grids' basis weights are
+//! computed once ([`Grid`]). None of this changes what the search chooses.
 //!
 //! The report gives the number of vertices touched, the largest angle between a new and an
 //! input normal, and the largest distance between the repaired and the unrepaired surface
@@ -196,8 +213,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::basis::Weights;
 use super::validity::{check_patch, check_table, PatchCounts, Verdict};
-use super::{PatchBuilder, PatchTable, Scheme, SchemeOptions, TriangleBuilder};
+use super::{PatchBuilder, PatchKind, PatchTable, Scheme, SchemeOptions, TriangleBuilder};
 use crate::mesh::adjacency::{EdgeIndex, EdgeUse};
 use crate::mesh::creases::normal_key;
 use crate::mesh::Mesh;
@@ -509,6 +527,10 @@ struct Groups {
     /// Groups whose normal no later step of the search changes (those of
     /// [`isolate_sliver`]); only the last pass moves them back towards their input.
     frozen: HashSet<u32>,
+    /// Vertices of the doubled triangles split off the surface ([`split_fin`]): the passes
+    /// that move normals back leave every group there alone, and the flattening makes
+    /// every corner there flat.
+    fins: HashSet<u32>,
 }
 
 impl Groups {
@@ -565,7 +587,13 @@ impl Groups {
             vertex,
             at_vertex,
             frozen: HashSet::new(),
+            fins: HashSet::new(),
         }
+    }
+
+    /// Whether group `g` is at a vertex of a split fin ([`Self::fins`]).
+    fn at_fin(&self, g: u32) -> bool {
+        self.fins.contains(&self.vertex[g as usize])
     }
 
     fn corners(&self, g: u32) -> &[u32] {
@@ -658,7 +686,25 @@ fn towards(a: DVec3, b: DVec3, w: f64) -> DVec3 {
     ((1.0 - w) * a + w * b).try_normalize().unwrap_or(b)
 }
 
+/// [`plan_with`] splitting the doubled triangles ([`split_fin`]), or, where the search
+/// then breaks what keeps a fin's shared edges straight (none of the meshes here), without.
 fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan>> {
+    match plan_with(mesh, scheme, opts, true)? {
+        Some((p, false)) => Ok(Some(p)),
+        Some((_, true)) => Ok(plan_with(mesh, scheme, opts, false)?.map(|(p, _)| p)),
+        None => Ok(None),
+    }
+}
+
+/// The search (see the module documentation); with `fins`, doubled triangles are split
+/// first ([`split_fin`]). Returns the plan and whether a fin's constraints were broken
+/// later (then the plan is not used).
+fn plan_with(
+    mesh: &Mesh,
+    scheme: Scheme,
+    opts: &SchemeOptions,
+    fins: bool,
+) -> Result<Option<(Plan, bool)>> {
     let table0 = PatchTable::build(mesh, scheme, opts)?;
     let mut verdicts = check_table(&table0);
     let before = verdicts
@@ -707,11 +753,37 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     } else {
         Vec::new()
     };
-    let grid = grid_points(BADNESS_LEVEL);
-    let grid_fine = grid_points(FINE_LEVEL);
-    let (lower_bound, forced) = corner_bound(mesh, &faces, &groups);
+    let grid = Grid::of(scheme.kind(), BADNESS_LEVEL);
+    let grid_fine = Grid::of(scheme.kind(), FINE_LEVEL);
+    let (lower_bound, mut forced) = corner_bound(mesh, &faces, &groups);
     let mut crease_free_left: Vec<u32> = Vec::new();
     let mut rounds = 0;
+    // G1, first: each doubled triangle (a fin) with a copy uncertified is split off the
+    // surface ([`split_fin`]); its groups and the surface's groups it constrains are
+    // left alone by everything that follows, and checked at the end.
+    let mut pinned: Vec<(u32, DVec3)> = Vec::new();
+    if fins && scheme == Scheme::G1 {
+        for pair in doubled_triangles(mesh) {
+            if pair.iter().all(|&t| verdicts[t as usize] == Verdict::Valid) {
+                continue;
+            }
+            if let Some((gs, pins)) = split_fin(
+                &mut work,
+                &mut groups,
+                pair,
+                &faces,
+                (scheme, opts, &twins),
+                &mut verdicts,
+                &mut changed,
+            )? {
+                touched.extend(gs.iter().copied());
+                groups.frozen.extend(gs);
+                groups.fins.extend(work.triangles[pair[0] as usize]);
+                pinned.extend(pins);
+            }
+        }
+        forced.resize(groups.list.len(), false);
+    }
     // Two phases. G1 first searches without making any crease (the moves only, after
     // each group that does not face its triangles gets the nearest normal that does);
     // what it leaves uncertified, and every other scheme, goes through the search with
@@ -743,7 +815,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             gs.sort_unstable();
             gs.dedup();
             for g in gs {
-                if forced[g as usize] {
+                if forced[g as usize] || groups.frozen.contains(&g) {
                     continue;
                 }
                 let f: Vec<DVec3> = groups.face_normals(g, &faces).collect();
@@ -1282,6 +1354,12 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             .collect();
         verts.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         for (_, v) in verts {
+            if groups.at_vertex[v as usize]
+                .iter()
+                .any(|&g| groups.at_fin(g))
+            {
+                continue;
+            }
             let corners: Vec<u32> = groups.at_vertex[v as usize]
                 .iter()
                 .flat_map(|&g| groups.corners(g).iter().copied())
@@ -1325,6 +1403,9 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         .collect();
     moved.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     for &(_, g) in &moved {
+        if groups.at_fin(g) {
+            continue;
+        }
         let (n0, cur) = (groups.normal(mesh, g), groups.normal(&work, g));
         let mut ring: Vec<u32> = groups.triangles_around(g).collect();
         ring.sort_unstable();
@@ -1407,6 +1488,9 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         verts.dedup();
         for v in verts {
             let at = groups.at_vertex[v as usize].clone();
+            if at.iter().any(|&g| groups.at_fin(g)) {
+                continue;
+            }
             let mut ring: Vec<u32> = at
                 .iter()
                 .flat_map(|&g| groups.corners(g).iter().map(|&c| c / 3))
@@ -1466,7 +1550,7 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
         let mut gs: Vec<u32> = moved
             .iter()
             .map(|&(_, g)| g)
-            .filter(|g| !in_cuts.contains(g) && !groups.frozen.contains(g))
+            .filter(|g| !in_cuts.contains(g) && !groups.frozen.contains(g) && !groups.at_fin(*g))
             .collect();
         gs.sort_unstable();
         let mut tris: Vec<u32> = gs
@@ -1549,6 +1633,15 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             }
         }
     }
+    // Every fin's constraints must still hold (the flattening cascade ignores them).
+    // Every fin's edges on the surface must still be straight in every use (the normals
+    // at their ends perpendicular to them: rounding only).
+    let broken = pinned.iter().any(|&(c, d)| {
+        work.corner_normals[c as usize / 3][c as usize % 3]
+            .dot(d)
+            .abs()
+            > 1e-12
+    });
     let flipped = bad
         .iter()
         .filter(|&&t| verdicts[t as usize] != Verdict::Valid)
@@ -1592,13 +1685,16 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
     let after = finals
         .iter()
         .fold(PatchCounts::default(), PatchCounts::with);
-    let grid = grid_points(DISTANCE_LEVEL);
+    let grid = Grid::of(table.kind, DISTANCE_LEVEL);
     let max_distance = changed
         .par_iter()
         .enumerate()
         .map(|(i, &t)| {
-            grid.iter()
-                .map(|&b| (table.eval(i, b).p - table0.eval(t as usize, b).p).length())
+            grid.weights
+                .iter()
+                .map(|w| {
+                    (table.eval_weights(i, w).p - table0.eval_weights(t as usize, w).p).length()
+                })
                 .fold(0.0, f64::max)
         })
         .reduce(|| 0.0, f64::max);
@@ -1626,11 +1722,181 @@ fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Option<Plan
             .count(),
         crease_free_left,
     };
-    Ok(Some(Plan {
-        mesh: work,
-        changed,
-        report,
-    }))
+    Ok(Some((
+        Plan {
+            mesh: work,
+            changed,
+            report,
+        },
+        broken,
+    )))
+}
+
+/// What [`split_fin`] set: the groups, and the corners whose normal must stay
+/// perpendicular to a fin edge's direction (corner, direction).
+type FinSplit = (Vec<u32>, Vec<(u32, DVec3)>);
+
+/// The pairs of triangles on the same three vertices in both orders (a doubled triangle:
+/// a fin of zero thickness, its two sides glued along their edges), sorted.
+fn doubled_triangles(mesh: &Mesh) -> Vec<[u32; 2]> {
+    let mut by: HashMap<[u32; 3], Vec<u32>> = HashMap::new();
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let mut key = *tri;
+        key.sort_unstable();
+        by.entry(key).or_default().push(t as u32);
+    }
+    let mut out: Vec<[u32; 2]> = by
+        .values()
+        .filter(|ts| ts.len() == 2)
+        .filter(|ts| {
+            let (a, b) = (
+                mesh.triangles[ts[0] as usize],
+                mesh.triangles[ts[1] as usize],
+            );
+            (0..3).any(|r| [a[r], a[(r + 2) % 3], a[(r + 1) % 3]] == b)
+        })
+        .map(|ts| [ts[0].min(ts[1]), ts[0].max(ts[1])])
+        .collect();
+    out.sort_unstable();
+    out
+}
+
+/// Splits a doubled triangle (`pair`, [`doubled_triangles`]) off the surface: its two
+/// sides face opposite ways, so no normal shared at a vertex faces both (the crease is
+/// forced there, [`corner_bound`]). Each of its six corners gets its own group with its
+/// triangle's face normal: the fin's edges get straight curves (between its two sides the
+/// crease direction of opposite normals is the edge itself) and both sides are flat
+/// patches. An edge of the fin that other triangles use too (the edge along which the fin
+/// stands on the surface: more than two uses, no crease curve) must then be straight in
+/// their patches as well, so the groups of those uses at both of its ends get normals
+/// perpendicular to it (the nearest: the normal projected; two such edges at one group,
+/// their cross product): every face normal of a triangle on the edge is perpendicular to
+/// it, so all uses build the same straight segment, watertight. Only the fin's own edges
+/// (two uses: its two sides) become creases; every edge of the surface keeps its normals
+/// shared. Kept where the certificate counts fewer uncertified patches around the fin's
+/// vertices; returns the groups set (left alone from then on) and, for each corner of the
+/// other uses at a fin edge's ends, that edge's direction (its normal must stay
+/// perpendicular to it).
+fn split_fin(
+    work: &mut Mesh,
+    groups: &mut Groups,
+    pair: [u32; 2],
+    faces: &[DVec3],
+    (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
+    verdicts: &mut [Verdict],
+    changed: &mut HashSet<u32>,
+) -> Result<Option<FinSplit>> {
+    if pair
+        .iter()
+        .any(|&t| faces[t as usize].length_squared() < 0.25)
+    {
+        return Ok(None);
+    }
+    let tri = work.triangles[pair[0] as usize];
+    let mut ring: Vec<u32> = tri
+        .iter()
+        .flat_map(|&v| groups.at_vertex[v as usize].iter())
+        .flat_map(|&g| groups.corners(g).iter().map(|&c| c / 3))
+        .collect();
+    ring.sort_unstable();
+    ring.dedup();
+    let old: Vec<[DVec3; 3]> = ring
+        .iter()
+        .map(|&t| work.corner_normals[t as usize])
+        .collect();
+    let mut splits: Vec<(u32, u32)> = Vec::new();
+    let mut set = Vec::new();
+    let mut pins = Vec::new();
+    let mut sink = Vec::new();
+    for &t in &pair {
+        for k in 0..3 {
+            let c = 3 * t + k;
+            let g = groups.of_corner[c as usize];
+            let h = if groups.corners(g).len() > 1 {
+                let h = groups.split(g, &[c]);
+                splits.push((g, h));
+                h
+            } else {
+                g
+            };
+            set_group(work, groups, h, faces[t as usize], &mut sink);
+            set.push(h);
+        }
+    }
+    // The other uses' groups at the ends of each fin edge, with the edge's direction.
+    let mut dirs: Vec<(u32, Vec<DVec3>)> = Vec::new();
+    for k in 0..3 {
+        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+        let d = (work.positions[b as usize] - work.positions[a as usize]).normalize_or_zero();
+        for (v, w) in [(a, b), (b, a)] {
+            for &g in &groups.at_vertex[v as usize] {
+                // The corners of the group in triangles on the edge (not the fin's).
+                let uses: Vec<u32> = groups
+                    .corners(g)
+                    .iter()
+                    .copied()
+                    .filter(|&c| {
+                        let s = c / 3;
+                        !pair.contains(&s) && work.triangles[s as usize].contains(&w)
+                    })
+                    .collect();
+                if !uses.is_empty() {
+                    // The fin's own corners there too (flat: perpendicular to the edge).
+                    let own = pair.iter().map(|&t| {
+                        let k = work.triangles[t as usize].iter().position(|&x| x == v);
+                        3 * t + k.unwrap_or(0) as u32
+                    });
+                    pins.extend(uses.iter().copied().chain(own).map(|c| (c, d)));
+                    match dirs.iter_mut().find(|(x, _)| *x == g) {
+                        Some((_, l)) => l.push(d),
+                        None => dirs.push((g, vec![d])),
+                    }
+                }
+            }
+        }
+    }
+    let mut ok = true;
+    for (g, ds) in &dirs {
+        let cur = groups.normal(work, *g);
+        let n = match ds.as_slice() {
+            [d] => (cur - cur.dot(*d) * *d).try_normalize(),
+            [d, e, ..] => d
+                .cross(*e)
+                .try_normalize()
+                .map(|x| if x.dot(cur) < 0.0 { -x } else { x })
+                .filter(|x| ds.iter().all(|f| f.dot(*x).abs() <= 1e-12)),
+            [] => Some(cur),
+        };
+        let Some(n) = n else {
+            ok = false;
+            break;
+        };
+        set_group(work, groups, *g, n, &mut sink);
+        set.push(*g);
+    }
+    let was = ring
+        .iter()
+        .filter(|&&r| verdicts[r as usize] != Verdict::Valid)
+        .count();
+    let v = if ok {
+        verdicts_of(work, scheme, opts, &ring, twins)?
+    } else {
+        Vec::new()
+    };
+    if !ok || v.iter().filter(|x| **x != Verdict::Valid).count() >= was {
+        for (&t, n) in ring.iter().zip(old) {
+            work.corner_normals[t as usize] = n;
+        }
+        for &(g, h) in splits.iter().rev() {
+            groups.unsplit(g, h);
+        }
+        return Ok(None);
+    }
+    for (i, &r) in ring.iter().enumerate() {
+        verdicts[r as usize] = v[i];
+        changed.insert(r);
+    }
+    Ok(Some((set, pins)))
 }
 
 /// Isolates an uncertified G1 patch whose triangle turns away from every other triangle at
@@ -1658,7 +1924,7 @@ fn isolate_sliver(
     (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
     verdicts: &mut [Verdict],
     changed: &mut HashSet<u32>,
-    grid: &[[f64; 3]],
+    grid: &Grid,
     any: bool,
 ) -> Result<Option<[u32; 9]>> {
     let tri_t = work.triangles[t as usize];
@@ -1807,7 +2073,7 @@ fn flatten_cascade(
     verdicts: &mut [Verdict],
     changed: &mut HashSet<u32>,
     touched: &mut HashSet<u32>,
-    grid: &[[f64; 3]],
+    grid: &Grid,
 ) -> Result<usize> {
     let (scheme, opts, twins) = ctx;
     let mut flat: HashSet<u32> = HashSet::new();
@@ -1855,7 +2121,7 @@ fn flatten_corner(
     faces: &[DVec3],
     (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
     c: u32,
-    grid: &[[f64; 3]],
+    grid: &Grid,
 ) -> Result<()> {
     let v = work.triangles[c as usize / 3][c as usize % 3];
     let mut sink = Vec::new();
@@ -1883,7 +2149,10 @@ fn flatten_corner(
         .iter()
         .flat_map(|&g| groups.corners(g).iter().copied())
         .collect();
-    let Some((order, closed)) = fan_order(work, &all) else {
+    // At a vertex of a split fin every corner is made flat: the face normal of a triangle
+    // on the fin's edge is perpendicular to it, so that edge stays straight in every use.
+    let fin = groups.fins.contains(&v);
+    let Some((order, closed)) = fan_order(work, &all).filter(|_| !fin) else {
         for x in all {
             make_flat(work, groups, x, &mut sink);
         }
@@ -2005,7 +2274,7 @@ fn flatten_corner(
 /// best so far).
 fn fewest_uncertified(
     n: usize,
-    grid: &[[f64; 3]],
+    grid: &Grid,
     mut table_of: impl FnMut(usize) -> Result<RingTable>,
 ) -> Result<Option<usize>> {
     let mut b = Vec::with_capacity(n);
@@ -2090,7 +2359,7 @@ fn best_cut(
     faces: &[DVec3],
     (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
     verdicts: &[Verdict],
-    grid: &[[f64; 3]],
+    grid: &Grid,
 ) -> Result<Option<Cut>> {
     let nf = faces[t];
     // Cuts are scored by the fewest uncertified patches around their vertex, then the
@@ -2369,15 +2638,22 @@ fn verdicts_of(
 /// rounding of the evaluation: J is negative there) is counted without its certificate,
 /// which cannot prove it valid; the others are certified after them.
 fn uncertified_upto(table: &RingTable, limit: usize) -> Option<usize> {
-    let grid = grid_points(SURE_LEVEL);
+    let grid = Grid::of(table.kind, SURE_LEVEL);
     // Smallest J / (|S_s| |S_t|) on the grid, and whether J is surely negative there.
     let low: Vec<(f64, bool)> = (0..table.len())
         .map(|i| {
-            grid.iter().fold((f64::INFINITY, false), |(m, sure), &b| {
-                let (j, scale) = super::validity::jacobian(table, i, b);
-                let sj = if scale > 0.0 { j / scale } else { -1.0 };
-                (m.min(sj), sure || j < -1e-9 * scale)
-            })
+            grid.weights
+                .iter()
+                .fold((f64::INFINITY, false), |(m, sure), w| {
+                    // `validity::jacobian` through the grid's weights (bitwise the same).
+                    let p = table.eval_weights(i, w);
+                    let (j, scale) = (
+                        p.ds.cross(p.dt).dot(table.flat_normals[i]),
+                        p.ds.length() * p.dt.length(),
+                    );
+                    let sj = if scale > 0.0 { j / scale } else { -1.0 };
+                    (m.min(sj), sure || j < -1e-9 * scale)
+                })
         })
         .collect();
     let mut n = low.iter().filter(|x| x.1).count();
@@ -2448,15 +2724,18 @@ const LAGRANGE_MARGIN: f64 = 1e-6;
 /// certificate (along the face normal) accepts but which meets its neighbours across
 /// smooth edges at cos = −1 (two copies of one triangle in both orders, glued along two
 /// edges, one of them facing away from the normals of all three vertices).
+///
+/// These two checks come first and are cheap; a patch they refuse is not certified at all
+/// (the search only tells valid from not valid, so its verdict is the same whatever the
+/// certificate would say, and the patches close to folding are the ones whose certificate
+/// subdivides the most).
 fn judge(table: &PatchTable, i: usize, normals: [DVec3; 3]) -> Verdict {
-    let v = certify(table, i);
-    if v == Verdict::Valid
-        && ((table.scheme == Scheme::G1 && lagrange3_bound(table, i) <= LAGRANGE_MARGIN)
-            || inside_out(table, i, normals))
+    if inside_out(table, i, normals)
+        || (table.scheme == Scheme::G1 && lagrange3_bound(table, i) <= LAGRANGE_MARGIN)
     {
         return Verdict::Undecided;
     }
-    v
+    certify(table, i)
 }
 
 /// Whether the normal of patch `i` of `table` at a corner turns away from that corner's
@@ -2503,12 +2782,12 @@ fn forget_verdicts() {
 /// How far the patches of `table` are from a scaled Jacobian J/(|S_s| |S_t|) of
 /// [`MARGIN`] everywhere: the sum over the points of `grid` of its shortfall (0 for
 /// patches well inside the valid ones). The search's measure between certificates.
-fn badness(table: &PatchTable, grid: &[[f64; 3]]) -> f64 {
+fn badness(table: &PatchTable, grid: &Grid) -> f64 {
     let mut sum = 0.0;
     for i in 0..table.len() {
         let nf = table.flat_normals[i];
-        for &b in grid {
-            let p = table.eval(i, b);
+        for w in &grid.weights {
+            let p = table.eval_weights(i, w);
             let scale = p.ds.length() * p.dt.length();
             let sj = if scale > 0.0 {
                 p.ds.cross(p.dt).dot(nf) / scale
@@ -2537,6 +2816,34 @@ fn lagrange_shortfall(table: &PatchTable) -> f64 {
         .sum()
 }
 
+/// A barycentric grid with the basis weights of one patch kind at its points, computed
+/// once ([`Grid::of`]): [`PatchTable::eval`] computes them at every call, and evaluating
+/// through them ([`PatchTable::eval_weights`]) gives bitwise the same result.
+struct Grid {
+    weights: Vec<Weights>,
+}
+
+/// Grids made so far, by patch kind and level (a handful: the search's levels).
+static GRIDS: Mutex<Vec<(PatchKind, u32, Arc<Grid>)>> = Mutex::new(Vec::new());
+
+impl Grid {
+    /// The grid of `level` segments per edge ([`grid_points`]) for patches of `kind`.
+    fn of(kind: PatchKind, level: u32) -> Arc<Grid> {
+        let mut list = GRIDS.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((.., g)) = list.iter().find(|(k, l, _)| *k == kind && *l == level) {
+            return g.clone();
+        }
+        let g = Arc::new(Grid {
+            weights: grid_points(level)
+                .into_iter()
+                .map(|b| kind.weights(b))
+                .collect(),
+        });
+        list.push((kind, level, g.clone()));
+        g
+    }
+}
+
 /// The barycentric points of a grid of `level` segments per edge.
 fn grid_points(level: u32) -> Vec<[f64; 3]> {
     let n = level as f64;
@@ -2557,13 +2864,27 @@ fn grid_points(level: u32) -> Vec<[f64; 3]> {
 fn lagrange3_bound(table: &PatchTable, i: usize) -> f64 {
     static BOUND: std::sync::OnceLock<super::lagrange::JacobianBound> = std::sync::OnceLock::new();
     let bound = BOUND.get_or_init(|| super::lagrange::JacobianBound::new(3));
-    let x: Vec<DVec3> = super::lagrange::triangle_nodes(3)
-        .iter()
-        .map(|&[a, b]| {
-            let (u, v) = (a as f64 / 3.0, b as f64 / 3.0);
-            table.eval(i, [1.0 - u - v, u, v]).p
-        })
-        .collect();
+    // The basis weights at the element's nodes, computed once (G1's kind is the only one
+    // the search asks about; any other is evaluated plainly, bitwise the same).
+    static NODES: std::sync::OnceLock<Vec<Weights>> = std::sync::OnceLock::new();
+    let node = |&[a, b]: &[u32; 2]| {
+        let (u, v) = (a as f64 / 3.0, b as f64 / 3.0);
+        [1.0 - u - v, u, v]
+    };
+    if table.kind != PatchKind::Gregory {
+        let x: Vec<DVec3> = super::lagrange::triangle_nodes(3)
+            .iter()
+            .map(|n| table.eval(i, node(n)).p)
+            .collect();
+        return bound.min_scaled(&x, table.flat_normals[i]);
+    }
+    let nodes = NODES.get_or_init(|| {
+        super::lagrange::triangle_nodes(3)
+            .iter()
+            .map(|n| PatchKind::Gregory.weights(node(n)))
+            .collect()
+    });
+    let x: Vec<DVec3> = nodes.iter().map(|w| table.eval_weights(i, w).p).collect();
     bound.min_scaled(&x, table.flat_normals[i])
 }
 
@@ -2795,7 +3116,7 @@ fn joint_corners(
     faces: &[DVec3],
     region: &[u32],
     (scheme, opts, twins): (Scheme, &SchemeOptions, &[u32]),
-    grid: &[[f64; 3]],
+    grid: &Grid,
 ) -> Result<Vec<(u32, DVec3)>> {
     let input = |g: u32| {
         let c = groups.corners(g)[0] as usize;
