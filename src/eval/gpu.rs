@@ -932,7 +932,7 @@ impl GpuEvaluator {
                 let mut n = out_samples.min(total - s0);
                 // The patch loop: a dispatch of whole quads of patches, then the rest.
                 let patches = n / per;
-                if patch_loop.is_some() && patches > quad && patches % quad != 0 {
+                if patch_loop.is_some() && patches > quad && !patches.is_multiple_of(quad) {
                     n = (patches - patches % quad) * per;
                 }
                 jobs.push((first, count, s0, n));

@@ -303,7 +303,7 @@ impl Fold {
             }
             k = take;
             self.pairs += take;
-            if self.pairs % BLOCK_PAIRS == 0 {
+            if self.pairs.is_multiple_of(BLOCK_PAIRS) {
                 self.totals.merge(&self.open);
                 self.open = Part::new();
             }

@@ -915,7 +915,7 @@ impl<'a, V: Vector> Stitcher<'a, V> {
         let per = grid_len(plan.level);
         if !plan.is_uniform()
             || chunk.first != self.next_patch
-            || chunk.positions.len() % per != 0
+            || !chunk.positions.len().is_multiple_of(per)
             || chunk.normals.len() != chunk.positions.len()
             || chunk.first + chunk.positions.len() / per > plan.patches()
         {
