@@ -811,16 +811,12 @@ impl F64Lanes for Avx4 {
 /// AVX-512F registers, 8 lanes (used only after runtime detection).
 #[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
-// AVX-512 intrinsics and the avx512f target feature are stable since Rust 1.89.
-#[clippy::msrv = "1.89"]
 struct Avx8(std::arch::x86_64::__m512d);
 
 // SAFETY (every method of Avx8): only reached from functions compiled with AVX-512F
 // enabled (`edge_side_avx512`, `products_avx512`), called where the CPU has it; loads and
 // stores touch the first eight values of slices checked to hold them.
 #[cfg(target_arch = "x86_64")]
-// AVX-512 intrinsics and the avx512f target feature are stable since Rust 1.89.
-#[clippy::msrv = "1.89"]
 impl F64Lanes for Avx8 {
     const N: usize = 8;
     type Mask = std::arch::x86_64::__mmask8;
@@ -1077,8 +1073,6 @@ fn edge_side_avx<const RAW: bool>(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-// AVX-512 intrinsics and the avx512f target feature are stable since Rust 1.89.
-#[clippy::msrv = "1.89"]
 fn edge_side_avx512<const RAW: bool>(
     table: &PatchTable,
     patch: usize,
@@ -1097,8 +1091,6 @@ fn products_avx(a: &[f64], b: &[f64], lanes: usize, out: &mut [PairProducts]) {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-// AVX-512 intrinsics and the avx512f target feature are stable since Rust 1.89.
-#[clippy::msrv = "1.89"]
 fn products_avx512(a: &[f64], b: &[f64], lanes: usize, out: &mut [PairProducts]) {
     products::<Avx8>(a, b, lanes, out)
 }
