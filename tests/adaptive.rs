@@ -511,7 +511,8 @@ fn g1tess(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn cli_tolerance_reports_what_it_measured() {
-    let dir = std::env::temp_dir().join(format!("g1tess-adaptive-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-adaptive-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("spot.obj");
     let spot = common::shared_spec("spot.obj");
@@ -594,7 +595,8 @@ fn cli_tolerance_reports_what_it_measured() {
 
 #[test]
 fn every_writer_takes_per_edge_levels() {
-    let dir = std::env::temp_dir().join(format!("g1tess-adaptive-fmt-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-adaptive-fmt-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     // fandisk with creases: split normals along the crease edges.
     let fandisk = common::shared_spec("fandisk.obj");

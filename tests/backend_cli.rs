@@ -162,7 +162,8 @@ fn gpu_run_prints_no_error_line_without_xdg_runtime_dir() {
         eprintln!("expected: no GPU adapter ({e}); the no-adapter cases are tested above");
         return;
     }
-    let obj = std::env::temp_dir().join(format!("g1tess-backend-{}.obj", std::process::id()));
+    let obj = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-backend-{}.obj", std::process::id()));
     let obj_s = obj.display().to_string();
     for args in [
         &[

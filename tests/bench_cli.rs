@@ -209,7 +209,8 @@ fn bench_without_gpu_says_why() {
 /// times, ratios with the baselines of the same run, the machine named, no file left.
 #[test]
 fn bench_end_to_end_rows_are_consistent() {
-    let dir = std::env::temp_dir().join(format!("g1tess-bench-e2e-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-bench-e2e-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let v = bench(&[
         "sphere320",

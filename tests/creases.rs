@@ -17,7 +17,8 @@ use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::tess::stitch::stitch;
 
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("g1tess-creases-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-creases-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
 }

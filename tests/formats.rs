@@ -19,7 +19,8 @@ use g1tess::tess::stitch::{
 };
 
 fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("g1tess-formats-{}", std::process::id()));
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-formats-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
 }

@@ -19,7 +19,8 @@ use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::progress::NoProgress;
 
 fn out(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("g1tess-msh-{}", std::process::id()));
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-msh-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d.join(name)
 }

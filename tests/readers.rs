@@ -20,7 +20,8 @@ use g1tess::progress::NoProgress;
 use g1tess::tess::stitch::{stitch_in, stitch_into, StitchedMesh};
 
 fn dir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("g1tess-readers-{}", std::process::id()));
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-readers-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
 }

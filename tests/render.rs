@@ -236,7 +236,8 @@ fn render_command_writes_the_picture() {
     if !gpu_or_skip("render_command_writes_the_picture") {
         return;
     }
-    let dir = std::env::temp_dir().join(format!("g1tess-render-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-render-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("sphere.png");
     let o = Command::new(env!("CARGO_BIN_EXE_g1tess"))
@@ -293,7 +294,8 @@ fn render_gpu_and_cpu_backends_draw_the_same_picture() {
     if !gpu_or_skip("render_gpu_and_cpu_backends_draw_the_same_picture") {
         return;
     }
-    let dir = std::env::temp_dir().join(format!("g1tess-render-backends-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-render-backends-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let picture = |backend: &str| {
         let out = dir.join(format!("{backend}.png"));
@@ -361,7 +363,8 @@ fn surface_size_bounds_the_stitched_surface() {
 }
 
 fn render_fails(args: &[&str]) -> String {
-    let dir = std::env::temp_dir().join(format!("g1tess-render-bad-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-render-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_g1tess"))
         .arg("render")

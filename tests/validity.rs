@@ -673,7 +673,8 @@ fn stats_report_counts_patches_and_prints_null_without_interior_edges() {
 #[test]
 fn tessellate_cuts_the_output_along_the_repairs_creases() {
     use std::process::Command;
-    let dir = std::env::temp_dir().join(format!("g1tess-validity-cut-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-validity-cut-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let bunny = common::shared_spec("stanford-bunny.obj");
     let run = |extra: Option<&str>| {
@@ -715,7 +716,8 @@ fn tessellate_cuts_the_output_along_the_repairs_creases() {
 fn command_line_counts_warns_and_repairs() {
     use std::process::Command;
     let bin = env!("CARGO_BIN_EXE_g1tess");
-    let dir = std::env::temp_dir().join(format!("g1tess-validity-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("g1tess-validity-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     // One triangle whose first normal leans past the triangle's plane (as in
     // `g1_folds_where_a_normal_faces_away_and_is_valid_when_flat`).
