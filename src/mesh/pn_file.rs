@@ -486,13 +486,12 @@ mod tests {
     use crate::mesh::LoadOptions;
     use crate::patch::{PatchTable, Scheme, SchemeOptions};
 
-    /// A scratch file that is removed when dropped.
+    /// A scratch file that is removed when dropped (straight in the temporary directory,
+    /// so nothing stays behind).
     struct Scratch(std::path::PathBuf);
     impl Scratch {
         fn new(name: &str, text: impl AsRef<[u8]>) -> Scratch {
-            let dir = std::env::temp_dir().join(format!("g1tess-pn-{}", std::process::id()));
-            std::fs::create_dir_all(&dir).unwrap();
-            let p = dir.join(name);
+            let p = std::env::temp_dir().join(format!("g1tess-pn-{}-{name}", std::process::id()));
             std::fs::write(&p, text).unwrap();
             Scratch(p)
         }
