@@ -1064,18 +1064,9 @@ fn plan_with(
                                 x
                             }
                         };
-                        let old: Vec<(u32, DVec3)> = moves
-                            .iter()
-                            .map(|&(g, _)| (g, groups.normal(&work, g)))
-                            .collect();
-                        let mut sink = Vec::new();
-                        for &(g, n) in &moves {
-                            set_group(&mut work, &groups, g, n, &mut sink);
-                        }
-                        let b = measure(&*ring_table(&work, scheme, opts, &ring, &twins)?);
-                        for &(g, n) in old.iter().rev() {
-                            set_group(&mut work, &groups, g, n, &mut sink);
-                        }
+                        let b = with_moves(&mut work, &groups, &moves, |w| -> Result<_> {
+                            Ok(measure(&*ring_table(w, scheme, opts, &ring, &twins)?))
+                        })?;
                         let gain = now - b;
                         if !fallback {
                             scored.push((gain, moves.clone(), ring));
@@ -1099,21 +1090,12 @@ fn plan_with(
                         else {
                             break;
                         };
-                        let old: Vec<(u32, DVec3)> = moves
-                            .iter()
-                            .map(|&(g, _)| (g, groups.normal(&work, g)))
-                            .collect();
-                        let mut sink = Vec::new();
-                        for &(g, n) in moves {
-                            set_group(&mut work, &groups, g, n, &mut sink);
-                        }
-                        let counted = uncertified_upto(
-                            &ring_table(&work, scheme, opts, ring, &twins)?,
-                            limit,
-                        );
-                        for &(g, n) in old.iter().rev() {
-                            set_group(&mut work, &groups, g, n, &mut sink);
-                        }
+                        let counted = with_moves(&mut work, &groups, moves, |w| -> Result<_> {
+                            Ok(uncertified_upto(
+                                &ring_table(w, scheme, opts, ring, &twins)?,
+                                limit,
+                            ))
+                        })?;
                         if let Some(c) = counted {
                             fewest = Some((c, i));
                         }
@@ -2490,6 +2472,29 @@ fn best_cut(
 
 /// Sets the normal of every corner of group `g` to `n`, listing the triangles whose patch
 /// may change ([`Groups::triangles_around`]).
+/// `f` on `work` with the group normals of `moves` set, the previous normals put back
+/// after it (in reverse order, so a group moved twice gets its first normal back).
+fn with_moves<T>(
+    work: &mut Mesh,
+    groups: &Groups,
+    moves: &[(u32, DVec3)],
+    f: impl FnOnce(&Mesh) -> T,
+) -> T {
+    let old: Vec<(u32, DVec3)> = moves
+        .iter()
+        .map(|&(g, _)| (g, groups.normal(work, g)))
+        .collect();
+    let mut sink = Vec::new();
+    for &(g, n) in moves {
+        set_group(work, groups, g, n, &mut sink);
+    }
+    let out = f(work);
+    for &(g, n) in old.iter().rev() {
+        set_group(work, groups, g, n, &mut sink);
+    }
+    out
+}
+
 fn set_group(work: &mut Mesh, groups: &Groups, g: u32, n: DVec3, tris: &mut Vec<u32>) {
     for &c in groups.corners(g) {
         work.corner_normals[c as usize / 3][c as usize % 3] = n;
