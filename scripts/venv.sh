@@ -13,12 +13,11 @@ unavailable() {
   exit 0
 }
 
-# make_venv PYTHON PACKAGE...: creates VENV with PYTHON and installs the packages from PyPI,
-# unless `have_packages` says they are there.
+# make_venv PYTHON PACKAGE...: creates VENV with PYTHON and installs the packages from PyPI
+# (callers run it where `have_packages` says they are missing).
 make_venv() {
   local py=$1
   shift
-  have_packages && return 0
   echo "== installing $* into $VENV (once)"
   rm -rf "$VENV"
   mkdir -p "$(dirname "$VENV")"
