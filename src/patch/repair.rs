@@ -1815,9 +1815,12 @@ fn arm_summary(work: &Mesh) -> (usize, [f64; 2]) {
 /// and `exp(x[2 i + 1])` at its higher one, in both uses.
 fn set_arms(work: &mut Mesh, edges: &[([u32; 2], [u32; 2])], x: &[f64]) {
     let n = work.triangles.len();
-    let tris = work.triangles.clone();
-    let a = work
-        .attributes
+    let Mesh {
+        triangles: tris,
+        attributes,
+        ..
+    } = work;
+    let a = attributes
         .arm_scales
         .get_or_insert_with(|| vec![[[1.0; 2]; 3]; n]);
     for (i, (hs, v)) in edges.iter().enumerate() {
