@@ -240,9 +240,11 @@ fn suzanne_repair_certifies_every_patch() {
     // orders, whose vertices need a crease) is split off the surface first, flat, its
     // edge on the surface straight in every use. The crease-free phase (moves, then joint
     // moves of the normals within one ring of the patches it leaves) leaves 5 patches
-    // uncertified, none at the fin; the fallback's cuts and isolations, then its cascade,
-    // flatten 3 triangles and make 28 edges creases (2 of them the fin's own edges, between
-    // its two sides).
+    // uncertified, none at the fin, each folding near a corner whose fan nearly fills a
+    // hemisphere; the arm step certifies all 5 (and the patches across their edges) by
+    // scaling the tangent lengths of 8 of their edges' curves, so no fallback runs: no
+    // triangle flattened, and the only creases are the fin's own 2 edges (between its two
+    // sides), which are forced.
     let suzanne = common::load("suzanne.obj");
     let opts = SchemeOptions::default();
     let (fixed, r) = repair(&suzanne, Scheme::G1, &opts).unwrap();
@@ -262,9 +264,16 @@ fn suzanne_repair_certifies_every_patch() {
             r.triangles_flattened,
             r.edges_made_creases
         ),
-        (76, 3, 28),
+        (90, 0, 2),
         "{r:?}"
     );
+    assert_eq!(r.arm_edges_scaled, 8, "{r:?}");
+    // The factors found (3 decimals: the figures quoted in the documentation).
+    assert!(
+        (r.arm_scale_range[0] - 0.578).abs() < 1e-3 && (r.arm_scale_range[1] - 2.117).abs() < 1e-3,
+        "{r:?}"
+    );
+    scaled_arms_are_shared(&fixed, r.arm_edges_scaled, r.arm_scale_range);
     assert_eq!(r.crease_free_left, vec![304, 307, 856, 859, 863], "{r:?}");
     assert_eq!(r.crease_free_left_forced, 0, "{r:?}");
     // The bound and the forced creases, recomputed here from the input mesh: the doubled
@@ -401,6 +410,88 @@ fn corner_facts(mesh: &Mesh, fixed: &Mesh) -> (f64, Vec<u32>) {
         }
     }
     (bound, forced)
+}
+
+/// Each edge whose arms `mesh` scales (`edges` of them, factors within `range`) has
+/// bitwise one boundary curve in both of its patches (watertight), and that curve's end
+/// tangents are the plain Walton–Meek tangents of the edge (rebuilt here from the end
+/// points and normals, formula of the construction) times the factors: same direction
+/// (in the tangent planes, so G1 is kept), lengths scaled.
+fn scaled_arms_are_shared(mesh: &Mesh, edges: usize, range: [f64; 2]) {
+    let table = PatchTable::build(mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let scales = mesh.attributes.arm_scales.as_ref().expect("arm factors");
+    // The half-edges 3 t + k (corner k to corner k + 1 of triangle t) of each edge.
+    let mut uses = std::collections::BTreeMap::new();
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            uses.entry((a.min(b), a.max(b)))
+                .or_insert_with(Vec::new)
+                .push(3 * t + k);
+        }
+    }
+    let wm = |qa: DVec3, na: DVec3, qb: DVec3, nb: DVec3| {
+        // Walton–Meek (1996) Theorem 2.1: the first arm V1 − V0.
+        let e = qb - qa;
+        let (d, g) = (e.length(), e.normalize());
+        let (a0, a1, a) = (na.dot(g), nb.dot(g), na.dot(nb));
+        let zeta = 6.0 * (2.0 * a0 + a * a1) / (4.0 - a * a);
+        let theta = 6.0 * (2.0 * a1 + a * a0) / (4.0 - a * a);
+        d * (6.0 * g - 2.0 * zeta * na + theta * nb) / 18.0
+    };
+    let mut seen = 0;
+    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    for (&(a, b), list) in &uses {
+        let s: Vec<[f64; 2]> = list.iter().map(|&h| scales[h / 3][h % 3]).collect();
+        if s.iter().all(|s| *s == [1.0, 1.0]) {
+            continue;
+        }
+        seen += 1;
+        assert_eq!(list.len(), 2, "edge {a}-{b}");
+        // The quartic boundary points L0..L4 of each use, run from a to b.
+        let curve = |h: usize| -> Vec<DVec3> {
+            let (t, k) = (h / 3, h % 3);
+            let p = &table.points[18 * t..18 * t + 12];
+            let mut l: Vec<DVec3> = p[4 * k..4 * k + 4].to_vec();
+            l.push(p[4 * ((k + 1) % 3)]);
+            if mesh.triangles[t][k] == a {
+                l
+            } else {
+                l.into_iter().rev().collect()
+            }
+        };
+        let (c0, c1) = (curve(list[0]), curve(list[1]));
+        assert_eq!(c0, c1, "edge {a}-{b}: the two uses differ");
+        // Back to the cubic: L1 = (V0 + 3 V1)/4, L3 = (3 V2 + V3)/4.
+        let v1 = (4.0 * c0[1] - c0[0]) / 3.0;
+        let v2 = (4.0 * c0[3] - c0[4]) / 3.0;
+        let normal = |v: u32| {
+            let t = list[0] / 3;
+            let j = (0..3).find(|&j| mesh.triangles[t][j] == v).unwrap();
+            mesh.corner_normals[t][j]
+        };
+        let (qa, qb) = (mesh.positions[a as usize], mesh.positions[b as usize]);
+        let arms = [
+            (v1 - c0[0], wm(qa, normal(a), qb, normal(b))),
+            (v2 - c0[4], wm(qb, normal(b), qa, normal(a))),
+        ];
+        for (arm, plain) in arms {
+            let f = arm.length() / plain.length();
+            // 1e-9: rounding of the degree elevation and its inverse on these short arms.
+            assert!(
+                arm.normalize().dot(plain.normalize()) > 1.0 - 1e-9,
+                "edge {a}-{b}"
+            );
+            lo = lo.min(f);
+            hi = hi.max(f);
+        }
+    }
+    assert_eq!(seen, edges);
+    // 1e-9: as above.
+    assert!(
+        (lo - range[0]).abs() < 1e-9 && (hi - range[1]).abs() < 1e-9,
+        "{lo} {hi} {range:?}"
+    );
 }
 
 /// The table of the repaired mesh `fixed` (of `input`), after checking that the library
@@ -777,4 +868,61 @@ fn command_line_counts_warns_and_repairs() {
     }
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn scaled_arms_keep_g1_and_watertight() {
+    // Arm factors on one edge of an icosphere (mesh.attributes.arm_scales): both uses get
+    // one curve, with the factors of the first use (the lower half-edge, triangle 0's)
+    // whatever the other use says; the tangent plane stays shared along every edge and no
+    // sample turns over; the patches off that edge are unchanged bit for bit.
+    let plain = icosphere(1);
+    let n = plain.triangles.len();
+    let [a, b, _] = plain.triangles[0];
+    let other = (1..n)
+        .flat_map(|t| (0..3).map(move |k| (t, k)))
+        .find(|&(t, k)| {
+            let u = plain.triangles[t];
+            u[k] == b && u[(k + 1) % 3] == a
+        })
+        .unwrap();
+    let mut scales = vec![[[1.0; 2]; 3]; n];
+    scales[0][0] = [2.0, 0.5];
+    scales[other.0][other.1] = [3.0, 3.0];
+    let mut mesh = plain.clone();
+    mesh.attributes.arm_scales = Some(scales);
+    let opts = SchemeOptions::default();
+    let t0 = PatchTable::build(&plain, Scheme::G1, &opts).unwrap();
+    let t1 = PatchTable::build(&mesh, Scheme::G1, &opts).unwrap();
+    for t in 0..n {
+        if t == 0 || t == other.0 {
+            assert_ne!(t0.patch(t), t1.patch(t), "{t}");
+        } else {
+            assert_eq!(t0.patch(t), t1.patch(t), "{t}");
+        }
+    }
+    // Edge 0 of triangle 0 (from a to b): its cubic's arms (L1 = (V0 + 3 V1)/4 and
+    // L3 = (3 V2 + V3)/4 of the degree-elevated curve) are the plain ones times 2 and 0.5,
+    // in the same directions.
+    let arms = |p: &[DVec3]| {
+        let (v0, v3) = (p[0], p[4]);
+        [(4.0 * p[1] - v0) / 3.0 - v0, (4.0 * p[3] - v3) / 3.0 - v3]
+    };
+    let (p0, p1) = (t0.patch(0), t1.patch(0));
+    let (plain_arms, scaled) = (arms(&p0[0..5]), arms(&p1[0..5]));
+    for (i, f) in [2.0, 0.5].into_iter().enumerate() {
+        // 1e-12: rounding of the degree elevation and its inverse.
+        assert!(
+            (scaled[i] - f * plain_arms[i]).length() <= 1e-12 * plain_arms[i].length(),
+            "arm {i}: {:?} vs {:?}",
+            scaled[i],
+            plain_arms[i]
+        );
+    }
+    let c = continuity(&mesh, &mesh.adjacency(), &t1, &CpuEvaluator::default()).unwrap();
+    assert_eq!(c.folded, 0);
+    // 1e-12: the bound for G1 (rounding gives about 5e-16).
+    assert!(1.0 - c.cos.min <= 1e-12, "1 - min cos {}", 1.0 - c.cos.min);
+    // Watertight: one curve in both uses (rounding of the evaluation only).
+    assert!(c.max_gap <= 1e-12 * mesh.diagonal(), "gap {}", c.max_gap);
 }

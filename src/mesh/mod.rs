@@ -72,6 +72,11 @@ pub struct CornerAttributes {
     pub colors: Option<Vec<[[f32; 4]; 3]>>,
     /// Whether the file gave an alpha channel.
     pub alpha: bool,
+    /// Tangent-length factors of the G1 boundary curves (`None`: all 1): for edge k of
+    /// each triangle (corner k to corner k + 1), the factors of its Walton–Meek arms at
+    /// corner k and at corner k + 1. Set by the fold repair; an interior edge's shared curve
+    /// takes the factors of its first use (see `patch::g1::shared_curve`).
+    pub arm_scales: Option<Vec<[[f64; 2]; 3]>>,
 }
 
 /// The file formats [`Mesh::load`] reads.
@@ -601,6 +606,7 @@ impl Soup {
             uvs: has_uvs.then_some(corner_uvs),
             alpha: alpha && colors.is_some(),
             colors: colors.is_some().then_some(corner_colors),
+            arm_scales: None,
         };
         let mut mesh = Mesh {
             name,

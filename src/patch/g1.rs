@@ -14,6 +14,13 @@
 //! triangle then builds its ribbon and Gregory points from its own corner normals, so the
 //! patch is G1 with its neighbours across every other edge and meets its neighbour across
 //! the crease without a crack.
+//!
+//! **Scaled arms.** A mesh may scale the tangent lengths of an edge's curve
+//! ([`crate::mesh::CornerAttributes::arm_scales`], set by the fold repair): the edge then
+//! gets one shared curve too ([`shared_curve`]), its arms V1 − V0 and V2 − V3 multiplied
+//! by the factors ([`scale_arms`]). Their directions stay in the tangent planes of the
+//! ends, and the ribbon vectors A_i depend on the tangents' directions only, so the two
+//! patches of the edge stay G1 across it and watertight.
 
 use std::collections::HashMap;
 
@@ -320,6 +327,66 @@ pub fn edge_curve(
     ))
 }
 
+/// `curve` with its arms V1 − V0 and V2 − V3 scaled by `s[0]` and `s[1]`: the end tangents
+/// keep their directions (in the tangent planes of the ends), so a curve shared by both
+/// triangles of an edge stays G1 there and watertight.
+pub fn scale_arms(curve: [DVec3; 4], s: [f64; 2]) -> [DVec3; 4] {
+    let [v0, v1, v2, v3] = curve;
+    [v0, v0 + s[0] * (v1 - v0), v3 + s[1] * (v2 - v3), v3]
+}
+
+/// The arm factors of the edge `v` (`v[0] < v[1]`) that the use `u` gives
+/// ([`crate::mesh::CornerAttributes::arm_scales`]), at `v[0]` and at `v[1]`; `[1, 1]`
+/// where the mesh has none, and 1 for a factor that is not finite and positive.
+pub fn arm_scale(mesh: &Mesh, v: [u32; 2], u: EdgeUse) -> [f64; 2] {
+    let Some(s) = mesh
+        .attributes
+        .arm_scales
+        .as_ref()
+        .and_then(|a| a.get(u.triangle as usize))
+        .and_then(|s| s.get(u.local as usize))
+    else {
+        return [1.0, 1.0];
+    };
+    let ok = |x: f64| if x.is_finite() && x > 0.0 { x } else { 1.0 };
+    let from = mesh
+        .triangles
+        .get(u.triangle as usize)
+        .map_or(v[0], |t| t[u.local as usize % 3]);
+    if from == v[0] {
+        [ok(s[0]), ok(s[1])]
+    } else {
+        [ok(s[1]), ok(s[0])]
+    }
+}
+
+/// The curve that both uses of the interior edge `v` share (running from `v[0]` to
+/// `v[1]`), or `None` where each builds the ordinary Walton–Meek cubic: the crease curve
+/// ([`edge_curve`]) or the Walton–Meek cubic of the first use's normals, with its arms
+/// scaled by the first use's factors ([`arm_scale`]) where they are not 1.
+pub fn shared_curve(
+    mesh: &Mesh,
+    v: [u32; 2],
+    uses: [EdgeUse; 2],
+    fallbacks: &mut usize,
+) -> Option<[DVec3; 4]> {
+    let base = edge_curve(mesh, v, uses, fallbacks);
+    let s = arm_scale(mesh, v, uses[0]);
+    if s == [1.0, 1.0] {
+        return base;
+    }
+    let c = base.unwrap_or_else(|| {
+        let [a, b] = v;
+        walton_meek(
+            mesh.positions[a as usize],
+            use_normal(mesh, uses[0], a),
+            mesh.positions[b as usize],
+            use_normal(mesh, uses[0], b),
+        )
+    });
+    Some(scale_arms(c, s))
+}
+
 /// Whether some vertex gets two different normals from its corners (compared bitwise, by
 /// [`normal_key`]). Without such a vertex no edge is a crease: [`edge_curve`] is `None` for
 /// every edge. One pass over the corners, 4 bytes per vertex; `true` (look edge by edge)
@@ -349,11 +416,12 @@ pub fn any_split_normals(mesh: &Mesh) -> bool {
 }
 
 /// The G1 scheme prepared for `mesh`: crease edges (split normals at an end, see
-/// [`crate::mesh::creases`]) get one shared [`crease_curve`], built here once.
+/// [`crate::mesh::creases`]) get one shared [`crease_curve`], built here once, and so do
+/// edges whose arms the mesh scales ([`shared_curve`]).
 pub fn prepare<'a>(mesh: &'a Mesh, _: &SchemeOptions) -> Result<Box<dyn TriangleBuilder + 'a>> {
     let mut fallbacks = 0;
     let mut curves: HashMap<u32, [DVec3; 4]> = HashMap::new();
-    if !any_split_normals(mesh) {
+    if mesh.attributes.arm_scales.is_none() && !any_split_normals(mesh) {
         return Ok(Box::new(G1Builder {
             mesh,
             curves,
@@ -364,7 +432,7 @@ pub fn prepare<'a>(mesh: &'a Mesh, _: &SchemeOptions) -> Result<Box<dyn Triangle
     for e in index.edges().filter(|e| e.is_interior()) {
         let [u0, u1] = [e.use_at(0), e.use_at(1)];
         let [a, _] = e.v;
-        let Some(curve) = edge_curve(mesh, e.v, [u0, u1], &mut fallbacks) else {
+        let Some(curve) = shared_curve(mesh, e.v, [u0, u1], &mut fallbacks) else {
             continue;
         };
         for u in [u0, u1] {

@@ -9,12 +9,22 @@
 //! *normal group* (the corners of one vertex that carry bitwise the same normal) to one new
 //! value: smooth edges stay smooth, creases stay creases.
 //!
-//! Boundary tangent lengths were measured as a repair and not kept: on every patch that the
-//! certificate refuses on the bunny and on Suzanne (before and after this repair), scaling
-//! the Walton–Meek arms of all, or of any one, of its three curves by 0.8 down to 0.1 leaves
-//! it folded or undecided. A scaled arm keeps its direction, and the folds sit at or near a
-//! corner, where the sign of J is set by the directions of the two end tangents, that is by
-//! the normals.
+//! G1 can also change the boundary curves' **tangent lengths** (the *arm step*, after
+//! the crease-free phase): an edge's Walton–Meek arms scaled by positive factors keep
+//! their directions, in the tangent planes of the edge's ends, and both triangles of the
+//! edge use the one scaled curve ([`super::g1::shared_curve`]), so the patches stay G1
+//! across it and watertight; the factors travel with the mesh
+//! ([`crate::mesh::CornerAttributes::arm_scales`]). At the input normals this does not
+//! help: on the patches the certificate refuses on the bunny and on Suzanne, scaling the
+//! arms of all, or of any one, of a patch's three curves by 0.8 down to 0.1 leaves it
+//! folded or undecided, and on Suzanne's 5 patches named below, a joint search over the
+//! two arms of each of the patch's three edges (each factor 0.1 to 4, the patches across
+//! those edges included) ends with every one of them still folded: the best of 6 starts
+//! leaves each patch, and 1 or 2 of the patches across its edges, folded (witnesses with
+//! J from −1.3e-6 to −1.4e-4) and inside out at a corner. At the normals the crease-free
+//! phase reaches, where the folds sit about 1/10 of the way in from one corner, the same
+//! search certifies all 5. (The step does not run on a mesh that already carries arm
+//! factors.)
 //!
 //! **What no repair that keeps G1 can avoid** ([`corner_bound`]). At a corner A of
 //! triangle f (unit face normal n_f) with normal N whose two edges of f are not crease
@@ -87,8 +97,32 @@
 //! the normals of all three corners, and the corner condition n_f · N > 0 does not make
 //! it positive (Suzanne's eye patches fold at such corners). What it
 //! leaves uncertified is reported (`crease_free_left`, and how many of those patches
-//! have a corner where a crease is forced) and goes through steps 2 to 8 (the
-//! fallback); other schemes start there. Steps 9 to 11 run in every case.
+//! have a corner where a crease is forced) and goes to the arm step.
+//!
+//! *Arm step* (G1, [`arm_step`]). The patches left are clustered (those whose edges'
+//! triangles overlap); for each cluster the two arm factors of each interior edge of its
+//! patches (log scale, 0.1 to 4) are searched: a pattern search (steps 0.5 down to 0.02
+//! in the logarithm, each factor in turn) from 6 starts (all 1; the arms at each patch's
+//! weakest corner, by [`corner_values`], at 0.3, 0.6, 1.6, 2.5 or 4), maximising the
+//! smallest scaled Jacobian over the triangles of those edges on a grid of level 12 and
+//! on rays close to each corner (where these folds sit), and their Lagrange bound; the
+//! first result positive on the finer grid of level 40 that [`judge`] accepts on all of
+//! them is made as small as it stays accepted (all logarithms times 0.1 up to 0.9, the
+//! first accepted, then each arm back to 1, largest first). The step is kept only where
+//! every cluster is certified; then nothing else runs but steps 9 to 11 (whose
+//! certificates build the patches with the factors). Suzanne: the crease-free phase
+//! leaves triangles 304, 307, 856, 859 and 863, each folding near vertex 137, 138, 465 or
+//! 468, whose fans nearly fill a hemisphere (the best normal faces its fan's triangles by
+//! a cosine of only 0.02 to 0.06); the arm step certifies all of them and the patches
+//! across their edges with 8 edges' arms scaled by 0.578 to 2.117 (304: at vertex 137
+//! ×1.956 towards 161 and ×0.578 towards 174; 307: ×2.117 at 138 towards 162, ×0.779 and
+//! ×0.687 at both ends of 138–174; 856: ×1.206 and ×1.284 at both ends of 421–465; 859
+//! and 863 together: ×1.649 at 468 towards 422 and 420, ×1.649 at 466 on 422–466, ×1.284
+//! at 420 on 420–468), so no fallback runs: 0 triangles flattened, 2 crease edges (the
+//! fin's own, forced) instead of 28, largest normal change 90.0° instead of 109.6°.
+//! Where a cluster is not certified the factors are dropped and what is left goes through
+//! steps 2 to 8 (the fallback); other schemes start there. Steps 9 to 11 run in every
+//! case.
 //!
 //! 2. G1: a triangle whose face normal turns away (negative cosine) from every other
 //!    triangle at each of its three corners folds the input itself; no normal shared with
@@ -307,6 +341,11 @@ pub struct RepairReport {
     pub crease_free_left: Vec<u32>,
     /// Of those, the patches with a corner in a group where a crease is forced.
     pub crease_free_left_forced: usize,
+    /// Interior edges whose boundary curve got scaled arms (tangent lengths) by the arm
+    /// step ([`arm_step`]; G1): 0 where it did not run or was not kept.
+    pub arm_edges_scaled: usize,
+    /// Smallest and largest arm factor of those edges ([1, 1] where none).
+    pub arm_scale_range: [f64; 2],
 }
 
 impl RepairReport {
@@ -391,8 +430,8 @@ const KEPT: usize = 2;
 /// Outcomes of recent searches, by [`fingerprint`].
 static OUTCOMES: Mutex<Vec<(u64, Arc<Outcome>)>> = Mutex::new(Vec::new());
 
-/// A 64-bit hash of everything the search depends on: the positions, triangles and
-/// corner normals (bit patterns), the scheme and its options.
+/// A 64-bit hash of everything the search depends on: the positions, triangles, corner
+/// normals and arm factors (bit patterns), the scheme and its options.
 fn fingerprint(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> u64 {
     let mut h = std::collections::hash_map::DefaultHasher::new();
     scheme.name().hash(&mut h);
@@ -404,6 +443,11 @@ fn fingerprint(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> u64 {
     mesh.triangles.hash(&mut h);
     for c in &mesh.corner_normals {
         c.map(|n| n.to_array().map(f64::to_bits)).hash(&mut h);
+    }
+    if let Some(a) = &mesh.attributes.arm_scales {
+        for s in a {
+            s.map(|s| s.map(f64::to_bits)).hash(&mut h);
+        }
     }
     h.finish()
 }
@@ -803,6 +847,17 @@ fn plan_with(
             }
             if scheme == Scheme::G1 {
                 crease_free_left = bad.clone();
+                // The arm step: scaled tangent lengths of the curves of these patches'
+                // edges, kept only where it certifies every one of them (and the patches
+                // across those edges) without a crease.
+                if let Some(tris) = arm_step(&mut work, &bad, (scheme, opts, &twins))? {
+                    for t in tris {
+                        verdicts[t as usize] = Verdict::Valid;
+                        changed.insert(t);
+                    }
+                    bad.clear();
+                    break;
+                }
             }
         } else {
             // Every group at a corner of an uncertified patch that faces some of its
@@ -1652,6 +1707,7 @@ fn plan_with(
             max_angle = max_angle.max(angle_deg(n0, n));
         }
     }
+    let (arm_edges_scaled, arm_scale_range) = arm_summary(&work);
     let builder = PatchBuilder::new(&work, scheme, opts)?;
     let table = builder.table_of(&changed, 0)?;
     // The verdicts reported are the certificate's alone (the search also refuses a G1
@@ -1705,6 +1761,8 @@ fn plan_with(
             .filter(|&&t| (0..3).any(|k| forced[input_group[3 * t as usize + k] as usize]))
             .count(),
         crease_free_left,
+        arm_edges_scaled,
+        arm_scale_range,
     };
     Ok(Some((
         Plan {
@@ -1714,6 +1772,292 @@ fn plan_with(
         },
         broken,
     )))
+}
+
+/// Smallest and largest arm factor the arm step ([`arm_step`]) tries.
+const ARM_RANGE: [f64; 2] = [0.1, 4.0];
+/// Factors the arm step's starts give the arms at each patch's weakest corner.
+const ARM_STARTS: [f64; 5] = [0.3, 0.6, 1.6, 2.5, 4.0];
+/// The arm step's pattern search stops when its step (log scale) is below this.
+const ARM_STEP_END: f64 = 0.02;
+/// Grid levels of the arm step's measure: for the search, and to check its results
+/// before they are certified.
+const ARM_LEVELS: [u32; 2] = [12, 40];
+
+/// The number of interior edges whose arms `work` scales, and the smallest and largest
+/// factor among them ([1, 1] where none).
+fn arm_summary(work: &Mesh) -> (usize, [f64; 2]) {
+    let Some(a) = &work.attributes.arm_scales else {
+        return (0, [1.0, 1.0]);
+    };
+    let mut edges = HashSet::new();
+    let mut range = [f64::INFINITY, f64::NEG_INFINITY];
+    for (t, s) in a.iter().enumerate() {
+        for (k, s) in s.iter().enumerate() {
+            if *s != [1.0, 1.0] {
+                let tri = work.triangles[t];
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                edges.insert([a.min(b), a.max(b)]);
+                for x in s {
+                    range = [range[0].min(*x), range[1].max(*x)];
+                }
+            }
+        }
+    }
+    if edges.is_empty() {
+        return (0, [1.0, 1.0]);
+    }
+    (edges.len(), range)
+}
+
+/// Sets the arm factors of the interior edges `edges` (each by its two half-edges, the
+/// lower first, and its vertices, the lower first) to `exp(x[2 i])` at its lower vertex
+/// and `exp(x[2 i + 1])` at its higher one, in both uses.
+fn set_arms(work: &mut Mesh, edges: &[([u32; 2], [u32; 2])], x: &[f64]) {
+    let n = work.triangles.len();
+    let Mesh {
+        triangles: tris,
+        attributes,
+        ..
+    } = work;
+    let a = attributes
+        .arm_scales
+        .get_or_insert_with(|| vec![[[1.0; 2]; 3]; n]);
+    for (i, (hs, v)) in edges.iter().enumerate() {
+        let s = [x[2 * i].exp(), x[2 * i + 1].exp()];
+        for &h in hs {
+            let (t, k) = (h as usize / 3, h as usize % 3);
+            a[t][k] = if tris[t][k] == v[0] { s } else { [s[1], s[0]] };
+        }
+    }
+}
+
+/// The arm step's measure of the patches of `tris` on `work` (G1): the smallest, over
+/// them, of the scaled Jacobian J/(|S_s| |S_t|) along n_f on a grid of `level` and on rays
+/// close to each corner (the folds it meets sit there), and of the bound of the cubic
+/// Lagrange element above [`LAGRANGE_MARGIN`] ([`judge`] refuses below it).
+fn arm_measure(
+    work: &Mesh,
+    ctx: (Scheme, &SchemeOptions, &[u32]),
+    tris: &[u32],
+    level: u32,
+) -> Result<f64> {
+    // Rays: radii (barycentric) and directions between the corner's two edges; more of
+    // both for the finer level.
+    let (radii, dirs): (&[f64], u32) = if level >= ARM_LEVELS[1] {
+        (
+            &[
+                0.001, 0.003, 0.006, 0.01, 0.015, 0.02, 0.03, 0.045, 0.06, 0.08,
+            ],
+            8,
+        )
+    } else {
+        (&[0.002, 0.006, 0.015, 0.03, 0.06], 4)
+    };
+    let (scheme, opts, twins) = ctx;
+    let table = ring_patches(work, scheme, opts, tris, twins)?;
+    let grid = Grid::of(table.kind, level);
+    let mut m = f64::INFINITY;
+    for i in 0..table.len() {
+        let nf = table.flat_normals[i];
+        let sj = |p: super::SurfacePoint| {
+            let scale = p.ds.length() * p.dt.length();
+            if scale > 0.0 {
+                p.ds.cross(p.dt).dot(nf) / scale
+            } else {
+                -1.0
+            }
+        };
+        for w in &grid.weights {
+            m = m.min(sj(table.eval_weights(i, w)));
+        }
+        for k in 0..3 {
+            for &r in radii {
+                for a in 0..=dirs {
+                    let w = a as f64 / dirs as f64;
+                    let mut b = [0.0; 3];
+                    b[k] = 1.0 - r;
+                    b[(k + 1) % 3] = r * w;
+                    b[(k + 2) % 3] = r * (1.0 - w);
+                    m = m.min(sj(table.eval(i, b)));
+                }
+            }
+        }
+        m = m.min(lagrange3_bound(&table, i) - LAGRANGE_MARGIN);
+    }
+    Ok(m)
+}
+
+/// Whether [`judge`] accepts every patch of `tris` on `work`.
+fn all_certified(work: &Mesh, ctx: (Scheme, &SchemeOptions, &[u32]), tris: &[u32]) -> Result<bool> {
+    let (scheme, opts, twins) = ctx;
+    let table = ring_table(work, scheme, opts, tris, twins)?;
+    Ok((0..tris.len())
+        .into_par_iter()
+        .all(|i| judge(&table, i, table.normals[i]) == Verdict::Valid))
+}
+
+/// The arm step (G1, after the crease-free phase; see the module documentation): the
+/// patches `bad` are clustered (those whose edges' triangles overlap), and for each
+/// cluster the two arm factors of each interior edge of its patches (log scale, within
+/// [`ARM_RANGE`]) are searched: a pattern search from several starts maximising
+/// [`arm_measure`] over the triangles of those edges, its results certified in the order
+/// of their measure, the first that [`judge`] accepts on all of them made as small as it
+/// stays accepted (all factors' logarithms scaled by 0.1 up to 1, then each arm back to 1,
+/// largest first). Kept only where every cluster is certified: then `work` carries the
+/// factors ([`crate::mesh::CornerAttributes::arm_scales`]) and the triangles whose patch
+/// changed are returned; otherwise `work` is left as it was and `None` returned.
+fn arm_step(
+    work: &mut Mesh,
+    bad: &[u32],
+    ctx: (Scheme, &SchemeOptions, &[u32]),
+) -> Result<Option<Vec<u32>>> {
+    let twins = ctx.2;
+    if ctx.0 != Scheme::G1 || bad.is_empty() || work.attributes.arm_scales.is_some() {
+        return Ok(None);
+    }
+    // The triangles each bad patch's interior edges reach, and clusters of bad patches
+    // whose sets overlap.
+    let reach = |t: u32| -> Vec<u32> {
+        let mut r: Vec<u32> = (0..3)
+            .map(|k| twins[3 * t as usize + k])
+            .filter(|&o| o != u32::MAX)
+            .map(|o| o / 3)
+            .chain(std::iter::once(t))
+            .collect();
+        r.sort_unstable();
+        r
+    };
+    let mut clusters: Vec<(Vec<u32>, Vec<u32>)> = Vec::new();
+    for &t in bad {
+        let mut patches = vec![t];
+        let mut tris = reach(t);
+        let mut i = 0;
+        while i < clusters.len() {
+            if clusters[i].1.iter().any(|x| tris.contains(x)) {
+                let (p, r) = clusters.swap_remove(i);
+                patches.extend(p);
+                tris.extend(r);
+                i = 0;
+            } else {
+                i += 1;
+            }
+        }
+        patches.sort_unstable();
+        tris.sort_unstable();
+        tris.dedup();
+        clusters.push((patches, tris));
+    }
+    clusters.sort();
+    let mut changed = Vec::new();
+    for (patches, tris) in &clusters {
+        // The cluster's interior edges (half-edges lower first, vertices lower first).
+        let mut edges: Vec<([u32; 2], [u32; 2])> = Vec::new();
+        for &t in patches {
+            for k in 0..3 {
+                let h = 3 * t + k as u32;
+                let o = twins[h as usize];
+                if o == u32::MAX {
+                    continue;
+                }
+                let tri = work.triangles[t as usize];
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let e = ([h.min(o), h.max(o)], [a.min(b), a.max(b)]);
+                if !edges.contains(&e) {
+                    edges.push(e);
+                }
+            }
+        }
+        // Each patch's weakest corner ([`corner_values`]): its arms are where the starts
+        // differ.
+        let weak: Vec<u32> = patches
+            .iter()
+            .map(|&t| {
+                let c = corner_values(work, t as usize);
+                let k = (0..3).fold(0, |m, k| if c[k] < c[m] { k } else { m });
+                work.triangles[t as usize][k]
+            })
+            .collect();
+        let n = 2 * edges.len();
+        let mut starts = vec![vec![0.0; n]];
+        for s in ARM_STARTS {
+            let mut x = vec![0.0; n];
+            for (i, (_, v)) in edges.iter().enumerate() {
+                for j in 0..2 {
+                    if weak.contains(&v[j]) {
+                        x[2 * i + j] = s.ln();
+                    }
+                }
+            }
+            starts.push(x);
+        }
+        let (lo, hi) = (ARM_RANGE[0].ln(), ARM_RANGE[1].ln());
+        let measure = |work: &mut Mesh, x: &[f64], level: u32| -> Result<f64> {
+            set_arms(work, &edges, x);
+            arm_measure(work, ctx, tris, level)
+        };
+        let accepted = |work: &mut Mesh, x: &[f64]| -> Result<bool> {
+            set_arms(work, &edges, x);
+            all_certified(work, ctx, tris)
+        };
+        let mut found = None;
+        for mut x in starts {
+            let mut fx = measure(work, &x, ARM_LEVELS[0])?;
+            let mut step = 0.5;
+            while step > ARM_STEP_END {
+                let mut improved = false;
+                for i in 0..n {
+                    for d in [-1.0, 1.0] {
+                        let mut y = x.clone();
+                        y[i] = (y[i] + d * step).clamp(lo, hi);
+                        let fy = measure(work, &y, ARM_LEVELS[0])?;
+                        if fy > fx {
+                            (x, fx) = (y, fy);
+                            improved = true;
+                        }
+                    }
+                }
+                if !improved {
+                    step *= 0.5;
+                }
+            }
+            if measure(work, &x, ARM_LEVELS[1])? > 0.0 && accepted(work, &x)? {
+                found = Some(x);
+                break;
+            }
+        }
+        let Some(mut best) = found else {
+            work.attributes.arm_scales = None;
+            return Ok(None);
+        };
+        for f in [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9] {
+            let y: Vec<f64> = best.iter().map(|v| v * f).collect();
+            if accepted(work, &y)? {
+                best = y;
+                break;
+            }
+        }
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| best[b].abs().total_cmp(&best[a].abs()).then(a.cmp(&b)));
+        for i in order {
+            if best[i] == 0.0 {
+                continue;
+            }
+            let mut y = best.clone();
+            y[i] = 0.0;
+            if accepted(work, &y)? {
+                best = y;
+            }
+        }
+        set_arms(work, &edges, &best);
+        changed.extend(tris.iter().copied());
+    }
+    if arm_summary(work).0 == 0 {
+        work.attributes.arm_scales = None;
+    }
+    changed.sort_unstable();
+    changed.dedup();
+    Ok(Some(changed))
 }
 
 /// What [`split_fin`] set: the groups, and the corners whose normal must stay
@@ -2597,7 +2941,7 @@ fn ring_patches(
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
             let v = [a.min(b), a.max(b)];
             let uses = [h.min(o), h.max(o)].map(EdgeUse::from_half_edge);
-            let c = super::g1::edge_curve(work, v, uses, &mut fallbacks)?;
+            let c = super::g1::shared_curve(work, v, uses, &mut fallbacks)?;
             Some(if a == v[0] {
                 c
             } else {
