@@ -337,7 +337,8 @@ pub struct RepairReport {
     /// triangle). 0 when nothing folds.
     pub crease_forced_groups: usize,
     /// Patches that the crease-free search (first phase, G1) left uncertified, handed to
-    /// the fallback of cuts, isolations and flattenings (sorted triangle indices).
+    /// the arm step and, where that does not certify them all, to the fallback of cuts,
+    /// isolations and flattenings (sorted triangle indices).
     pub crease_free_left: Vec<u32>,
     /// Of those, the patches with a corner in a group where a crease is forced.
     pub crease_free_left_forced: usize,
@@ -354,7 +355,7 @@ impl RepairReport {
         format!(
             "{mesh}: {scheme} fold repair: {} folded and {} undecided patches before, {} \
              folded and {} undecided after; {} vertices touched ({} corners), largest \
-             normal change {:.3}°, {} edges made creases, surface moved at most {:.3e}",
+             normal change {:.3}°, {} edges made creases{}, surface moved at most {:.3e}",
             self.before.folded,
             self.before.undecided,
             self.after.folded,
@@ -363,7 +364,19 @@ impl RepairReport {
             self.corners_changed,
             self.max_normal_change_deg,
             self.edges_made_creases,
+            self.arms_text(),
             self.max_distance
+        )
+    }
+
+    /// ", arms of N edges scaled by a–b" where the arm step scaled some; empty otherwise.
+    pub fn arms_text(&self) -> String {
+        if self.arm_edges_scaled == 0 {
+            return String::new();
+        }
+        format!(
+            ", arms of {} edges scaled by {:.3}–{:.3}",
+            self.arm_edges_scaled, self.arm_scale_range[0], self.arm_scale_range[1]
         )
     }
 }
