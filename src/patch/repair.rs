@@ -492,6 +492,7 @@ fn cached_plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Arc<
                 report: RepairReport {
                     before: c,
                     after: c,
+                    arm_scale_range: [1.0, 1.0],
                     ..Default::default()
                 },
             }
