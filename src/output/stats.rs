@@ -227,72 +227,104 @@ impl Part {
     }
 
     /// The part of `samples`, none of them on a crease: bitwise that of pushing them in
-    /// order. The sums run in one chain in sample order as [`Part::push`] adds them; the
-    /// extremes and the fold count, which do not depend on the order, in [`LANES`]
-    /// independent lanes. Only where the smallest or largest cos is a zero (+0 and −0
+    /// order ([`Part::push`]). The sums run in one chain in sample order as `push` adds
+    /// them; the extremes and the fold count, which do not depend on the order, two
+    /// samples at a time (SSE2). The largest 1 − |cos| is 1 − (smallest |cos|): 1 − x is
+    /// monotone in x in floating point too, so that is the largest of the rounded values,
+    /// and it is never −0. Only where the smallest or largest cos is a zero (+0 and −0
     /// compare equal, and `f64::min` may keep either) are they taken again in order.
+    #[cfg(target_arch = "x86_64")]
     fn of(samples: &[PairProducts]) -> Part {
+        // SAFETY: SSE2 is part of every x86_64 CPU.
+        unsafe { Part::of_sse2(samples) }
+    }
+
+    /// [`Part::of`] in SSE2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "sse2")]
+    fn of_sse2(samples: &[PairProducts]) -> Part {
+        use std::arch::x86_64::*;
         let mut p = Part::new();
         let Some(first) = samples.first() else {
             return p;
         };
         let shift = first.cos;
         let (mut s1, mut s2) = (0.0, 0.0);
-        let mut lo = [f64::INFINITY; LANES];
-        let mut hi = [f64::NEG_INFINITY; LANES];
-        let mut worst = [0.0f64; LANES];
-        let mut gap2 = [0.0f64; LANES];
-        let mut folded = [0usize; LANES];
-        // As in `push`: a NaN never replaces a running value (comparisons with it are
-        // false), as `f64::min` and `f64::max` return the other operand.
-        let mut lane = |j: usize, s: &PairProducts| {
+        // A NaN never replaces a running value, as in `push` (`f64::min` and `f64::max`
+        // return the other operand, and `>` is false): minpd and maxpd return their second
+        // operand, the running value, where either is NaN.
+        let mut lo = _mm_set1_pd(f64::INFINITY);
+        let mut hi = _mm_set1_pd(f64::NEG_INFINITY);
+        let mut abs_lo = _mm_set1_pd(f64::INFINITY);
+        let mut gap2 = _mm_setzero_pd();
+        let mut folded = _mm_setzero_si128();
+        let sign = _mm_set1_pd(-0.0);
+        let mut pairs = samples.chunks_exact(2);
+        for pair in &mut pairs {
+            let (a, b) = (pair[0], pair[1]);
+            let d = a.cos - shift;
+            s1 += d;
+            s2 += d * d;
+            let d = b.cos - shift;
+            s1 += d;
+            s2 += d * d;
+            let c = _mm_set_pd(b.cos, a.cos);
+            lo = _mm_min_pd(c, lo);
+            hi = _mm_max_pd(c, hi);
+            abs_lo = _mm_min_pd(_mm_andnot_pd(sign, c), abs_lo);
+            gap2 = _mm_max_pd(_mm_set_pd(b.gap2, a.gap2), gap2);
+            // All ones (−1) in a lane whose cos is below 0.
+            folded = _mm_sub_epi64(folded, _mm_castpd_si128(_mm_cmplt_pd(c, _mm_setzero_pd())));
+        }
+        let lanes = |v: __m128d| {
+            let mut a = [0.0f64; 2];
+            // SAFETY: stores two f64 into a two-element array.
+            unsafe { _mm_storeu_pd(a.as_mut_ptr(), v) };
+            a
+        };
+        let (mut lo, mut hi) = (lanes(lo), lanes(hi));
+        let (mut abs_lo, mut gap2) = (lanes(abs_lo), lanes(gap2));
+        let mut count = [0i64; 2];
+        // SAFETY: stores two i64 into a two-element array.
+        unsafe { _mm_storeu_si128(count.as_mut_ptr().cast(), folded) };
+        let mut folded = (count[0] + count[1]) as usize;
+        if let [s] = pairs.remainder() {
             let c = s.cos;
             let d = c - shift;
             s1 += d;
             s2 += d * d;
-            if c < lo[j] {
-                lo[j] = c;
+            // The same rules, on lane 0.
+            if c < lo[0] {
+                lo[0] = c;
             }
-            if c > hi[j] {
-                hi[j] = c;
+            if c > hi[0] {
+                hi[0] = c;
             }
-            let w = 1.0 - c.abs();
-            if w > worst[j] {
-                worst[j] = w;
+            if c.abs() < abs_lo[0] {
+                abs_lo[0] = c.abs();
             }
-            if s.gap2 > gap2[j] {
-                gap2[j] = s.gap2;
+            if s.gap2 > gap2[0] {
+                gap2[0] = s.gap2;
             }
-            folded[j] += (c < 0.0) as usize;
-        };
-        let mut rows = samples.chunks_exact(LANES);
-        for row in &mut rows {
-            for (j, s) in row.iter().enumerate() {
-                lane(j, s);
-            }
-        }
-        for s in rows.remainder() {
-            lane(0, s);
+            folded += (c < 0.0) as usize;
         }
         p.n = samples.len();
         p.shift = shift;
         p.s1 = s1;
         p.s2 = s2;
-        for j in 0..LANES {
-            if lo[j] < p.min {
-                p.min = lo[j];
-            }
-            if hi[j] > p.max {
-                p.max = hi[j];
-            }
-            if worst[j] > p.worst_abs {
-                p.worst_abs = worst[j];
-            }
-            if gap2[j] > p.gap2 {
-                p.gap2 = gap2[j];
-            }
-            p.folded += folded[j];
+        p.min = if lo[1] < lo[0] { lo[1] } else { lo[0] };
+        p.max = if hi[1] > hi[0] { hi[1] } else { hi[0] };
+        let worst = 1.0
+            - if abs_lo[1] < abs_lo[0] {
+                abs_lo[1]
+            } else {
+                abs_lo[0]
+            };
+        if worst > 0.0 {
+            p.worst_abs = worst;
         }
+        p.gap2 = if gap2[1] > gap2[0] { gap2[1] } else { gap2[0] };
+        p.folded = folded;
         if p.min == 0.0 {
             p.min = samples.iter().fold(f64::INFINITY, |m, s| m.min(s.cos));
         }
@@ -301,10 +333,17 @@ impl Part {
         }
         p
     }
-}
 
-/// Independent lanes of [`Part::of`].
-const LANES: usize = 4;
+    /// The part of `samples`, none of them on a crease, as [`Part::push`] makes it.
+    #[cfg(not(target_arch = "x86_64"))]
+    fn of(samples: &[PairProducts]) -> Part {
+        let mut p = Part::new();
+        for &s in samples {
+            p.push(s, false);
+        }
+        p
+    }
+}
 
 /// The statistics of every block so far, merged in order.
 #[derive(Clone, Copy, Debug)]
@@ -1176,6 +1215,72 @@ mod tests {
     use super::*;
     use crate::mesh::LoadOptions;
     use crate::patch::g1::any_split_normals;
+
+    #[test]
+    fn block_parts_are_those_of_pushing_in_order() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let special = [0.0, -0.0, f64::NAN, -1.0, 1.0, 1.0000000000000004, -0.5];
+        let bits = |p: &Part| {
+            (
+                [p.n, p.folded, p.crease_n],
+                [
+                    p.shift,
+                    p.s1,
+                    p.s2,
+                    p.min,
+                    p.max,
+                    p.worst_abs,
+                    p.gap2,
+                    p.crease_gap2,
+                ]
+                .map(f64::to_bits),
+            )
+        };
+        for len in [0, 1, 2, 3, 17, BLOCK_PAIRS] {
+            for mix in 0..6 {
+                let samples: Vec<PairProducts> = (0..len)
+                    .map(|_| {
+                        let r = next();
+                        let u = (r >> 11) as f64 / (1u64 << 53) as f64;
+                        let pick = special[(r % 7) as usize];
+                        let cos = match mix {
+                            // Near 1 (a smooth surface), then anywhere in [−1, 1].
+                            0 => 1.0 - 1e-6 * u,
+                            1 => 2.0 * u - 1.0,
+                            // Special values among ordinary ones, then only those.
+                            2 if r % 5 == 0 => pick,
+                            2 => 2.0 * u - 1.0,
+                            3 => pick,
+                            // Zeros of both signs only (the order-dependent extremes).
+                            4 => special[(r % 2) as usize],
+                            _ => f64::NAN,
+                        };
+                        let gap2 = if mix == 3 && r % 3 == 0 {
+                            f64::NAN
+                        } else {
+                            u * 1e-30
+                        };
+                        PairProducts { cos, gap2 }
+                    })
+                    .collect();
+                let mut pushed = Part::new();
+                for &s in &samples {
+                    pushed.push(s, false);
+                }
+                assert_eq!(
+                    bits(&Part::of(&samples)),
+                    bits(&pushed),
+                    "{len} samples, mix {mix}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn parallel_split_search_agrees_with_the_serial_one() {
