@@ -15,6 +15,8 @@
 //! and per vertex, 4 per triangle for the chunk's patch numbering) and one chunk. The statistics are accumulated in sample
 //! order whatever the chunk size, so every chunking gives bitwise the same result.
 
+use std::sync::atomic::{AtomicU32, Ordering};
+
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -22,7 +24,6 @@ use crate::eval::{EdgePairs, EdgeSide, Evaluator, PairProducts, PatchPoint};
 use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
-use crate::patch::g1::any_split_normals;
 use crate::patch::repair::{repair, RepairReport};
 use crate::patch::validity::{count_range, PatchCounts};
 use crate::patch::{PatchBuilder, PatchTable, Scheme, SchemeOptions};
@@ -224,6 +225,124 @@ impl Part {
         }
         self.folded += (c < 0.0) as usize;
     }
+
+    /// The part of `samples`, none of them on a crease: bitwise that of pushing them in
+    /// order ([`Part::push`]). The sums run in one chain in sample order as `push` adds
+    /// them; the extremes and the fold count, which do not depend on the order, two
+    /// samples at a time (SSE2). The largest 1 − |cos| is 1 − (smallest |cos|): 1 − x is
+    /// monotone in x in floating point too, so that is the largest of the rounded values,
+    /// and it is never −0. Only where the smallest or largest cos is a zero (+0 and −0
+    /// compare equal, and `f64::min` may keep either) are they taken again in order.
+    #[cfg(target_arch = "x86_64")]
+    fn of(samples: &[PairProducts]) -> Part {
+        // SAFETY: SSE2 is part of every x86_64 CPU.
+        unsafe { Part::of_sse2(samples) }
+    }
+
+    /// [`Part::of`] in SSE2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "sse2")]
+    fn of_sse2(samples: &[PairProducts]) -> Part {
+        use std::arch::x86_64::*;
+        let mut p = Part::new();
+        let Some(first) = samples.first() else {
+            return p;
+        };
+        let shift = first.cos;
+        let (mut s1, mut s2) = (0.0, 0.0);
+        // A NaN never replaces a running value, as in `push` (`f64::min` and `f64::max`
+        // return the other operand, and `>` is false): minpd and maxpd return their second
+        // operand, the running value, where either is NaN.
+        let mut lo = _mm_set1_pd(f64::INFINITY);
+        let mut hi = _mm_set1_pd(f64::NEG_INFINITY);
+        let mut abs_lo = _mm_set1_pd(f64::INFINITY);
+        let mut gap2 = _mm_setzero_pd();
+        let mut folded = _mm_setzero_si128();
+        let sign = _mm_set1_pd(-0.0);
+        let mut pairs = samples.chunks_exact(2);
+        for pair in &mut pairs {
+            let (a, b) = (pair[0], pair[1]);
+            let d = a.cos - shift;
+            s1 += d;
+            s2 += d * d;
+            let d = b.cos - shift;
+            s1 += d;
+            s2 += d * d;
+            let c = _mm_set_pd(b.cos, a.cos);
+            lo = _mm_min_pd(c, lo);
+            hi = _mm_max_pd(c, hi);
+            abs_lo = _mm_min_pd(_mm_andnot_pd(sign, c), abs_lo);
+            gap2 = _mm_max_pd(_mm_set_pd(b.gap2, a.gap2), gap2);
+            // All ones (−1) in a lane whose cos is below 0.
+            folded = _mm_sub_epi64(folded, _mm_castpd_si128(_mm_cmplt_pd(c, _mm_setzero_pd())));
+        }
+        let lanes = |v: __m128d| {
+            let mut a = [0.0f64; 2];
+            // SAFETY: stores two f64 into a two-element array.
+            unsafe { _mm_storeu_pd(a.as_mut_ptr(), v) };
+            a
+        };
+        let (mut lo, mut hi) = (lanes(lo), lanes(hi));
+        let (mut abs_lo, mut gap2) = (lanes(abs_lo), lanes(gap2));
+        let mut count = [0i64; 2];
+        // SAFETY: stores two i64 into a two-element array.
+        unsafe { _mm_storeu_si128(count.as_mut_ptr().cast(), folded) };
+        let mut folded = (count[0] + count[1]) as usize;
+        if let [s] = pairs.remainder() {
+            let c = s.cos;
+            let d = c - shift;
+            s1 += d;
+            s2 += d * d;
+            // The same rules, on lane 0.
+            if c < lo[0] {
+                lo[0] = c;
+            }
+            if c > hi[0] {
+                hi[0] = c;
+            }
+            if c.abs() < abs_lo[0] {
+                abs_lo[0] = c.abs();
+            }
+            if s.gap2 > gap2[0] {
+                gap2[0] = s.gap2;
+            }
+            folded += (c < 0.0) as usize;
+        }
+        p.n = samples.len();
+        p.shift = shift;
+        p.s1 = s1;
+        p.s2 = s2;
+        p.min = if lo[1] < lo[0] { lo[1] } else { lo[0] };
+        p.max = if hi[1] > hi[0] { hi[1] } else { hi[0] };
+        let worst = 1.0
+            - if abs_lo[1] < abs_lo[0] {
+                abs_lo[1]
+            } else {
+                abs_lo[0]
+            };
+        if worst > 0.0 {
+            p.worst_abs = worst;
+        }
+        p.gap2 = if gap2[1] > gap2[0] { gap2[1] } else { gap2[0] };
+        p.folded = folded;
+        if p.min == 0.0 {
+            p.min = samples.iter().fold(f64::INFINITY, |m, s| m.min(s.cos));
+        }
+        if p.max == 0.0 {
+            p.max = samples.iter().fold(f64::NEG_INFINITY, |m, s| m.max(s.cos));
+        }
+        p
+    }
+
+    /// The part of `samples`, none of them on a crease, as [`Part::push`] makes it.
+    #[cfg(not(target_arch = "x86_64"))]
+    fn of(samples: &[PairProducts]) -> Part {
+        let mut p = Part::new();
+        for &s in samples {
+            p.push(s, false);
+        }
+        p
+    }
 }
 
 /// The statistics of every block so far, merged in order.
@@ -290,8 +409,11 @@ impl Fold {
     }
 
     /// Folds the products of `samples` (each sample on its two patches); `crease(i)` says
-    /// whether sample i (counted over the whole run) lies on a crease edge.
-    fn add<F: Fn(usize) -> bool + Sync>(&mut self, samples: &[PairProducts], crease: &F) {
+    /// whether sample i (counted over the whole run) lies on a crease edge (none without
+    /// it).
+    fn add<F: Fn(usize) -> bool + Sync>(&mut self, samples: &[PairProducts], crease: Option<&F>) {
+        let crease_free = crease.is_none();
+        let crease = |i: usize| crease.is_some_and(|f| f(i));
         let total = samples.len();
         let mut k = 0;
         // Finish the open block.
@@ -309,14 +431,18 @@ impl Fold {
             }
         }
         // Whole blocks, in parallel, merged in order.
+        let crease = &crease;
         let full = (total - k) / BLOCK_PAIRS;
         if full > 0 {
             let first = self.pairs;
             let parts: Vec<Part> = (0..full)
                 .into_par_iter()
                 .map(|b| {
-                    let mut part = Part::new();
                     let block = k + b * BLOCK_PAIRS..k + (b + 1) * BLOCK_PAIRS;
+                    if crease_free {
+                        return Part::of(&samples[block]);
+                    }
+                    let mut part = Part::new();
                     for (q, &s) in block.clone().zip(&samples[block]) {
                         part.push(s, crease(first + q - k));
                     }
@@ -365,6 +491,45 @@ impl Fold {
             crease_max_gap: part.crease_gap2.sqrt(),
         }
     }
+}
+
+/// Whether some vertex of `mesh` has two corners with different normals: the answer of
+/// [`crate::patch::g1::any_split_normals`] (also where it answers true without looking:
+/// too many corners, corner normals out of step with the triangles, a vertex id out of
+/// range), in parallel. Each vertex's first corner to claim it is its representative and
+/// every other corner is compared with it: where a vertex's corners do not all agree, some
+/// corner differs from whichever one claimed it, so the claiming order does not matter.
+pub fn has_split_normals(mesh: &Mesh) -> bool {
+    let corners = 3 * mesh.triangles.len();
+    if corners >= u32::MAX as usize || mesh.corner_normals.len() != mesh.triangles.len() {
+        return true;
+    }
+    let first: Vec<AtomicU32> = (0..mesh.positions.len())
+        .into_par_iter()
+        .map(|_| AtomicU32::new(u32::MAX))
+        .collect();
+    mesh.triangles
+        .par_iter()
+        .zip(mesh.corner_normals.par_iter())
+        .enumerate()
+        .with_min_len(1 << 12)
+        .any(|(t, (tri, normals))| {
+            (0..3).any(|k| {
+                let Some(f) = first.get(tri[k] as usize) else {
+                    return true;
+                };
+                let mut c = f.load(Ordering::Relaxed);
+                if c == u32::MAX {
+                    let own = (3 * t + k) as u32;
+                    match f.compare_exchange(u32::MAX, own, Ordering::Relaxed, Ordering::Relaxed) {
+                        Ok(_) => return false,
+                        Err(other) => c = other,
+                    }
+                }
+                let (ft, fk) = (c as usize / 3, c as usize % 3);
+                normal_key(mesh.corner_normals[ft][fk]) != normal_key(normals[k])
+            })
+        })
 }
 
 /// Where the patches of a chunk come from.
@@ -440,7 +605,7 @@ impl Batch {
     /// the triangles of the previous chunk's table `prev` (their slots still number them
     /// there: patches needed again are copied from it), marked built afterwards; `slot` is
     /// the per-triangle numbering of [`run`]. Without `split` (no vertex of the mesh has
-    /// two normals, [`any_split_normals`]) no edge is a crease and none is looked at.
+    /// two normals, [`has_split_normals`]) no edge is a crease and none is looked at.
     #[allow(clippy::too_many_arguments)]
     fn prepare(
         &mut self,
@@ -567,9 +732,9 @@ impl Batch {
                 }
                 next += chunk.pairs.len();
                 if creases == 0 {
-                    fold.add(chunk.pairs, &|_| false);
+                    fold.add::<fn(usize) -> bool>(chunk.pairs, None);
                 } else {
-                    fold.add(chunk.pairs, &crease);
+                    fold.add(chunk.pairs, Some(&crease));
                 }
                 Ok(())
             })?;
@@ -623,7 +788,7 @@ fn run(
     let mut current = Batch::new(patches, chunk_edges);
     let mut next = Batch::new(patches, chunk_edges);
     let empty = current.table.clone();
-    let split = split.unwrap_or_else(|| any_split_normals(mesh));
+    let split = split.unwrap_or_else(|| has_split_normals(mesh));
     current.prepare(
         mesh,
         split,
@@ -710,7 +875,7 @@ pub struct EdgeStats<'m> {
     index: EdgeIndex<'m>,
     /// Interior edges per chunk (default [`CHUNK_EDGES`]).
     pub chunk_edges: usize,
-    /// Whether some vertex has split normals ([`any_split_normals`]), where known.
+    /// Whether some vertex has split normals ([`has_split_normals`]), where known.
     split: Option<bool>,
 }
 
@@ -788,8 +953,8 @@ impl<'m> EdgeStats<'m> {
 }
 
 /// The statistics report of `scheme` on `mesh`, streamed in bounded memory: what
-/// `g1tess stats` prints. The edge index (one thread) is built while the scheme prepares
-/// its per-mesh data and the mesh is searched for split normals; patches are then built a
+/// `g1tess stats` prints. The edge index and the search for split normals (both in
+/// parallel) run while the scheme prepares its per-mesh data; patches are then built a
 /// chunk of edges at a time. With [`SchemeOptions::repair_folds`] the statistics are those
 /// of the repaired mesh ([`repair`]), and the report says what the repair changed.
 pub fn stats_report(
@@ -808,17 +973,26 @@ pub fn stats_report(
         report.repair = Some(r);
         return Ok(report);
     }
-    let (stats, builder) = std::thread::scope(|s| {
-        let index = s.spawn(|| EdgeStats::new(mesh));
-        let builder = PatchBuilder::new(mesh, scheme, opts);
-        let split = any_split_normals(mesh);
-        let mut index = index
-            .join()
-            .unwrap_or_else(|e| std::panic::resume_unwind(e));
-        index.split = Some(split);
-        (index, builder)
+    // The builder stays on this thread (it need not be `Send`); the index and the search
+    // run on the pool meanwhile.
+    let mut found = None;
+    let builder = rayon::in_place_scope(|s| {
+        let found = &mut found;
+        s.spawn(move |_| *found = Some((EdgeIndex::new(&mesh.triangles), has_split_normals(mesh))));
+        PatchBuilder::new(mesh, scheme, opts)
     });
     let builder = builder?;
+    let Some((index, split)) = found else {
+        return Err(Error::Invalid(
+            "statistics: the edge index was not built".into(),
+        ));
+    };
+    let stats = EdgeStats {
+        mesh,
+        index,
+        chunk_edges: CHUNK_EDGES,
+        split: Some(split),
+    };
     let (c, fallbacks, patches) = stats.continuity_certified(&builder, evaluator)?;
     let mut report = StatsReport::new(
         mesh,
@@ -1033,5 +1207,110 @@ impl StatsReport {
             ));
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::LoadOptions;
+    use crate::patch::g1::any_split_normals;
+
+    #[test]
+    fn block_parts_are_those_of_pushing_in_order() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let special = [0.0, -0.0, f64::NAN, -1.0, 1.0, 1.0000000000000004, -0.5];
+        let bits = |p: &Part| {
+            (
+                [p.n, p.folded, p.crease_n],
+                [
+                    p.shift,
+                    p.s1,
+                    p.s2,
+                    p.min,
+                    p.max,
+                    p.worst_abs,
+                    p.gap2,
+                    p.crease_gap2,
+                ]
+                .map(f64::to_bits),
+            )
+        };
+        for len in [0, 1, 2, 3, 17, BLOCK_PAIRS] {
+            for mix in 0..6 {
+                let samples: Vec<PairProducts> = (0..len)
+                    .map(|_| {
+                        let r = next();
+                        let u = (r >> 11) as f64 / (1u64 << 53) as f64;
+                        let pick = special[(r % 7) as usize];
+                        let cos = match mix {
+                            // Near 1 (a smooth surface), then anywhere in [−1, 1].
+                            0 => 1.0 - 1e-6 * u,
+                            1 => 2.0 * u - 1.0,
+                            // Special values among ordinary ones, then only those.
+                            2 if r % 5 == 0 => pick,
+                            2 => 2.0 * u - 1.0,
+                            3 => pick,
+                            // Zeros of both signs only (the order-dependent extremes).
+                            4 => special[(r % 2) as usize],
+                            _ => f64::NAN,
+                        };
+                        let gap2 = if mix == 3 && r % 3 == 0 {
+                            f64::NAN
+                        } else {
+                            u * 1e-30
+                        };
+                        PairProducts { cos, gap2 }
+                    })
+                    .collect();
+                let mut pushed = Part::new();
+                for &s in &samples {
+                    pushed.push(s, false);
+                }
+                assert_eq!(
+                    bits(&Part::of(&samples)),
+                    bits(&pushed),
+                    "{len} samples, mix {mix}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn parallel_split_search_agrees_with_the_serial_one() {
+        let mut seen = [false; 2];
+        for name in ["fandisk.obj", "suzanne.obj", "spot.obj"] {
+            for crease in [None, Some(30.0)] {
+                let opts = LoadOptions {
+                    recompute_normals: crease.is_some(),
+                    crease_angle: crease,
+                    ..LoadOptions::default()
+                };
+                let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
+                let mut mesh = Mesh::load(&path, &opts).unwrap();
+                for round in 0..2 {
+                    let expect = any_split_normals(&mesh);
+                    seen[expect as usize] = true;
+                    for threads in [1, 2, 3] {
+                        let pool = rayon::ThreadPoolBuilder::new()
+                            .num_threads(threads)
+                            .build()
+                            .unwrap();
+                        let got = pool.install(|| has_split_normals(&mesh));
+                        assert_eq!(got, expect, "{name} {crease:?} round {round}");
+                    }
+                    // One corner normal of the last triangle turned a little: a split there.
+                    let last = mesh.corner_normals.last_mut().unwrap();
+                    last[2] = (last[2] + glam::DVec3::new(0.0, 1e-3, 0.0)).normalize();
+                }
+            }
+        }
+        assert_eq!(seen, [true, true]);
     }
 }
