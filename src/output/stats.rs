@@ -15,8 +15,6 @@
 //! and per vertex, 4 per triangle for the chunk's patch numbering) and one chunk. The statistics are accumulated in sample
 //! order whatever the chunk size, so every chunking gives bitwise the same result.
 
-use std::sync::atomic::{AtomicU32, Ordering};
-
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -24,6 +22,7 @@ use crate::eval::{EdgePairs, EdgeSide, Evaluator, PairProducts, PatchPoint};
 use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
+use crate::patch::g1::any_split_normals;
 use crate::patch::repair::{repair, RepairReport};
 use crate::patch::validity::{count_range, PatchCounts};
 use crate::patch::{PatchBuilder, PatchTable, Scheme, SchemeOptions};
@@ -493,45 +492,6 @@ impl Fold {
     }
 }
 
-/// Whether some vertex of `mesh` has two corners with different normals: the answer of
-/// [`crate::patch::g1::any_split_normals`] (also where it answers true without looking:
-/// too many corners, corner normals out of step with the triangles, a vertex id out of
-/// range), in parallel. Each vertex's first corner to claim it is its representative and
-/// every other corner is compared with it: where a vertex's corners do not all agree, some
-/// corner differs from whichever one claimed it, so the claiming order does not matter.
-pub fn has_split_normals(mesh: &Mesh) -> bool {
-    let corners = 3 * mesh.triangles.len();
-    if corners >= u32::MAX as usize || mesh.corner_normals.len() != mesh.triangles.len() {
-        return true;
-    }
-    let first: Vec<AtomicU32> = (0..mesh.positions.len())
-        .into_par_iter()
-        .map(|_| AtomicU32::new(u32::MAX))
-        .collect();
-    mesh.triangles
-        .par_iter()
-        .zip(mesh.corner_normals.par_iter())
-        .enumerate()
-        .with_min_len(1 << 12)
-        .any(|(t, (tri, normals))| {
-            (0..3).any(|k| {
-                let Some(f) = first.get(tri[k] as usize) else {
-                    return true;
-                };
-                let mut c = f.load(Ordering::Relaxed);
-                if c == u32::MAX {
-                    let own = (3 * t + k) as u32;
-                    match f.compare_exchange(u32::MAX, own, Ordering::Relaxed, Ordering::Relaxed) {
-                        Ok(_) => return false,
-                        Err(other) => c = other,
-                    }
-                }
-                let (ft, fk) = (c as usize / 3, c as usize % 3);
-                normal_key(mesh.corner_normals[ft][fk]) != normal_key(normals[k])
-            })
-        })
-}
-
 /// Where the patches of a chunk come from.
 #[derive(Clone, Copy)]
 enum Patches<'a, 'm> {
@@ -605,7 +565,7 @@ impl Batch {
     /// the triangles of the previous chunk's table `prev` (their slots still number them
     /// there: patches needed again are copied from it), marked built afterwards; `slot` is
     /// the per-triangle numbering of [`run`]. Without `split` (no vertex of the mesh has
-    /// two normals, [`has_split_normals`]) no edge is a crease and none is looked at.
+    /// two normals, [`any_split_normals`]) no edge is a crease and none is looked at.
     #[allow(clippy::too_many_arguments)]
     fn prepare(
         &mut self,
@@ -788,7 +748,7 @@ fn run(
     let mut current = Batch::new(patches, chunk_edges);
     let mut next = Batch::new(patches, chunk_edges);
     let empty = current.table.clone();
-    let split = split.unwrap_or_else(|| has_split_normals(mesh));
+    let split = split.unwrap_or_else(|| any_split_normals(mesh));
     current.prepare(
         mesh,
         split,
@@ -875,7 +835,7 @@ pub struct EdgeStats<'m> {
     index: EdgeIndex<'m>,
     /// Interior edges per chunk (default [`CHUNK_EDGES`]).
     pub chunk_edges: usize,
-    /// Whether some vertex has split normals ([`has_split_normals`]), where known.
+    /// Whether some vertex has split normals ([`any_split_normals`]), where known.
     split: Option<bool>,
 }
 
@@ -978,7 +938,7 @@ pub fn stats_report(
     let mut found = None;
     let builder = rayon::in_place_scope(|s| {
         let found = &mut found;
-        s.spawn(move |_| *found = Some((EdgeIndex::new(&mesh.triangles), has_split_normals(mesh))));
+        s.spawn(move |_| *found = Some((EdgeIndex::new(&mesh.triangles), any_split_normals(mesh))));
         PatchBuilder::new(mesh, scheme, opts)
     });
     let builder = builder?;
@@ -1213,8 +1173,28 @@ impl StatsReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::creases::normal_key;
     use crate::mesh::LoadOptions;
-    use crate::patch::g1::any_split_normals;
+
+    /// The serial search [`any_split_normals`] replaced: each vertex's first corner in
+    /// triangle order is its representative.
+    fn serial_split_normals(mesh: &Mesh) -> bool {
+        let mut first = vec![u32::MAX; mesh.positions.len()];
+        for (t, (tri, normals)) in mesh.triangles.iter().zip(&mesh.corner_normals).enumerate() {
+            for k in 0..3 {
+                let f = &mut first[tri[k] as usize];
+                if *f == u32::MAX {
+                    *f = (3 * t + k) as u32;
+                    continue;
+                }
+                let (ft, fk) = (*f as usize / 3, *f as usize % 3);
+                if normal_key(mesh.corner_normals[ft][fk]) != normal_key(normals[k]) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
 
     #[test]
     fn block_parts_are_those_of_pushing_in_order() {
@@ -1295,14 +1275,14 @@ mod tests {
                 let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
                 let mut mesh = Mesh::load(&path, &opts).unwrap();
                 for round in 0..2 {
-                    let expect = any_split_normals(&mesh);
+                    let expect = serial_split_normals(&mesh);
                     seen[expect as usize] = true;
                     for threads in [1, 2, 3] {
                         let pool = rayon::ThreadPoolBuilder::new()
                             .num_threads(threads)
                             .build()
                             .unwrap();
-                        let got = pool.install(|| has_split_normals(&mesh));
+                        let got = pool.install(|| any_split_normals(&mesh));
                         assert_eq!(got, expect, "{name} {crease:?} round {round}");
                     }
                     // One corner normal of the last triangle turned a little: a split there.

@@ -389,30 +389,45 @@ pub fn shared_curve(
 
 /// Whether some vertex gets two different normals from its corners (compared bitwise, by
 /// [`normal_key`]). Without such a vertex no edge is a crease: [`edge_curve`] is `None` for
-/// every edge. One pass over the corners, 4 bytes per vertex; `true` (look edge by edge)
-/// where the corners cannot be numbered in 32 bits or a corner names no vertex.
+/// every edge. One parallel pass over the corners, 4 bytes per vertex: each vertex's first
+/// corner to claim it is its representative and every other corner is compared with it
+/// (where a vertex's corners do not all agree, some corner differs from whichever one
+/// claimed it, so the claiming order does not matter). `true` (look edge by edge) where
+/// the corners cannot be numbered in 32 bits, the corner normals are out of step with the
+/// triangles, or a corner names no vertex.
 pub fn any_split_normals(mesh: &Mesh) -> bool {
+    use rayon::prelude::*;
+    use std::sync::atomic::{AtomicU32, Ordering};
     let corners = 3 * mesh.triangles.len();
     if corners >= u32::MAX as usize || mesh.corner_normals.len() != mesh.triangles.len() {
         return true;
     }
-    let mut first = vec![u32::MAX; mesh.positions.len()];
-    for (t, (tri, normals)) in mesh.triangles.iter().zip(&mesh.corner_normals).enumerate() {
-        for k in 0..3 {
-            let Some(f) = first.get_mut(tri[k] as usize) else {
-                return true;
-            };
-            if *f == u32::MAX {
-                *f = (3 * t + k) as u32;
-                continue;
-            }
-            let (ft, fk) = (*f as usize / 3, *f as usize % 3);
-            if normal_key(mesh.corner_normals[ft][fk]) != normal_key(normals[k]) {
-                return true;
-            }
-        }
-    }
-    false
+    let first: Vec<AtomicU32> = (0..mesh.positions.len())
+        .into_par_iter()
+        .map(|_| AtomicU32::new(u32::MAX))
+        .collect();
+    mesh.triangles
+        .par_iter()
+        .zip(mesh.corner_normals.par_iter())
+        .enumerate()
+        .with_min_len(1 << 12)
+        .any(|(t, (tri, normals))| {
+            (0..3).any(|k| {
+                let Some(f) = first.get(tri[k] as usize) else {
+                    return true;
+                };
+                let mut c = f.load(Ordering::Relaxed);
+                if c == u32::MAX {
+                    let own = (3 * t + k) as u32;
+                    match f.compare_exchange(u32::MAX, own, Ordering::Relaxed, Ordering::Relaxed) {
+                        Ok(_) => return false,
+                        Err(other) => c = other,
+                    }
+                }
+                let (ft, fk) = (c as usize / 3, c as usize % 3);
+                normal_key(mesh.corner_normals[ft][fk]) != normal_key(normals[k])
+            })
+        })
 }
 
 /// The G1 scheme prepared for `mesh`: crease edges (split normals at an end, see
