@@ -153,6 +153,16 @@ trait FormatWriter<V> {
     fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()>;
     fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()>;
     fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()>;
+    /// Where the triangles go when their place is known before the vertices are written:
+    /// the offset of the face section and the encoder of a patch's triangles (PLY, glTF).
+    fn face_section(&self) -> Option<(u64, &'static EncodeTriangles)> {
+        None
+    }
+    /// What follows the triangles when [`FormatWriter::face_section`] wrote them (instead
+    /// of [`FormatWriter::finish`]).
+    fn after_faces(&mut self, _: &mut PipedWriter) -> io::Result<()> {
+        Ok(())
+    }
 }
 
 /// Writes the stitched output of `plan` to `path` in `format`, atomically, from samples of
@@ -220,14 +230,128 @@ pub fn write_stitched<V: Vector>(
                     .map_err(|e| Error::io(self.path, e))
             }
         }
-        produce(&mut Adapter {
-            writer: writer.as_mut(),
-            w,
-            path,
-            format,
-        })?;
-        writer.finish(w, progress).map_err(io)
+        let faces = writer.face_section().and_then(|(offset, encode)| {
+            let bytes = plan.triangles as u64 * encode_len(encode);
+            // The split writer starts at the first page boundary in the face section; the
+            // stream writes the section's bytes before it.
+            let split = offset.next_multiple_of(SPLIT_ALIGN);
+            (bytes >= SPLIT_MIN_BYTES && split < offset + bytes)
+                .then(|| w.split_at(split))
+                .flatten()
+                .map(|side| (offset, split, encode, side))
+        });
+        let Some((offset, split, encode, mut side)) = faces else {
+            produce(&mut Adapter {
+                writer: writer.as_mut(),
+                w,
+                path,
+                format,
+            })?;
+            return writer.finish(w, progress).map_err(io);
+        };
+        // The faces go from a thread of their own, at their place in the file, while the
+        // vertices stream.
+        let cancel = std::sync::atomic::AtomicBool::new(false);
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        std::thread::scope(|scope| -> Result<()> {
+            /// Stops the face thread however the vertices end (an error, a panic).
+            struct Cancel<'c>(&'c std::sync::atomic::AtomicBool);
+            impl Drop for Cancel<'_> {
+                fn drop(&mut self) {
+                    self.0.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
+            }
+            let (cancel, done) = (&cancel, &done);
+            let thread = std::thread::Builder::new()
+                .name("g1tess-faces".into())
+                .spawn_scoped(scope, move || -> io::Result<(u64, Vec<u8>)> {
+                    let skip = split - offset;
+                    write_face_bytes(plan, encode, skip, u64::MAX, &mut side, cancel, done)?;
+                    side.finish_at()
+                })
+                .map_err(io)?;
+            let guard = Cancel(cancel);
+            produce(&mut Adapter {
+                writer: writer.as_mut(),
+                w,
+                path,
+                format,
+            })?;
+            let no = std::sync::atomic::AtomicUsize::new(0);
+            let never = std::sync::atomic::AtomicBool::new(false);
+            write_face_bytes(plan, encode, 0, split - offset, w, &never, &no).map_err(io)?;
+            progress.start("writing faces", plan.patches() as u64);
+            let mut shown = 0;
+            while !thread.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+                let now = done.load(std::sync::atomic::Ordering::Relaxed);
+                progress.inc((now - shown) as u64);
+                shown = now;
+            }
+            let (at, rest) = thread
+                .join()
+                .map_err(|_| {
+                    Error::Invalid(format!("{}: the face thread stopped", path.display()))
+                })?
+                .map_err(io)?;
+            progress.inc((plan.patches() - shown) as u64);
+            drop(guard);
+            w.write_at_end(at, rest);
+            writer.after_faces(w).map_err(io)
+        })
     })
+}
+
+/// The face section goes to a second writer ([`PipedWriter::split_at`]) from this page
+/// boundary in it on.
+const SPLIT_ALIGN: u64 = 4096;
+
+/// Face sections smaller than this are written after the vertices, in the stream.
+const SPLIT_MIN_BYTES: u64 = 1 << 20;
+
+/// Bytes of one triangle as `encode` writes it.
+fn encode_len(encode: &EncodeTriangles) -> u64 {
+    let mut b = Vec::new();
+    encode(&[[0, 0, 0]], &mut b);
+    b.len() as u64
+}
+
+/// Writes bytes `skip..skip + take` of the face section (every patch's triangles, record
+/// ids, in order, each patch encoded by `encode`) to `w`, counting finished patches in
+/// `done`; stops early (Ok) once `cancel` is set.
+fn write_face_bytes(
+    plan: &StitchPlan,
+    encode: &EncodeTriangles,
+    skip: u64,
+    take: u64,
+    w: &mut PipedWriter,
+    cancel: &std::sync::atomic::AtomicBool,
+    done: &std::sync::atomic::AtomicUsize,
+) -> io::Result<()> {
+    use std::sync::atomic::Ordering::Relaxed;
+    let grid = grid_triangles(plan.level);
+    let mut scratch = (Vec::new(), Vec::new());
+    let (mut tris, mut bytes) = (Vec::new(), Vec::new());
+    let end = skip.saturating_add(take);
+    let mut at = 0u64;
+    for p in 0..plan.patches() {
+        if at >= end || cancel.load(Relaxed) {
+            break;
+        }
+        tris.clear();
+        plan.patch_triangles(p, &grid, &mut scratch, &mut tris);
+        bytes.clear();
+        encode(&tris, &mut bytes);
+        let next = at + bytes.len() as u64;
+        if next > skip {
+            let from = skip.saturating_sub(at) as usize;
+            let to = (end.min(next) - at) as usize;
+            w.write_all(&bytes[from..to])?;
+        }
+        at = next;
+        done.store(p + 1, Relaxed);
+    }
+    Ok(())
 }
 
 /// Bytes of OBJ text held before they go to the file.
@@ -498,6 +622,46 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
     }
 }
 
+/// The header of a binary PLY file of `plan` (ASCII lines; `title` in the comment, other
+/// characters than printable ASCII and space replaced by `?`).
+fn ply_header(plan: &StitchPlan, title: &str) -> String {
+    let title: String = title
+        .chars()
+        .map(|c| {
+            if c.is_ascii_graphic() || c == ' ' {
+                c
+            } else {
+                '?'
+            }
+        })
+        .collect();
+    let mut extra = String::new();
+    if plan.has_uvs() {
+        extra.push_str("property float s\nproperty float t\n");
+    }
+    if plan.has_colors() {
+        extra.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
+        if plan.colors_have_alpha() {
+            extra.push_str("property uchar alpha\n");
+        }
+    }
+    format!(
+        "ply\nformat binary_little_endian 1.0\ncomment {title}\n\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\n{extra}\
+         element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        plan.records, plan.triangles
+    )
+}
+
+/// Bytes of the binary PLY file [`write_stitched`] writes for `plan` with `title`: the
+/// header, a record per vertex (six f32, then the attributes), 13 bytes per triangle.
+pub fn ply_file_bytes(plan: &StitchPlan, title: &str) -> u64 {
+    ply_header(plan, title).len() as u64
+        + plan.records as u64 * (24 + attribute_bytes(plan, true) as u64)
+        + plan.triangles as u64 * 13
+}
+
 struct PlyWriter<'a> {
     plan: &'a StitchPlan,
     title: &'a str,
@@ -510,36 +674,7 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
     }
 
     fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()> {
-        // PLY headers are ASCII lines.
-        let title: String = self
-            .title
-            .chars()
-            .map(|c| {
-                if c.is_ascii_graphic() || c == ' ' {
-                    c
-                } else {
-                    '?'
-                }
-            })
-            .collect();
-        let mut extra = String::new();
-        if self.plan.has_uvs() {
-            extra.push_str("property float s\nproperty float t\n");
-        }
-        if self.plan.has_colors() {
-            extra.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
-            if self.plan.colors_have_alpha() {
-                extra.push_str("property uchar alpha\n");
-            }
-        }
-        write!(
-            w,
-            "ply\nformat binary_little_endian 1.0\ncomment {title}\n\
-             element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-             property float nx\nproperty float ny\nproperty float nz\n{extra}\
-             element face {}\nproperty list uchar int vertex_indices\nend_header\n",
-            self.plan.records, self.plan.triangles
-        )
+        w.write_all(ply_header(self.plan, self.title).as_bytes())
     }
 
     fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
@@ -558,15 +693,35 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
     }
 
     fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()> {
-        write_triangles(self.plan, progress, w, &|tris, buf| {
-            for t in tris {
-                let mut b = [3u8; 13];
-                for (k, &i) in t.iter().enumerate() {
-                    b[1 + 4 * k..5 + 4 * k].copy_from_slice(&(i as i32).to_le_bytes());
-                }
-                buf.extend_from_slice(&b);
-            }
-        })
+        write_triangles(self.plan, progress, w, &encode_ply)
+    }
+
+    fn face_section(&self) -> Option<(u64, &'static EncodeTriangles)> {
+        let vertices = self.plan.records as u64 * (24 + attribute_bytes(self.plan, true) as u64);
+        Some((
+            ply_header(self.plan, self.title).len() as u64 + vertices,
+            &encode_ply,
+        ))
+    }
+}
+
+/// PLY's triangles: a count byte (3), then three little-endian i32 record ids.
+fn encode_ply(tris: &[[u32; 3]], buf: &mut Vec<u8>) {
+    for t in tris {
+        let mut b = [3u8; 13];
+        for (k, &i) in t.iter().enumerate() {
+            b[1 + 4 * k..5 + 4 * k].copy_from_slice(&(i as i32).to_le_bytes());
+        }
+        buf.extend_from_slice(&b);
+    }
+}
+
+/// glTF's triangles: three little-endian u32 record ids.
+fn encode_glb(tris: &[[u32; 3]], buf: &mut Vec<u8>) {
+    for t in tris {
+        for i in t {
+            buf.extend_from_slice(&i.to_le_bytes());
+        }
     }
 }
 
@@ -743,13 +898,19 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
     }
 
     fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()> {
-        write_triangles(self.plan, progress, w, &|tris, buf| {
-            for t in tris {
-                for i in t {
-                    buf.extend_from_slice(&i.to_le_bytes());
-                }
-            }
-        })?;
+        write_triangles(self.plan, progress, w, &encode_glb)?;
+        FormatWriter::<V>::after_faces(self, w)
+    }
+
+    fn face_section(&self) -> Option<(u64, &'static EncodeTriangles)> {
+        let layout = glb_layout(self.plan, self.title);
+        Some((
+            12 + 8 + layout.json_bytes + 8 + layout.vertex_bytes,
+            &encode_glb,
+        ))
+    }
+
+    fn after_faces(&mut self, w: &mut PipedWriter) -> io::Result<()> {
         let json = glb_json(self.plan, self.title, self.min, self.max);
         if json.len() as u64 > glb_layout(self.plan, self.title).json_bytes {
             return Err(io::Error::other("glTF JSON outgrew its reserved chunk"));
