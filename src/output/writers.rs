@@ -25,18 +25,25 @@
 //! after the normal. STL has none. A mesh without them is written as before.
 //!
 //! PLY and glTF list every vertex before any triangle: their triangles are regenerated
-//! from the plan (topology only) after the vertices are written.
+//! from the plan (topology only), not kept from the stitcher.
 //!
-//! Files go to the temporary file in blocks of 512 KiB written by a thread of their own
-//! ([`PipedWriter`]): the thread that evaluates, stitches and encodes never waits for the
-//! copy into the page cache. Progress is reported through [`Progress`], never drawn here.
+//! Files go to the temporary file in blocks written by a thread of their own
+//! ([`PipedWriter`], with direct I/O where the file system suits it): the thread that
+//! evaluates, stitches and encodes never waits for the write. PLY and glTF files also put
+//! their triangles in place while the vertices stream: the face section's offset is known
+//! from the plan, so a thread of its own encodes the faces patch by patch into a second
+//! writer of the same file from the first page boundary in the section on
+//! ([`PipedWriter::split_at`]); the stream writes the section's bytes before that
+//! boundary. On standard output, and for face sections under 1 MiB, the faces follow the
+//! vertices in the stream, encoded per batch in parallel. Progress is reported through
+//! [`Progress`], never drawn here.
 
 use std::io::{self, Write};
 use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::atomic::{write_atomic_piped, PipedWriter};
+use super::atomic::{write_atomic_piped, PipedWriter, PIPED_BYTES};
 use crate::eval::{grid_len, grid_triangles, Vector};
 use crate::progress::Progress;
 use crate::tess::stitch::{Needs, PatchOut, RecordAttributes, StitchPlan, StitchSink};
@@ -105,20 +112,23 @@ impl MeshFormat {
     }
 
     /// Bytes the writer holds at `level` besides the stitcher's output, as (while the
-    /// patches stream in, afterwards): the file buffer, OBJ's text (flushed every
-    /// [`TEXT_FLUSH`] bytes), STL's facets of one patch; then the faces PLY and glTF encode
-    /// per batch ([`face_batch`]) once every vertex is written.
+    /// patches stream in, afterwards): the file's blocks ([`PIPED_BYTES`]), OBJ's text
+    /// (flushed every [`TEXT_FLUSH`] bytes), STL's facets of one patch; PLY and glTF also
+    /// write their faces while the vertices stream (a second writer's blocks and one
+    /// patch's triangles), or, where that writer cannot be had (standard output), encode
+    /// them per batch ([`face_batch`]) once every vertex is written.
     pub fn buffer_bytes(self, level: u32, patches: usize) -> (u64, u64) {
         let n2 = level as u64 * level as u64;
-        let file_buffer = 1u64 << 20;
+        let file_buffer = PIPED_BYTES;
         match self {
             MeshFormat::Obj => (file_buffer + 2 * TEXT_FLUSH as u64, 0),
             MeshFormat::Stl => (file_buffer + n2 * 50, 0),
             MeshFormat::Ply | MeshFormat::Glb => {
+                // Per patch: grid triangles, triangles, encoded bytes, local ids.
+                let patch = n2 * (12 + 12 + 13) + grid_len(level) as u64 * 8;
                 let batch = face_batch(level).min(patches.max(1)) as u64;
-                // Grid triangles, then per slot: triangles, encoded bytes, local ids.
                 let faces = n2 * 12 + batch * (n2 * (12 + 13) + grid_len(level) as u64 * 8);
-                (file_buffer, file_buffer + faces)
+                (2 * file_buffer + patch, file_buffer + faces)
             }
         }
     }
