@@ -670,6 +670,22 @@ impl PipedWriter {
 }
 
 impl PipedWriter {
+    /// The free bytes of the current block, to encode into in place (a full block is
+    /// handed on first, so there is at least one); [`PipedWriter::commit`] counts what was
+    /// put there. Blocks are handed on full only (direct I/O stays aligned).
+    pub fn spare(&mut self) -> std::io::Result<&mut [u8]> {
+        if self.buf.len >= self.buf.capacity() {
+            self.send()?;
+        }
+        let len = self.buf.len;
+        Ok(&mut bytemuck::cast_slice_mut::<Page, u8>(&mut self.buf.pages)[len..])
+    }
+
+    /// Counts the first `n` bytes of [`PipedWriter::spare`] as written.
+    pub fn commit(&mut self, n: usize) {
+        self.buf.len = (self.buf.len + n).min(self.buf.capacity());
+    }
+
     /// Ends a writer from [`PipedWriter::split_at`]: waits until its whole blocks are
     /// written and gives back the bytes not yet written (less than a block) with their
     /// offset, for the first writer's [`PipedWriter::write_at_end`].

@@ -161,11 +161,18 @@ trait FormatWriter<V> {
     /// What the format reads of each patch.
     fn needs(&self) -> Needs;
     fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()>;
-    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()>;
+    /// Writes a patch; false when a value it wrote is not finite as written (only a
+    /// writer that [`FormatWriter::checks_finite`] says so; the others give true).
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<bool>;
     fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()>;
+    /// Whether the writer checks [`check_finite`]'s rule itself as it encodes (else the
+    /// patch is checked before it is written).
+    fn checks_finite(&self) -> bool {
+        false
+    }
     /// Where the triangles go when their place is known before the vertices are written:
-    /// the offset of the face section and the encoder of a patch's triangles (PLY, glTF).
-    fn face_section(&self) -> Option<(u64, &'static EncodeTriangles)> {
+    /// the offset of the face section and their encoding (PLY, glTF).
+    fn face_section(&self) -> Option<(u64, FaceCodec)> {
         None
     }
     /// What follows the triangles when [`FormatWriter::face_section`] wrote them (instead
@@ -234,14 +241,28 @@ pub fn write_stitched<V: Vector>(
                 self.writer.needs()
             }
             fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()> {
-                check_finite(self.format, self.path, out)?;
-                self.writer
+                let checks = self.writer.checks_finite();
+                if !checks {
+                    check_finite(self.format, self.path, out)?;
+                }
+                let finite = self
+                    .writer
                     .patch(self.w, out)
-                    .map_err(|e| Error::io(self.path, e))
+                    .map_err(|e| Error::io(self.path, e))?;
+                if !finite {
+                    // The same rule names the value.
+                    check_finite(self.format, self.path, out)?;
+                    return Err(Error::Invalid(format!(
+                        "{}: patch {} has a non-finite value",
+                        self.path.display(),
+                        out.patch
+                    )));
+                }
+                Ok(())
             }
         }
         let faces = writer.face_section().and_then(|(offset, encode)| {
-            let bytes = plan.triangles as u64 * encode_len(encode);
+            let bytes = plan.triangles as u64 * encode.size() as u64;
             // The split writer starts at the first page boundary in the face section; the
             // stream writes the section's bytes before it.
             let split = offset.next_multiple_of(SPLIT_ALIGN);
@@ -319,19 +340,90 @@ const SPLIT_ALIGN: u64 = 4096;
 /// Face sections smaller than this are written after the vertices, in the stream.
 const SPLIT_MIN_BYTES: u64 = 1 << 20;
 
-/// Bytes of one triangle as `encode` writes it.
-fn encode_len(encode: &EncodeTriangles) -> u64 {
-    let mut b = Vec::new();
-    encode(&[[0, 0, 0]], &mut b);
-    b.len() as u64
+/// The encoding of a face section's triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum FaceCodec {
+    /// A count byte (3), then three little-endian i32 record ids.
+    Ply,
+    /// Three little-endian u32 record ids.
+    Glb,
+}
+
+impl FaceCodec {
+    /// Bytes of one triangle.
+    fn size(self) -> usize {
+        match self {
+            FaceCodec::Ply => 13,
+            FaceCodec::Glb => 12,
+        }
+    }
+
+    /// Encodes a triangle into `b` ([`FaceCodec::size`] bytes).
+    #[inline]
+    fn put(self, t: [u32; 3], b: &mut [u8]) {
+        match self {
+            FaceCodec::Ply => {
+                b[0] = 3;
+                for (k, i) in t.into_iter().enumerate() {
+                    b[1 + 4 * k..5 + 4 * k].copy_from_slice(&(i as i32).to_le_bytes());
+                }
+            }
+            FaceCodec::Glb => {
+                for (k, i) in t.into_iter().enumerate() {
+                    b[4 * k..4 * k + 4].copy_from_slice(&i.to_le_bytes());
+                }
+            }
+        }
+    }
+
+    /// Appends the triangles' bytes to `buf`.
+    fn encode(self, tris: &[[u32; 3]], buf: &mut Vec<u8>) {
+        let size = self.size();
+        for &t in tris {
+            let mut b = [0u8; 13];
+            self.put(t, &mut b[..size]);
+            buf.extend_from_slice(&b[..size]);
+        }
+    }
+}
+
+/// Most bytes [`put_each`] encodes per item.
+const MAX_ITEM: usize = 64;
+
+/// Writes `size` bytes per item (at most [`MAX_ITEM`]), encoded by `enc` straight into
+/// the writer's blocks (an item across two blocks goes through a copy).
+fn put_each<T>(
+    w: &mut PipedWriter,
+    items: &[T],
+    size: usize,
+    mut enc: impl FnMut(&T, &mut [u8]),
+) -> io::Result<()> {
+    let mut i = 0;
+    while i < items.len() {
+        let spare = w.spare()?;
+        let fit = spare.len() / size;
+        let k = fit.min(items.len() - i);
+        for (item, b) in items[i..i + k].iter().zip(spare.chunks_exact_mut(size)) {
+            enc(item, b);
+        }
+        w.commit(k * size);
+        i += k;
+        if i < items.len() && k == fit {
+            let mut b = [0u8; MAX_ITEM];
+            enc(&items[i], &mut b[..size]);
+            w.write_all(&b[..size])?;
+            i += 1;
+        }
+    }
+    Ok(())
 }
 
 /// Writes bytes `skip..skip + take` of the face section (every patch's triangles, record
-/// ids, in order, each patch encoded by `encode`) to `w`, counting finished patches in
-/// `done`; stops early (Ok) once `cancel` is set.
+/// ids, in order, encoded by `codec`) to `w`, counting finished patches in `done`; stops
+/// early (Ok) once `cancel` is set.
 fn write_face_bytes(
     plan: &StitchPlan,
-    encode: &EncodeTriangles,
+    codec: FaceCodec,
     skip: u64,
     take: u64,
     w: &mut PipedWriter,
@@ -340,20 +432,33 @@ fn write_face_bytes(
 ) -> io::Result<()> {
     use std::sync::atomic::Ordering::Relaxed;
     let grid = grid_triangles(plan.level);
-    let mut scratch = (Vec::new(), Vec::new());
-    let (mut tris, mut bytes) = (Vec::new(), Vec::new());
+    let (mut rec, mut pos) = (Vec::new(), Vec::new());
+    let (mut local, mut bytes) = (Vec::new(), Vec::new());
+    let size = codec.size() as u64;
     let end = skip.saturating_add(take);
     let mut at = 0u64;
     for p in 0..plan.patches() {
         if at >= end || cancel.load(Relaxed) {
             break;
         }
-        tris.clear();
-        plan.patch_triangles(p, &grid, &mut scratch, &mut tris);
-        bytes.clear();
-        encode(&tris, &mut bytes);
-        let next = at + bytes.len() as u64;
-        if next > skip {
+        plan.local_ids(p, &mut rec, &mut pos);
+        let tris: &[[u32; 3]] = if plan.is_uniform() {
+            &grid
+        } else {
+            local.clear();
+            plan.patch_local_triangles(p, &mut local);
+            &local
+        };
+        let next = at + tris.len() as u64 * size;
+        if at >= skip && next <= end {
+            // The whole patch, straight into the blocks.
+            put_each(w, tris, size as usize, |t, b| {
+                codec.put(t.map(|i| rec[i as usize]), b)
+            })?;
+        } else if next > skip {
+            let ids: Vec<[u32; 3]> = tris.iter().map(|t| t.map(|i| rec[i as usize])).collect();
+            bytes.clear();
+            codec.encode(&ids, &mut bytes);
             let from = skip.saturating_sub(at) as usize;
             let to = (end.min(next) - at) as usize;
             w.write_all(&bytes[from..to])?;
@@ -439,17 +544,14 @@ fn all_finite<V: Vector>(values: impl Iterator<Item = V>, obj: bool) -> bool {
     }
 }
 
-/// Appends the bytes of one patch's triangles (record ids) to a buffer.
-type EncodeTriangles = dyn Fn(&[[u32; 3]], &mut Vec<u8>) + Sync;
-
-/// Writes every patch's triangles (record ids), in order, each patch encoded by `encode`;
+/// Writes every patch's triangles (record ids), in order, each patch encoded by `codec`;
 /// batches of patches are encoded in parallel (rayon), then written in order. Reports the
 /// phase "writing faces" to `progress`.
 fn write_triangles(
     plan: &StitchPlan,
     progress: &dyn Progress,
     w: &mut PipedWriter,
-    encode: &EncodeTriangles,
+    codec: FaceCodec,
 ) -> io::Result<()> {
     let batch = face_batch(plan.level);
     struct Slot {
@@ -477,7 +579,7 @@ fn write_triangles(
                 slot.tris.clear();
                 plan.patch_triangles(start + j, &grid, &mut slot.scratch, &mut slot.tris);
                 slot.bytes.clear();
-                encode(&slot.tris, &mut slot.bytes);
+                codec.encode(&slot.tris, &mut slot.bytes);
             });
         for slot in &slots[..len] {
             w.write_all(&slot.bytes)?;
@@ -566,7 +668,7 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         )
     }
 
-    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<bool> {
         use std::fmt::Write as _;
         let t = &mut self.text;
         t.clear();
@@ -624,7 +726,7 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
                 r[2] + 1
             );
         }
-        w.write_all(t.as_bytes())
+        w.write_all(t.as_bytes()).map(|_| true)
     }
 
     fn finish(&mut self, _: &mut PipedWriter, _: &dyn Progress) -> io::Result<()> {
@@ -687,51 +789,42 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
         w.write_all(ply_header(self.plan, self.title).as_bytes())
     }
 
-    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
-        self.buf.clear();
-        if self.plan.has_attributes() {
-            for (r, a) in out.new_records.iter().zip(out.new_attributes) {
-                push_record(&mut self.buf, r.position, r.normal);
-                push_attributes(&mut self.buf, self.plan, a, true);
-            }
-        } else {
-            for r in out.new_records {
-                push_record(&mut self.buf, r.position, r.normal);
-            }
+    fn checks_finite(&self) -> bool {
+        !self.plan.has_attributes()
+    }
+
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<bool> {
+        if !self.plan.has_attributes() {
+            // Straight into the file's blocks, checking as it goes.
+            let mut finite = true;
+            put_each(w, out.new_records, 24, |r, b| {
+                let (p, n) = (r.position.to_f32(), r.normal.to_f32());
+                for k in 0..3 {
+                    b[4 * k..4 * k + 4].copy_from_slice(&p[k].to_le_bytes());
+                    b[12 + 4 * k..16 + 4 * k].copy_from_slice(&n[k].to_le_bytes());
+                }
+                finite &= p.iter().chain(&n).fold(true, |ok, x| ok & x.is_finite());
+            })?;
+            return Ok(finite);
         }
-        w.write_all(&self.buf)
+        self.buf.clear();
+        for (r, a) in out.new_records.iter().zip(out.new_attributes) {
+            push_record(&mut self.buf, r.position, r.normal);
+            push_attributes(&mut self.buf, self.plan, a, true);
+        }
+        w.write_all(&self.buf).map(|_| true)
     }
 
     fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()> {
-        write_triangles(self.plan, progress, w, &encode_ply)
+        write_triangles(self.plan, progress, w, FaceCodec::Ply)
     }
 
-    fn face_section(&self) -> Option<(u64, &'static EncodeTriangles)> {
+    fn face_section(&self) -> Option<(u64, FaceCodec)> {
         let vertices = self.plan.records as u64 * (24 + attribute_bytes(self.plan, true) as u64);
         Some((
             ply_header(self.plan, self.title).len() as u64 + vertices,
-            &encode_ply,
+            FaceCodec::Ply,
         ))
-    }
-}
-
-/// PLY's triangles: a count byte (3), then three little-endian i32 record ids.
-fn encode_ply(tris: &[[u32; 3]], buf: &mut Vec<u8>) {
-    for t in tris {
-        let mut b = [3u8; 13];
-        for (k, &i) in t.iter().enumerate() {
-            b[1 + 4 * k..5 + 4 * k].copy_from_slice(&(i as i32).to_le_bytes());
-        }
-        buf.extend_from_slice(&b);
-    }
-}
-
-/// glTF's triangles: three little-endian u32 record ids.
-fn encode_glb(tris: &[[u32; 3]], buf: &mut Vec<u8>) {
-    for t in tris {
-        for i in t {
-            buf.extend_from_slice(&i.to_le_bytes());
-        }
     }
 }
 
@@ -756,7 +849,7 @@ impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
         w.write_all(&(self.plan.triangles as u32).to_le_bytes())
     }
 
-    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<bool> {
         self.buf.clear();
         for t in out.grid_triangles {
             let p = t.map(|i| out.grid_positions[i as usize]);
@@ -769,7 +862,7 @@ impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
             }
             self.buf.extend_from_slice(&[0, 0]);
         }
-        w.write_all(&self.buf)
+        w.write_all(&self.buf).map(|_| true)
     }
 
     fn finish(&mut self, _: &mut PipedWriter, _: &dyn Progress) -> io::Result<()> {
@@ -891,7 +984,7 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         w.write_all(b"BIN\0")
     }
 
-    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<bool> {
         self.buf.clear();
         for (j, r) in out.new_records.iter().enumerate() {
             let p = r.position.to_f32();
@@ -904,19 +997,19 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
                 push_attributes(&mut self.buf, self.plan, a, false);
             }
         }
-        w.write_all(&self.buf)
+        w.write_all(&self.buf).map(|_| true)
     }
 
     fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()> {
-        write_triangles(self.plan, progress, w, &encode_glb)?;
+        write_triangles(self.plan, progress, w, FaceCodec::Glb)?;
         FormatWriter::<V>::after_faces(self, w)
     }
 
-    fn face_section(&self) -> Option<(u64, &'static EncodeTriangles)> {
+    fn face_section(&self) -> Option<(u64, FaceCodec)> {
         let layout = glb_layout(self.plan, self.title);
         Some((
             12 + 8 + layout.json_bytes + 8 + layout.vertex_bytes,
-            &encode_glb,
+            FaceCodec::Glb,
         ))
     }
 
