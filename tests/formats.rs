@@ -11,7 +11,7 @@ use glam::DVec3;
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::eval::Vector;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::writers::{write_stitched, MeshFormat};
+use g1tess::output::writers::{ply_file_bytes, write_stitched, MeshFormat};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::progress::NoProgress;
 use g1tess::tess::stitch::{
@@ -241,11 +241,34 @@ fn read_ply(path: &Path) -> (Vec<[f32; 6]>, Vec<[i32; 3]>) {
     (verts, faces)
 }
 
+/// Meshes and levels whose face section is over 1 MiB in PLY and glTF: the writer puts
+/// it in place from a thread of its own while the vertices stream (on a file; the split
+/// point is the first page boundary in the section, so the stream writes the section's
+/// first bytes). The bunny at level 2 has 52 bytes of PLY faces per patch, so that split
+/// point lies many patches in.
+fn large_cases() -> Vec<(Mesh, u32)> {
+    vec![
+        (
+            Mesh::load("sphere320", &LoadOptions::default()).unwrap(),
+            20,
+        ),
+        (
+            Mesh::load("tests/data/stanford-bunny.obj", &LoadOptions::default()).unwrap(),
+            2,
+        ),
+    ]
+}
+
 #[test]
 fn ply_reads_back() {
-    for mesh in meshes() {
-        let path = dir().join(format!("{}.ply", mesh.name));
-        let (w, plan) = write(&mesh, 5, &path);
+    let cases = meshes().into_iter().map(|m| (m, 5)).chain(large_cases());
+    for (mesh, level) in cases {
+        let path = dir().join(format!("{}-{level}.ply", mesh.name));
+        let (w, plan) = write(&mesh, level, &path);
+        assert_eq!(
+            std::fs::metadata(&path).unwrap().len(),
+            ply_file_bytes(&plan, "test")
+        );
         let (verts, faces) = read_ply(&path);
         assert_eq!(verts.len(), plan.records);
         for (r, v) in verts.iter().enumerate() {
@@ -287,9 +310,10 @@ fn stl_reads_back() {
 
 #[test]
 fn glb_reads_back() {
-    for mesh in meshes() {
-        let path = dir().join(format!("{}.glb", mesh.name));
-        let (w, plan) = write(&mesh, 4, &path);
+    let cases = meshes().into_iter().map(|m| (m, 4)).chain(large_cases());
+    for (mesh, level) in cases {
+        let path = dir().join(format!("{}-{level}.glb", mesh.name));
+        let (w, plan) = write(&mesh, level, &path);
         // The gltf crate parses the container and the JSON; its one buffer is the GLB's
         // binary chunk.
         let glb = gltf::Gltf::from_slice(&std::fs::read(&path).unwrap()).unwrap();
@@ -354,10 +378,19 @@ fn glb_reads_back() {
 fn failed_write_leaves_target_untouched() {
     let mesh = Mesh::load("sphere320", &LoadOptions::default()).unwrap();
     let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
-    let plan = StitchPlan::new(&mesh, &mesh.adjacency(), 3).unwrap();
     let d = dir().join("atomic");
     std::fs::create_dir_all(&d).unwrap();
-    for ext in ["obj", "ply", "stl", "glb"] {
+    // Level 20: PLY and glTF write their faces from a thread of their own (see
+    // `large_cases`), which must stop too.
+    for (level, ext) in [
+        (3, "obj"),
+        (3, "ply"),
+        (3, "stl"),
+        (3, "glb"),
+        (20, "ply"),
+        (20, "glb"),
+    ] {
+        let plan = StitchPlan::new(&mesh, &mesh.adjacency(), level).unwrap();
         let path = d.join(format!("keep.{ext}"));
         std::fs::write(&path, b"previous").unwrap();
         let format = MeshFormat::from_path(&path).unwrap();

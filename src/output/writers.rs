@@ -25,18 +25,25 @@
 //! after the normal. STL has none. A mesh without them is written as before.
 //!
 //! PLY and glTF list every vertex before any triangle: their triangles are regenerated
-//! from the plan (topology only) after the vertices are written.
+//! from the plan (topology only), not kept from the stitcher.
 //!
-//! Files go to the temporary file in blocks of 512 KiB written by a thread of their own
-//! ([`PipedWriter`]): the thread that evaluates, stitches and encodes never waits for the
-//! copy into the page cache. Progress is reported through [`Progress`], never drawn here.
+//! Files go to the temporary file in blocks written by a thread of their own
+//! ([`PipedWriter`], with direct I/O where the file system suits it): the thread that
+//! evaluates, stitches and encodes never waits for the write. PLY and glTF files also put
+//! their triangles in place while the vertices stream: the face section's offset is known
+//! from the plan, so a thread of its own encodes the faces patch by patch into a second
+//! writer of the same file from the first page boundary in the section on
+//! ([`PipedWriter::split_at`]); the stream writes the section's bytes before that
+//! boundary. On standard output, and for face sections under 1 MiB, the faces follow the
+//! vertices in the stream, encoded per batch in parallel. Progress is reported through
+//! [`Progress`], never drawn here.
 
 use std::io::{self, Write};
 use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::atomic::{write_atomic_piped, PipedWriter};
+use super::atomic::{write_atomic_piped, PipedWriter, PIPED_BYTES};
 use crate::eval::{grid_len, grid_triangles, Vector};
 use crate::progress::Progress;
 use crate::tess::stitch::{Needs, PatchOut, RecordAttributes, StitchPlan, StitchSink};
@@ -105,20 +112,23 @@ impl MeshFormat {
     }
 
     /// Bytes the writer holds at `level` besides the stitcher's output, as (while the
-    /// patches stream in, afterwards): the file buffer, OBJ's text (flushed every
-    /// [`TEXT_FLUSH`] bytes), STL's facets of one patch; then the faces PLY and glTF encode
-    /// per batch ([`face_batch`]) once every vertex is written.
+    /// patches stream in, afterwards): the file's blocks ([`PIPED_BYTES`]), OBJ's text
+    /// (flushed every [`TEXT_FLUSH`] bytes), STL's facets of one patch; PLY and glTF also
+    /// write their faces while the vertices stream (a second writer's blocks and one
+    /// patch's triangles), or, where that writer cannot be had (standard output), encode
+    /// them per batch ([`face_batch`]) once every vertex is written.
     pub fn buffer_bytes(self, level: u32, patches: usize) -> (u64, u64) {
         let n2 = level as u64 * level as u64;
-        let file_buffer = 1u64 << 20;
+        let file_buffer = PIPED_BYTES;
         match self {
             MeshFormat::Obj => (file_buffer + 2 * TEXT_FLUSH as u64, 0),
             MeshFormat::Stl => (file_buffer + n2 * 50, 0),
             MeshFormat::Ply | MeshFormat::Glb => {
+                // Per patch: grid triangles, triangles, encoded bytes, local ids.
+                let patch = n2 * (12 + 12 + 13) + grid_len(level) as u64 * 8;
                 let batch = face_batch(level).min(patches.max(1)) as u64;
-                // Grid triangles, then per slot: triangles, encoded bytes, local ids.
                 let faces = n2 * 12 + batch * (n2 * (12 + 13) + grid_len(level) as u64 * 8);
-                (file_buffer, file_buffer + faces)
+                (2 * file_buffer + patch, file_buffer + faces)
             }
         }
     }
@@ -151,8 +161,25 @@ trait FormatWriter<V> {
     /// What the format reads of each patch.
     fn needs(&self) -> Needs;
     fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()>;
-    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()>;
+    /// Writes a patch; false when a value it wrote is not finite as written (only a
+    /// writer that [`FormatWriter::checks_finite`] says so; the others give true).
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<bool>;
     fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()>;
+    /// Whether the writer checks [`check_finite`]'s rule itself as it encodes (else the
+    /// patch is checked before it is written).
+    fn checks_finite(&self) -> bool {
+        false
+    }
+    /// Where the triangles go when their place is known before the vertices are written:
+    /// the offset of the face section and their encoding (PLY, glTF).
+    fn face_section(&self) -> Option<(u64, FaceCodec)> {
+        None
+    }
+    /// What follows the triangles when [`FormatWriter::face_section`] wrote them (instead
+    /// of [`FormatWriter::finish`]).
+    fn after_faces(&mut self, _: &mut PipedWriter) -> io::Result<()> {
+        Ok(())
+    }
 }
 
 /// Writes the stitched output of `plan` to `path` in `format`, atomically, from samples of
@@ -214,20 +241,232 @@ pub fn write_stitched<V: Vector>(
                 self.writer.needs()
             }
             fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()> {
-                check_finite(self.format, self.path, out)?;
-                self.writer
+                let checks = self.writer.checks_finite();
+                if !checks {
+                    check_finite(self.format, self.path, out)?;
+                }
+                let finite = self
+                    .writer
                     .patch(self.w, out)
-                    .map_err(|e| Error::io(self.path, e))
+                    .map_err(|e| Error::io(self.path, e))?;
+                if !finite {
+                    // The same rule names the value.
+                    check_finite(self.format, self.path, out)?;
+                    return Err(Error::Invalid(format!(
+                        "{}: patch {} has a non-finite value",
+                        self.path.display(),
+                        out.patch
+                    )));
+                }
+                Ok(())
             }
         }
-        produce(&mut Adapter {
-            writer: writer.as_mut(),
-            w,
-            path,
-            format,
-        })?;
-        writer.finish(w, progress).map_err(io)
+        let faces = writer.face_section().and_then(|(offset, encode)| {
+            let bytes = plan.triangles as u64 * encode.size() as u64;
+            // The split writer starts at the first page boundary in the face section; the
+            // stream writes the section's bytes before it.
+            let split = offset.next_multiple_of(SPLIT_ALIGN);
+            (bytes >= SPLIT_MIN_BYTES && split < offset + bytes)
+                .then(|| w.split_at(split))
+                .flatten()
+                .map(|side| (offset, split, encode, side))
+        });
+        let Some((offset, split, encode, mut side)) = faces else {
+            produce(&mut Adapter {
+                writer: writer.as_mut(),
+                w,
+                path,
+                format,
+            })?;
+            return writer.finish(w, progress).map_err(io);
+        };
+        // The faces go from a thread of their own, at their place in the file, while the
+        // vertices stream.
+        let cancel = std::sync::atomic::AtomicBool::new(false);
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        std::thread::scope(|scope| -> Result<()> {
+            /// Stops the face thread however the vertices end (an error, a panic).
+            struct Cancel<'c>(&'c std::sync::atomic::AtomicBool);
+            impl Drop for Cancel<'_> {
+                fn drop(&mut self) {
+                    self.0.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
+            }
+            let (cancel, done) = (&cancel, &done);
+            let thread = std::thread::Builder::new()
+                .name("g1tess-faces".into())
+                .spawn_scoped(scope, move || -> io::Result<(u64, Vec<u8>)> {
+                    let skip = split - offset;
+                    write_face_bytes(plan, encode, skip, u64::MAX, &mut side, cancel, done)?;
+                    side.finish_at()
+                })
+                .map_err(io)?;
+            let guard = Cancel(cancel);
+            produce(&mut Adapter {
+                writer: writer.as_mut(),
+                w,
+                path,
+                format,
+            })?;
+            let no = std::sync::atomic::AtomicUsize::new(0);
+            let never = std::sync::atomic::AtomicBool::new(false);
+            write_face_bytes(plan, encode, 0, split - offset, w, &never, &no).map_err(io)?;
+            progress.start("writing faces", plan.patches() as u64);
+            let mut shown = 0;
+            while !thread.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+                let now = done.load(std::sync::atomic::Ordering::Relaxed);
+                progress.inc((now - shown) as u64);
+                shown = now;
+            }
+            let (at, rest) = thread
+                .join()
+                .map_err(|_| {
+                    Error::Invalid(format!("{}: the face thread stopped", path.display()))
+                })?
+                .map_err(io)?;
+            progress.inc((plan.patches() - shown) as u64);
+            drop(guard);
+            w.write_at_end(at, rest);
+            writer.after_faces(w).map_err(io)
+        })
     })
+}
+
+/// The face section goes to a second writer ([`PipedWriter::split_at`]) from this page
+/// boundary in it on.
+const SPLIT_ALIGN: u64 = 4096;
+
+/// Face sections smaller than this are written after the vertices, in the stream.
+const SPLIT_MIN_BYTES: u64 = 1 << 20;
+
+/// The encoding of a face section's triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum FaceCodec {
+    /// A count byte (3), then three little-endian i32 record ids.
+    Ply,
+    /// Three little-endian u32 record ids.
+    Glb,
+}
+
+impl FaceCodec {
+    /// Bytes of one triangle.
+    fn size(self) -> usize {
+        match self {
+            FaceCodec::Ply => 13,
+            FaceCodec::Glb => 12,
+        }
+    }
+
+    /// Encodes a triangle into `b` ([`FaceCodec::size`] bytes).
+    #[inline]
+    fn put(self, t: [u32; 3], b: &mut [u8]) {
+        match self {
+            FaceCodec::Ply => {
+                b[0] = 3;
+                for (k, i) in t.into_iter().enumerate() {
+                    b[1 + 4 * k..5 + 4 * k].copy_from_slice(&(i as i32).to_le_bytes());
+                }
+            }
+            FaceCodec::Glb => {
+                for (k, i) in t.into_iter().enumerate() {
+                    b[4 * k..4 * k + 4].copy_from_slice(&i.to_le_bytes());
+                }
+            }
+        }
+    }
+
+    /// Appends the triangles' bytes to `buf`.
+    fn encode(self, tris: &[[u32; 3]], buf: &mut Vec<u8>) {
+        let size = self.size();
+        for &t in tris {
+            let mut b = [0u8; 13];
+            self.put(t, &mut b[..size]);
+            buf.extend_from_slice(&b[..size]);
+        }
+    }
+}
+
+/// Most bytes [`put_each`] encodes per item.
+const MAX_ITEM: usize = 64;
+
+/// Writes `size` bytes per item (at most [`MAX_ITEM`]), encoded by `enc` straight into
+/// the writer's blocks (an item across two blocks goes through a copy).
+fn put_each<T>(
+    w: &mut PipedWriter,
+    items: &[T],
+    size: usize,
+    mut enc: impl FnMut(&T, &mut [u8]),
+) -> io::Result<()> {
+    let mut i = 0;
+    while i < items.len() {
+        let spare = w.spare()?;
+        let fit = spare.len() / size;
+        let k = fit.min(items.len() - i);
+        for (item, b) in items[i..i + k].iter().zip(spare.chunks_exact_mut(size)) {
+            enc(item, b);
+        }
+        w.commit(k * size);
+        i += k;
+        if i < items.len() && k == fit {
+            let mut b = [0u8; MAX_ITEM];
+            enc(&items[i], &mut b[..size]);
+            w.write_all(&b[..size])?;
+            i += 1;
+        }
+    }
+    Ok(())
+}
+
+/// Writes bytes `skip..skip + take` of the face section (every patch's triangles, record
+/// ids, in order, encoded by `codec`) to `w`, counting finished patches in `done`; stops
+/// early (Ok) once `cancel` is set.
+fn write_face_bytes(
+    plan: &StitchPlan,
+    codec: FaceCodec,
+    skip: u64,
+    take: u64,
+    w: &mut PipedWriter,
+    cancel: &std::sync::atomic::AtomicBool,
+    done: &std::sync::atomic::AtomicUsize,
+) -> io::Result<()> {
+    use std::sync::atomic::Ordering::Relaxed;
+    let grid = grid_triangles(plan.level);
+    let (mut rec, mut pos) = (Vec::new(), Vec::new());
+    let (mut local, mut bytes) = (Vec::new(), Vec::new());
+    let size = codec.size() as u64;
+    let end = skip.saturating_add(take);
+    let mut at = 0u64;
+    for p in 0..plan.patches() {
+        if at >= end || cancel.load(Relaxed) {
+            break;
+        }
+        plan.local_ids(p, &mut rec, &mut pos);
+        let tris: &[[u32; 3]] = if plan.is_uniform() {
+            &grid
+        } else {
+            local.clear();
+            plan.patch_local_triangles(p, &mut local);
+            &local
+        };
+        let next = at + tris.len() as u64 * size;
+        if at >= skip && next <= end {
+            // The whole patch, straight into the blocks.
+            put_each(w, tris, size as usize, |t, b| {
+                codec.put(t.map(|i| rec[i as usize]), b)
+            })?;
+        } else if next > skip {
+            let ids: Vec<[u32; 3]> = tris.iter().map(|t| t.map(|i| rec[i as usize])).collect();
+            bytes.clear();
+            codec.encode(&ids, &mut bytes);
+            let from = skip.saturating_sub(at) as usize;
+            let to = (end.min(next) - at) as usize;
+            w.write_all(&bytes[from..to])?;
+        }
+        at = next;
+        done.store(p + 1, Relaxed);
+    }
+    Ok(())
 }
 
 /// Bytes of OBJ text held before they go to the file.
@@ -305,17 +544,14 @@ fn all_finite<V: Vector>(values: impl Iterator<Item = V>, obj: bool) -> bool {
     }
 }
 
-/// Appends the bytes of one patch's triangles (record ids) to a buffer.
-type EncodeTriangles = dyn Fn(&[[u32; 3]], &mut Vec<u8>) + Sync;
-
-/// Writes every patch's triangles (record ids), in order, each patch encoded by `encode`;
+/// Writes every patch's triangles (record ids), in order, each patch encoded by `codec`;
 /// batches of patches are encoded in parallel (rayon), then written in order. Reports the
 /// phase "writing faces" to `progress`.
 fn write_triangles(
     plan: &StitchPlan,
     progress: &dyn Progress,
     w: &mut PipedWriter,
-    encode: &EncodeTriangles,
+    codec: FaceCodec,
 ) -> io::Result<()> {
     let batch = face_batch(plan.level);
     struct Slot {
@@ -343,7 +579,7 @@ fn write_triangles(
                 slot.tris.clear();
                 plan.patch_triangles(start + j, &grid, &mut slot.scratch, &mut slot.tris);
                 slot.bytes.clear();
-                encode(&slot.tris, &mut slot.bytes);
+                codec.encode(&slot.tris, &mut slot.bytes);
             });
         for slot in &slots[..len] {
             w.write_all(&slot.bytes)?;
@@ -432,7 +668,7 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         )
     }
 
-    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<bool> {
         use std::fmt::Write as _;
         let t = &mut self.text;
         t.clear();
@@ -490,12 +726,52 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
                 r[2] + 1
             );
         }
-        w.write_all(t.as_bytes())
+        w.write_all(t.as_bytes()).map(|_| true)
     }
 
     fn finish(&mut self, _: &mut PipedWriter, _: &dyn Progress) -> io::Result<()> {
         Ok(())
     }
+}
+
+/// The header of a binary PLY file of `plan` (ASCII lines; `title` in the comment, other
+/// characters than printable ASCII and space replaced by `?`).
+fn ply_header(plan: &StitchPlan, title: &str) -> String {
+    let title: String = title
+        .chars()
+        .map(|c| {
+            if c.is_ascii_graphic() || c == ' ' {
+                c
+            } else {
+                '?'
+            }
+        })
+        .collect();
+    let mut extra = String::new();
+    if plan.has_uvs() {
+        extra.push_str("property float s\nproperty float t\n");
+    }
+    if plan.has_colors() {
+        extra.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
+        if plan.colors_have_alpha() {
+            extra.push_str("property uchar alpha\n");
+        }
+    }
+    format!(
+        "ply\nformat binary_little_endian 1.0\ncomment {title}\n\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\n{extra}\
+         element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        plan.records, plan.triangles
+    )
+}
+
+/// Bytes of the binary PLY file [`write_stitched`] writes for `plan` with `title`: the
+/// header, a record per vertex (six f32, then the attributes), 13 bytes per triangle.
+pub fn ply_file_bytes(plan: &StitchPlan, title: &str) -> u64 {
+    ply_header(plan, title).len() as u64
+        + plan.records as u64 * (24 + attribute_bytes(plan, true) as u64)
+        + plan.triangles as u64 * 13
 }
 
 struct PlyWriter<'a> {
@@ -510,63 +786,45 @@ impl<V: Vector> FormatWriter<V> for PlyWriter<'_> {
     }
 
     fn begin(&mut self, w: &mut PipedWriter) -> io::Result<()> {
-        // PLY headers are ASCII lines.
-        let title: String = self
-            .title
-            .chars()
-            .map(|c| {
-                if c.is_ascii_graphic() || c == ' ' {
-                    c
-                } else {
-                    '?'
-                }
-            })
-            .collect();
-        let mut extra = String::new();
-        if self.plan.has_uvs() {
-            extra.push_str("property float s\nproperty float t\n");
-        }
-        if self.plan.has_colors() {
-            extra.push_str("property uchar red\nproperty uchar green\nproperty uchar blue\n");
-            if self.plan.colors_have_alpha() {
-                extra.push_str("property uchar alpha\n");
-            }
-        }
-        write!(
-            w,
-            "ply\nformat binary_little_endian 1.0\ncomment {title}\n\
-             element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-             property float nx\nproperty float ny\nproperty float nz\n{extra}\
-             element face {}\nproperty list uchar int vertex_indices\nend_header\n",
-            self.plan.records, self.plan.triangles
-        )
+        w.write_all(ply_header(self.plan, self.title).as_bytes())
     }
 
-    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
-        self.buf.clear();
-        if self.plan.has_attributes() {
-            for (r, a) in out.new_records.iter().zip(out.new_attributes) {
-                push_record(&mut self.buf, r.position, r.normal);
-                push_attributes(&mut self.buf, self.plan, a, true);
-            }
-        } else {
-            for r in out.new_records {
-                push_record(&mut self.buf, r.position, r.normal);
-            }
+    fn checks_finite(&self) -> bool {
+        !self.plan.has_attributes()
+    }
+
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<bool> {
+        if !self.plan.has_attributes() {
+            // Straight into the file's blocks, checking as it goes.
+            let mut finite = true;
+            put_each(w, out.new_records, 24, |r, b| {
+                let (p, n) = (r.position.to_f32(), r.normal.to_f32());
+                for k in 0..3 {
+                    b[4 * k..4 * k + 4].copy_from_slice(&p[k].to_le_bytes());
+                    b[12 + 4 * k..16 + 4 * k].copy_from_slice(&n[k].to_le_bytes());
+                }
+                finite &= p.iter().chain(&n).fold(true, |ok, x| ok & x.is_finite());
+            })?;
+            return Ok(finite);
         }
-        w.write_all(&self.buf)
+        self.buf.clear();
+        for (r, a) in out.new_records.iter().zip(out.new_attributes) {
+            push_record(&mut self.buf, r.position, r.normal);
+            push_attributes(&mut self.buf, self.plan, a, true);
+        }
+        w.write_all(&self.buf).map(|_| true)
     }
 
     fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()> {
-        write_triangles(self.plan, progress, w, &|tris, buf| {
-            for t in tris {
-                let mut b = [3u8; 13];
-                for (k, &i) in t.iter().enumerate() {
-                    b[1 + 4 * k..5 + 4 * k].copy_from_slice(&(i as i32).to_le_bytes());
-                }
-                buf.extend_from_slice(&b);
-            }
-        })
+        write_triangles(self.plan, progress, w, FaceCodec::Ply)
+    }
+
+    fn face_section(&self) -> Option<(u64, FaceCodec)> {
+        let vertices = self.plan.records as u64 * (24 + attribute_bytes(self.plan, true) as u64);
+        Some((
+            ply_header(self.plan, self.title).len() as u64 + vertices,
+            FaceCodec::Ply,
+        ))
     }
 }
 
@@ -591,7 +849,7 @@ impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
         w.write_all(&(self.plan.triangles as u32).to_le_bytes())
     }
 
-    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<bool> {
         self.buf.clear();
         for t in out.grid_triangles {
             let p = t.map(|i| out.grid_positions[i as usize]);
@@ -604,7 +862,7 @@ impl<V: Vector> FormatWriter<V> for StlWriter<'_> {
             }
             self.buf.extend_from_slice(&[0, 0]);
         }
-        w.write_all(&self.buf)
+        w.write_all(&self.buf).map(|_| true)
     }
 
     fn finish(&mut self, _: &mut PipedWriter, _: &dyn Progress) -> io::Result<()> {
@@ -726,7 +984,7 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         w.write_all(b"BIN\0")
     }
 
-    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<()> {
+    fn patch(&mut self, w: &mut PipedWriter, out: &PatchOut<'_, V>) -> io::Result<bool> {
         self.buf.clear();
         for (j, r) in out.new_records.iter().enumerate() {
             let p = r.position.to_f32();
@@ -739,17 +997,23 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
                 push_attributes(&mut self.buf, self.plan, a, false);
             }
         }
-        w.write_all(&self.buf)
+        w.write_all(&self.buf).map(|_| true)
     }
 
     fn finish(&mut self, w: &mut PipedWriter, progress: &dyn Progress) -> io::Result<()> {
-        write_triangles(self.plan, progress, w, &|tris, buf| {
-            for t in tris {
-                for i in t {
-                    buf.extend_from_slice(&i.to_le_bytes());
-                }
-            }
-        })?;
+        write_triangles(self.plan, progress, w, FaceCodec::Glb)?;
+        FormatWriter::<V>::after_faces(self, w)
+    }
+
+    fn face_section(&self) -> Option<(u64, FaceCodec)> {
+        let layout = glb_layout(self.plan, self.title);
+        Some((
+            12 + 8 + layout.json_bytes + 8 + layout.vertex_bytes,
+            FaceCodec::Glb,
+        ))
+    }
+
+    fn after_faces(&mut self, w: &mut PipedWriter) -> io::Result<()> {
         let json = glb_json(self.plan, self.title, self.min, self.max);
         if json.len() as u64 > glb_layout(self.plan, self.title).json_bytes {
             return Err(io::Error::other("glTF JSON outgrew its reserved chunk"));
