@@ -240,6 +240,7 @@ fn bench_end_to_end_rows_are_consistent() {
         "tessellate_memory",
         "tessellate_ply_file",
         "plain_write",
+        "piped_write",
         "load_obj",
         "count_words",
     ];
@@ -272,6 +273,7 @@ fn bench_end_to_end_rows_are_consistent() {
     assert!(bytes > body && bytes < body + 400, "{bytes} vs body {body}");
     let plain = row("plain_write");
     assert_eq!(plain["bytes"], bytes);
+    assert_eq!(row("piped_write")["bytes"], bytes);
     let ratio = file["ratio_to_baseline"].as_f64().unwrap();
     assert!(
         (ratio * plain["seconds"].as_f64().unwrap() / file["seconds"].as_f64().unwrap() - 1.0)

@@ -603,7 +603,7 @@ pub fn to_text(r: &BenchReport) -> String {
 #[derive(Clone, Debug, Serialize)]
 pub struct EndToEndRow {
     /// What was timed: "tessellate_memory", "tessellate_ply_file", "plain_write",
-    /// "load_obj", "count_words", "wc_w", "stats".
+    /// "piped_write", "load_obj", "count_words", "wc_w", "stats".
     pub step: String,
     /// How, in words.
     pub what: String,
@@ -618,8 +618,8 @@ pub struct EndToEndRow {
     pub bytes: Option<u64>,
     /// bytes / seconds / 10^6.
     pub mb_per_s: Option<f64>,
-    /// seconds / the baseline's seconds (tessellate_ply_file: plain_write; load_obj:
-    /// count_words).
+    /// seconds / the baseline's seconds (tessellate_ply_file and piped_write: plain_write;
+    /// load_obj: count_words).
     pub ratio_to_baseline: Option<f64>,
 }
 
@@ -670,6 +670,26 @@ fn plain_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
         left -= n as u64;
     }
     f.sync_all()?;
+    Ok(())
+}
+
+/// `bytes` bytes written as the mesh writers write them ([`write_atomic_piped`]: a writer
+/// thread, direct I/O where the file system suits it, temporary file, fsync, rename), in
+/// 1 MiB pieces of one buffer: what `tessellate_ply_file` would take if computing and
+/// encoding cost nothing.
+fn piped_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
+    use std::io::Write;
+    let block = vec![0x5au8; 1 << 20];
+    crate::output::atomic::write_atomic_piped(path, |w| {
+        let mut left = bytes;
+        while left > 0 {
+            let n = left.min(block.len() as u64) as usize;
+            w.write_all(&block[..n])
+                .map_err(|e| crate::Error::io(path, e))?;
+            left -= n as u64;
+        }
+        Ok(())
+    })?;
     Ok(())
 }
 
@@ -754,7 +774,9 @@ fn best_of(
 /// - `tessellate_memory`: f32 grid kernel → stitcher in f32 → a sink that keeps nothing
 ///   (best of 2);
 /// - `tessellate_ply_file`: the same into a binary PLY file (atomic write, fsync), beside
-///   `plain_write` of the same byte count (the two alternate, plain first, best of 2 each);
+///   `plain_write` of the same byte count and `piped_write` (the same bytes through the
+///   writers' own output path, nothing computed); the three alternate, plain first, best of
+///   2 each;
 /// - `load_obj`: `Mesh::load` of the mesh tessellated at `--stats-level` and written as
 ///   OBJ (f32 values), beside `count_words` (a buffered `wc -w` in Rust) and the real
 ///   `wc -w` where present (best of 2 each, the file in the page cache for all);
@@ -842,19 +864,27 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
         None,
     );
 
-    // The plain write and the PLY file alternate (plain, PLY, plain, PLY), best of 2 each:
+    // The plain write, the piped write and the PLY file alternate (plain, piped, PLY,
+    // plain, piped, PLY), best of 2 each:
     // the first large write after other work pays the page cache's reclaim, which a single
     // ordered pair would charge to whichever went first. Each file is removed after its
     // timing. The plain write has the PLY's size, known from the plan.
     say("plain writes alternating with tessellations into a binary PLY file");
     let bytes = ply_file_bytes(&plan, "bench");
     let (mut file, mut plain) = ((f64::INFINITY, None), (f64::INFINITY, None));
+    let mut piped = (f64::INFINITY, None);
     for _ in 0..2 {
         let plain_file = TempFile(dir.join(format!("{stamp}.plain")));
         let t = timed(|| plain_write(&plain_file.0, bytes))?;
         drop(plain_file);
         if t.0 < plain.0 {
             plain = t;
+        }
+        let piped_file = TempFile(dir.join(format!("{stamp}.piped")));
+        let t = timed(|| piped_write(&piped_file.0, bytes))?;
+        drop(piped_file);
+        if t.0 < piped.0 {
+            piped = t;
         }
         let ply = TempFile(dir.join(format!("{stamp}.ply")));
         let t = timed(|| {
@@ -880,7 +910,7 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
     }
     row(
         "tessellate_ply_file",
-        "tessellate into binary PLY on disk (atomic: temporary file, fsync, rename); best of 2, alternating with plain_write (plain, PLY, plain, PLY)".into(),
+        "tessellate into binary PLY on disk (atomic: temporary file, fsync, rename); best of 2, alternating with plain_write and piped_write (plain, piped, PLY, plain, piped, PLY)".into(),
         file,
         Some(samples),
         Some(bytes),
@@ -888,11 +918,19 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
     );
     row(
         "plain_write",
-        "the same byte count in 1 MiB blocks, fsync; best of 2, alternating with tessellate_ply_file".into(),
+        "the same byte count in 1 MiB blocks, fsync; best of 2, alternating with the others".into(),
         plain,
         None,
         Some(bytes),
         None,
+    );
+    row(
+        "piped_write",
+        "the same byte count through the writers' own output path (PipedWriter: direct I/O where the file system suits it, atomic), nothing computed: the floor of tessellate_ply_file; best of 2, alternating with the others".into(),
+        piped,
+        None,
+        Some(bytes),
+        Some(plain.0),
     );
 
     say(&format!("OBJ of {} at level {}", mesh.name, a.stats_level));
