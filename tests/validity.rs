@@ -332,16 +332,17 @@ fn nonmanifold_gap_value(mesh: &Mesh, table: &PatchTable) -> f64 {
         };
         for i in 0..=20 {
             let u = i as f64 / 20.0;
-            let p = at(list[0], u);
-            for &t in &list[1..] {
-                gap = gap.max((at(t, u) - p).length());
+            let p = at(list[0] / 3, u);
+            for &h in &list[1..] {
+                gap = gap.max((at(h / 3, u) - p).length());
             }
         }
     }
     gap
 }
 
-/// The triangles using each edge (lower vertex, higher vertex).
+/// The half-edges 3 t + k (corner k to corner k + 1 of triangle t) using each edge (lower
+/// vertex, higher vertex), in increasing order.
 fn edge_uses(mesh: &Mesh) -> std::collections::BTreeMap<(u32, u32), Vec<usize>> {
     let mut uses = std::collections::BTreeMap::new();
     for (t, tri) in mesh.triangles.iter().enumerate() {
@@ -349,7 +350,7 @@ fn edge_uses(mesh: &Mesh) -> std::collections::BTreeMap<(u32, u32), Vec<usize>> 
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
             uses.entry((a.min(b), a.max(b)))
                 .or_insert_with(Vec::new)
-                .push(t);
+                .push(3 * t + k);
         }
     }
     uses
@@ -420,16 +421,7 @@ fn corner_facts(mesh: &Mesh, fixed: &Mesh) -> (f64, Vec<u32>) {
 fn scaled_arms_are_shared(mesh: &Mesh, edges: usize, range: [f64; 2]) {
     let table = PatchTable::build(mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
     let scales = mesh.attributes.arm_scales.as_ref().expect("arm factors");
-    // The half-edges 3 t + k (corner k to corner k + 1 of triangle t) of each edge.
-    let mut uses = std::collections::BTreeMap::new();
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            uses.entry((a.min(b), a.max(b)))
-                .or_insert_with(Vec::new)
-                .push(3 * t + k);
-        }
-    }
+    let uses = edge_uses(mesh);
     let wm = |qa: DVec3, na: DVec3, qb: DVec3, nb: DVec3| {
         // Walton–Meek (1996) Theorem 2.1: the first arm V1 − V0.
         let e = qb - qa;
