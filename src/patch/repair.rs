@@ -660,6 +660,25 @@ impl Groups {
         &self.list[g as usize]
     }
 
+    /// The triangles with a corner in one of the groups `gs`, sorted, each once.
+    fn triangles(&self, gs: impl IntoIterator<Item = u32>) -> Vec<u32> {
+        let mut tris: Vec<u32> = gs
+            .into_iter()
+            .flat_map(|g| self.corners(g).iter().map(|&c| c / 3))
+            .collect();
+        tris.sort_unstable();
+        tris.dedup();
+        tris
+    }
+
+    /// The triangles around the vertices of `tri` (sorted, each once).
+    fn ring(&self, tri: [u32; 3]) -> Vec<u32> {
+        self.triangles(
+            tri.iter()
+                .flat_map(|&v| self.at_vertex[v as usize].iter().copied()),
+        )
+    }
+
     /// Moves the corners `b` of group `g` into a new group (a new crease at its vertex);
     /// returns the new group.
     fn split(&mut self, g: u32, b: &[u32]) -> u32 {
@@ -1544,12 +1563,7 @@ fn plan_with(
             if at.iter().any(|&g| groups.at_fin(g)) {
                 continue;
             }
-            let mut ring: Vec<u32> = at
-                .iter()
-                .flat_map(|&g| groups.corners(g).iter().map(|&c| c / 3))
-                .collect();
-            ring.sort_unstable();
-            ring.dedup();
+            let ring = groups.triangles(at.iter().copied());
             if ring.iter().any(|&r| verdicts[r as usize] != Verdict::Valid) {
                 continue;
             }
@@ -1606,12 +1620,7 @@ fn plan_with(
             .filter(|g| !in_cuts.contains(g) && !groups.frozen.contains(g) && !groups.at_fin(*g))
             .collect();
         gs.sort_unstable();
-        let mut tris: Vec<u32> = gs
-            .iter()
-            .flat_map(|&g| groups.corners(g).iter().map(|&c| c / 3))
-            .collect();
-        tris.sort_unstable();
-        tris.dedup();
+        let tris = groups.triangles(gs.iter().copied());
         for t in tris {
             let own: Vec<u32> = (0..3)
                 .map(|k| groups.of_corner[3 * t as usize + k])
@@ -2135,13 +2144,7 @@ fn split_fin(
         return Ok(None);
     }
     let tri = work.triangles[pair[0] as usize];
-    let mut ring: Vec<u32> = tri
-        .iter()
-        .flat_map(|&v| groups.at_vertex[v as usize].iter())
-        .flat_map(|&g| groups.corners(g).iter().map(|&c| c / 3))
-        .collect();
-    ring.sort_unstable();
-    ring.dedup();
+    let ring = groups.ring(tri);
     let old: Vec<[DVec3; 3]> = ring
         .iter()
         .map(|&t| work.corner_normals[t as usize])
@@ -2429,13 +2432,7 @@ fn flatten_cascade(
         for k in 0..3 {
             flatten_corner(work, groups, faces, ctx, 3 * t + k as u32, grid)?;
         }
-        let mut ring: Vec<u32> = tri
-            .iter()
-            .flat_map(|&v| groups.at_vertex[v as usize].iter())
-            .flat_map(|&g| groups.corners(g).iter().map(|&c| c / 3))
-            .collect();
-        ring.sort_unstable();
-        ring.dedup();
+        let ring = groups.ring(tri);
         let v = verdicts_of(work, scheme, opts, &ring, twins)?;
         for (i, &r) in ring.iter().enumerate() {
             verdicts[r as usize] = v[i];
