@@ -432,8 +432,8 @@ fn write_face_bytes(
 ) -> io::Result<()> {
     use std::sync::atomic::Ordering::Relaxed;
     let grid = grid_triangles(plan.level);
-    let (mut rec, mut pos) = (Vec::new(), Vec::new());
-    let (mut local, mut bytes) = (Vec::new(), Vec::new());
+    let mut scratch = (Vec::new(), Vec::new());
+    let (mut ids, mut bytes) = (Vec::new(), Vec::new());
     let size = codec.size() as u64;
     let end = skip.saturating_add(take);
     let mut at = 0u64;
@@ -441,22 +441,13 @@ fn write_face_bytes(
         if at >= end || cancel.load(Relaxed) {
             break;
         }
-        plan.local_ids(p, &mut rec, &mut pos);
-        let tris: &[[u32; 3]] = if plan.is_uniform() {
-            &grid
-        } else {
-            local.clear();
-            plan.patch_local_triangles(p, &mut local);
-            &local
-        };
-        let next = at + tris.len() as u64 * size;
+        ids.clear();
+        plan.patch_triangles(p, &grid, &mut scratch, &mut ids);
+        let next = at + ids.len() as u64 * size;
         if at >= skip && next <= end {
             // The whole patch, straight into the blocks.
-            put_each(w, tris, size as usize, |t, b| {
-                codec.put(t.map(|i| rec[i as usize]), b)
-            })?;
+            put_each(w, &ids, size as usize, |&t, b| codec.put(t, b))?;
         } else if next > skip {
-            let ids: Vec<[u32; 3]> = tris.iter().map(|t| t.map(|i| rec[i as usize])).collect();
             bytes.clear();
             codec.encode(&ids, &mut bytes);
             let from = skip.saturating_sub(at) as usize;
