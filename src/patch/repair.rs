@@ -1883,14 +1883,7 @@ fn arm_measure(
     let mut m = f64::INFINITY;
     for i in 0..table.len() {
         let nf = table.flat_normals[i];
-        let sj = |p: super::SurfacePoint| {
-            let scale = p.ds.length() * p.dt.length();
-            if scale > 0.0 {
-                p.ds.cross(p.dt).dot(nf) / scale
-            } else {
-                -1.0
-            }
-        };
+        let sj = |p: super::SurfacePoint| scaled_jacobian(&p, nf).2;
         for w in &grid.weights {
             m = m.min(sj(table.eval_weights(i, w)));
         }
@@ -1923,10 +1916,10 @@ fn all_certified(work: &Mesh, ctx: (Scheme, &SchemeOptions, &[u32]), tris: &[u32
 /// The arm step (G1, after the crease-free phase; see the module documentation): the
 /// patches `bad` are clustered (those whose edges' triangles overlap), and for each
 /// cluster the two arm factors of each interior edge of its patches (log scale, within
-/// [`ARM_RANGE`]) are searched: a pattern search from several starts maximising
-/// [`arm_measure`] over the triangles of those edges, its results certified in the order
-/// of their measure, the first that [`judge`] accepts on all of them made as small as it
-/// stays accepted (all factors' logarithms scaled by 0.1 up to 1, then each arm back to 1,
+/// [`ARM_RANGE`]) are searched: a pattern search from each start in turn maximising
+/// [`arm_measure`] over the triangles of those edges, the first result that is positive
+/// on the finer grid and that [`judge`] accepts on all of them made as small as it stays
+/// accepted (all factors' logarithms scaled by 0.1 up to 1, then each arm back to 1,
 /// largest first). Kept only where every cluster is certified: then `work` carries the
 /// factors ([`crate::mesh::CornerAttributes::arm_scales`]) and the triangles whose patch
 /// changed are returned; otherwise `work` is left as it was and `None` returned.
@@ -3009,11 +3002,7 @@ fn uncertified_upto(table: &RingTable, limit: usize) -> Option<usize> {
                 .fold((f64::INFINITY, false), |(m, sure), w| {
                     // `validity::jacobian` through the grid's weights (bitwise the same).
                     let p = table.eval_weights(i, w);
-                    let (j, scale) = (
-                        p.ds.cross(p.dt).dot(table.flat_normals[i]),
-                        p.ds.length() * p.dt.length(),
-                    );
-                    let sj = if scale > 0.0 { j / scale } else { -1.0 };
+                    let (j, scale, sj) = scaled_jacobian(&p, table.flat_normals[i]);
                     (m.min(sj), sure || j < -1e-9 * scale)
                 })
         })
@@ -3149,17 +3138,18 @@ fn badness(table: &PatchTable, grid: &Grid) -> f64 {
     for i in 0..table.len() {
         let nf = table.flat_normals[i];
         for w in &grid.weights {
-            let p = table.eval_weights(i, w);
-            let scale = p.ds.length() * p.dt.length();
-            let sj = if scale > 0.0 {
-                p.ds.cross(p.dt).dot(nf) / scale
-            } else {
-                -1.0
-            };
+            let (_, _, sj) = scaled_jacobian(&table.eval_weights(i, w), nf);
             sum += (MARGIN - sj).max(0.0);
         }
     }
     sum
+}
+
+/// J = (S_s × S_t) · n_f at `p` (as `validity::jacobian`), |S_s| |S_t|, and the scaled
+/// Jacobian J/(|S_s| |S_t|), −1 where S_s or S_t vanishes.
+fn scaled_jacobian(p: &super::SurfacePoint, nf: DVec3) -> (f64, f64, f64) {
+    let (j, scale) = (p.ds.cross(p.dt).dot(nf), p.ds.length() * p.dt.length());
+    (j, scale, if scale > 0.0 { j / scale } else { -1.0 })
 }
 
 /// Scaled Jacobian of the cubic Lagrange element ([`lagrange3_bound`]) that the
