@@ -923,10 +923,7 @@ fn plan_with(
                 ring.sort_unstable();
                 ring.dedup();
                 let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
-                for (i, &r) in ring.iter().enumerate() {
-                    verdicts[r as usize] = v[i];
-                    changed.insert(r);
-                }
+                record(&mut verdicts, &mut changed, &ring, &v);
                 touched.insert(g);
             }
         }
@@ -975,10 +972,7 @@ fn plan_with(
                     ring.sort_unstable();
                     ring.dedup();
                     let v = verdicts_of(&work, scheme, opts, &ring, &twins)?;
-                    for (i, &r) in ring.iter().enumerate() {
-                        verdicts[r as usize] = v[i];
-                        changed.insert(r);
-                    }
+                    record(&mut verdicts, &mut changed, &ring, &v);
                     touched.insert(g);
                 }
             }
@@ -1215,10 +1209,7 @@ fn plan_with(
                             }
                             continue;
                         };
-                        for (i, &r) in ring.iter().enumerate() {
-                            verdicts[r as usize] = v[i];
-                            changed.insert(r);
-                        }
+                        record(&mut verdicts, &mut changed, &ring, &v);
                         touched.extend(moves.iter().map(|&(g, _)| g));
                         improved = true;
                     } else if !fallback {
@@ -1236,10 +1227,7 @@ fn plan_with(
                         // one or two of its edges into two groups, each with its own normal (a new
                         // crease there), kept only where the certificate counts fewer uncertified
                         // patches.
-                        for (&r, &v) in cut.ring.iter().zip(&cut.verdicts) {
-                            verdicts[r as usize] = v;
-                            changed.insert(r);
-                        }
+                        record(&mut verdicts, &mut changed, &cut.ring, &cut.verdicts);
                         touched.insert(cut.groups[0]);
                         touched.insert(cut.groups[1]);
                         in_cuts.extend(cut.groups);
@@ -1349,10 +1337,7 @@ fn plan_with(
                     refused.insert(key);
                     continue;
                 }
-                for (i, &r) in ring.iter().enumerate() {
-                    verdicts[r as usize] = v[i];
-                    changed.insert(r);
-                }
+                record(&mut verdicts, &mut changed, &ring, &v);
                 touched.extend(
                     moved
                         .iter()
@@ -1594,10 +1579,7 @@ fn plan_with(
                         set_group(&mut work, &groups, g, n, &mut sink);
                     }
                     if let Some(vs) = verdicts_upto(&work, (scheme, opts, &twins), &ring, 0)? {
-                        for (i, &r) in ring.iter().enumerate() {
-                            verdicts[r as usize] = vs[i];
-                            changed.insert(r);
-                        }
+                        record(&mut verdicts, &mut changed, &ring, &vs);
                         break;
                     }
                     for (&g, &n) in part.iter().zip(&now) {
@@ -2230,10 +2212,7 @@ fn split_fin(
         }
         return Ok(None);
     }
-    for (i, &r) in ring.iter().enumerate() {
-        verdicts[r as usize] = v[i];
-        changed.insert(r);
-    }
+    record(verdicts, changed, &ring, &v);
     Ok(Some((set, pins)))
 }
 
@@ -2355,10 +2334,7 @@ fn isolate_sliver(
         None
     };
     if let Some(v) = v {
-        for (i, &r) in ring.iter().enumerate() {
-            verdicts[r as usize] = v[i];
-            changed.insert(r);
-        }
+        record(verdicts, changed, &ring, &v);
         let mut out = [0u32; 9];
         for (i, &(g, ht, hb, _)) in made.iter().enumerate() {
             groups.frozen.extend([g, ht, hb]);
@@ -2427,10 +2403,7 @@ fn flatten_cascade(
         }
         let ring = groups.ring(tri);
         let v = verdicts_of(work, scheme, opts, &ring, twins)?;
-        for (i, &r) in ring.iter().enumerate() {
-            verdicts[r as usize] = v[i];
-            changed.insert(r);
-        }
+        record(verdicts, changed, &ring, &v);
         for &v in &tri {
             touched.extend(groups.at_vertex[v as usize].iter().copied());
         }
@@ -2969,6 +2942,15 @@ fn ring_patches(
         flat_normals,
         fallbacks,
     })
+}
+
+/// Stores the verdicts `v` of the patches `ring` (in the same order) and marks them changed.
+fn record(verdicts: &mut [Verdict], changed: &mut HashSet<u32>, ring: &[u32], v: &[Verdict]) {
+    debug_assert_eq!(ring.len(), v.len());
+    for (&r, &x) in ring.iter().zip(v) {
+        verdicts[r as usize] = x;
+        changed.insert(r);
+    }
 }
 
 /// The verdicts of the patches of `tris` on `work`.
