@@ -1,6 +1,7 @@
 //! f32 evaluation (`Evaluator::evaluate_f32`; on the CPU the SIMD grid kernel) against the
 //! f64 reference, for every patch kind, on the test meshes at levels 1, 8 and 32, with both
-//! CPU kernels (AVX2+FMA where the CPU has it, and the portable one); chunked runs
+//! CPU kernels (AVX-512F or AVX2+FMA where the CPU has it, and the portable one), the
+//! AVX-512F kernel bitwise the AVX2 one; chunked runs
 //! identical to whole ones; corner samples equal to the input vertices bit for bit on every
 //! backend (the harness's `evaluators`) in both precisions. The edge pattern of the
 //! statistics (`EdgePairs`, `Evaluator::evaluate_edges`): bitwise its explicit point list
@@ -156,6 +157,46 @@ fn f32_fast_path_chunks_and_threads_do_not_change_results() {
             whole.0 == single.0 && whole.1 == single.1,
             "{what}: threads changed results"
         );
+    }
+}
+
+/// The AVX-512F kernel (16 lanes: `Auto` where the CPU has it) and the AVX2 one (8 lanes)
+/// run the same operations in the same order on each lane: bitwise the same samples, for
+/// every kind of patch, at levels whose last block of 16 holds 3, 6, 10, 13 and 1 samples
+/// (3, 6, 10, 45 and 561 samples a patch). Where the CPU lacks AVX-512F both run AVX2.
+#[test]
+fn f32_kernels_of_both_widths_give_the_same_bits() {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx512f") {
+        assert_eq!(F32Kernel::Auto.name(), "avx512f");
+    }
+    eprintln!(
+        "kernels here: {} and {}",
+        F32Kernel::Auto.name(),
+        F32Kernel::Avx2.name()
+    );
+    let mesh = load("sphere320");
+    for (_, table, what) in cases(&mesh) {
+        for level in [1, 2, 3, 8, 32] {
+            let run = |f32_kernel: F32Kernel| {
+                let ev = CpuEvaluator {
+                    f32_kernel,
+                    ..Default::default()
+                };
+                let mut bits = Vec::new();
+                ev.evaluate_f32(&table, &Pattern::Grid { level }, &mut |c| {
+                    for (p, n) in c.positions.iter().zip(c.normals) {
+                        bits.push([p.map(f32::to_bits), n.map(f32::to_bits)]);
+                    }
+                    Ok(())
+                })
+                .unwrap();
+                bits
+            };
+            let (wide, narrow) = (run(F32Kernel::Auto), run(F32Kernel::Avx2));
+            assert_eq!(wide.len(), grid_len(level) * table.len(), "{what}");
+            assert!(wide == narrow, "{what} level {level}: the kernels differ");
+        }
     }
 }
 

@@ -349,3 +349,45 @@ fn memory_estimate_counts_the_store_and_bounds_batches() {
     let huge = memory_estimate(3, 3, 1, u32::MAX, 24, 1 << 22, Needs::ALL);
     assert!(huge.total() >= u64::MAX / 2);
 }
+
+/// The stitcher hands patches to the sink in order while it builds the next ones (and the
+/// CPU kernel evaluates the next chunk): a sink's error ends the run at once and is the
+/// result, with every patch before it seen once, in order, at any chunk size.
+#[test]
+fn a_sink_error_stops_stitching_in_order() {
+    struct Failing {
+        seen: Vec<usize>,
+        fail_at: usize,
+    }
+    impl g1tess::tess::stitch::StitchSink<[f32; 3]> for Failing {
+        fn patch(
+            &mut self,
+            out: &g1tess::tess::stitch::PatchOut<'_, [f32; 3]>,
+        ) -> g1tess::Result<()> {
+            self.seen.push(out.patch);
+            if out.patch == self.fail_at {
+                return Err(g1tess::Error::Invalid("sink full".into()));
+            }
+            Ok(())
+        }
+    }
+    let mesh = load("sphere320");
+    let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let plan = g1tess::tess::stitch::StitchPlan::new(&mesh, &mesh.adjacency(), 6).unwrap();
+    for (chunk_samples, fail_at) in [(1, 0), (grid_len(6) * 7, 100), (1 << 20, 319)] {
+        let mut sink = Failing {
+            seen: Vec::new(),
+            fail_at,
+        };
+        let e = stitch_into::<[f32; 3]>(
+            &plan,
+            &table,
+            &CpuEvaluator::with_chunk_samples(chunk_samples),
+            &mut sink,
+            &NoProgress,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("sink full"), "{e}");
+        assert_eq!(sink.seen, (0..=fail_at).collect::<Vec<_>>());
+    }
+}

@@ -1,6 +1,7 @@
 //! The CPU backend: the f64 reference (every other backend is tested against it) and, for
 //! grids in f32 ([`Evaluator::evaluate_f32`]), a SIMD kernel (`grid_f32`: f32 weights in
-//! blocks of 8 samples, AVX2+FMA detected at run time or portable code). Edge patterns
+//! blocks of 16 samples with AVX-512F or 8 with AVX2+FMA, detected at run time, or
+//! portable code). Edge patterns
 //! (statistics) run an f64 lane kernel (`edges`: AVX-512F, 8 lanes, or AVX, 4 lanes,
 //! detected at run time), bitwise the sparse reference. All run in parallel over patches
 //! with rayon and stream bounded chunks.
@@ -26,7 +27,8 @@ pub use grid_f32::{F32Kernel, GridWeightsF32};
 /// The CPU evaluator.
 #[derive(Clone, Debug)]
 pub struct CpuEvaluator {
-    /// Samples per chunk handed to the sink (bounded memory for any mesh size).
+    /// Samples per chunk handed to the sink (bounded memory for any mesh size; the f32
+    /// grid kernel hands at most 2^16, `PIPELINE_SAMPLES`).
     pub chunk_samples: usize,
     /// Instruction set of the f32 grid kernel ([`Evaluator::evaluate_f32`]).
     pub f32_kernel: F32Kernel,

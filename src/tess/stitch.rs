@@ -747,7 +747,8 @@ pub struct StitchMemory {
     /// One chunk of samples from the evaluator (positions and normals, twice: the
     /// evaluator's buffer and what it hands over), bytes.
     pub chunk_bytes: u64,
-    /// One batch of patch outputs ([`batch_patches`]), bytes.
+    /// Two batches of patch outputs ([`batch_patches`]: the one the sink reads and the one
+    /// built meanwhile), bytes.
     pub batch_bytes: u64,
 }
 
@@ -801,7 +802,7 @@ pub fn memory_estimate(
     if needs.triangles {
         patch = patch.saturating_add(n2.saturating_mul(24));
     }
-    let batch = (batch_patches(level.max(1)) as u64).min(t.max(1));
+    let batch = (2 * batch_patches(level.max(1)) as u64).min(t.max(1));
     let batch_bytes = patch.saturating_mul(batch).saturating_add(n2 * 12);
     StitchMemory {
         store_points,
@@ -860,10 +861,11 @@ impl<V> Default for PatchBuf<V> {
 ///
 /// Each chunk is stitched in three passes: the owners of vertices and edges in the chunk
 /// store their samples (in patch order, a few per patch); every patch's output is then
-/// built in parallel (rayon), reading shared samples from the store; the sink receives the
-/// patches in order. A uniform plan takes the chunks of a [`Pattern::Grid`] evaluation
-/// ([`push_chunk`](Self::push_chunk)); any plan takes runs of whole patches in their sample
-/// order ([`push_patches`](Self::push_patches)).
+/// built in parallel (rayon), a batch of patches ([`batch_patches`]) at a time, reading
+/// shared samples from the store; the sink receives each batch's patches in order, on the
+/// calling thread, while the thread pool builds the next batch. A uniform plan takes the
+/// chunks of a [`Pattern::Grid`] evaluation ([`push_chunk`](Self::push_chunk)); any plan
+/// takes runs of whole patches in their sample order ([`push_patches`](Self::push_patches)).
 pub struct Stitcher<'a, V = DVec3> {
     plan: &'a StitchPlan,
     store: Vec<V>,
@@ -982,14 +984,15 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             self.store_owned(first + j, &positions[at(j)]);
         }
         let needs = sink.needs();
-        let batch = batch_patches(plan.level);
-        if self.bufs.len() < batch.min(count) {
-            self.bufs.resize_with(batch.min(count), PatchBuf::default);
+        let batch = batch_patches(plan.level).min(count.max(1));
+        // Two sets of buffers: the sink reads one batch while the next is built (the
+        // second holds the largest batch after the first).
+        let sets = (2 * batch).min(count).max(batch);
+        if self.bufs.len() < sets {
+            self.bufs.resize_with(sets, PatchBuf::default);
         }
-        let mut start = 0;
-        while start < count {
-            let len = batch.min(count - start);
-            let (store, grid, grid_bary) = (&self.store, &self.grid, &self.grid_bary);
+        let (store, grid, grid_bary) = (&self.store, &self.grid, &self.grid_bary);
+        let build_batch = |start: usize, bufs: &mut [PatchBuf<V>]| {
             let build = |(j, buf): (usize, &mut PatchBuf<V>)| {
                 let k = start + j;
                 build_patch(
@@ -1006,34 +1009,54 @@ impl<'a, V: Vector> Stitcher<'a, V> {
                     build_attributes(plan, attrs, grid_bary, first + k, buf);
                 }
             };
-            let bufs = &mut self.bufs[..len];
-            if len > 1 {
+            if bufs.len() > 1 {
                 bufs.par_iter_mut().enumerate().for_each(build);
             } else {
                 bufs.iter_mut().enumerate().for_each(build);
             }
-            for (j, buf) in bufs.iter().enumerate() {
-                self.max_snap = self.max_snap.max(buf.snap);
-                sink.patch(&PatchOut {
-                    patch: first + start + j,
-                    new_positions: &buf.new_positions[..buf.npos],
-                    new_records: &buf.records[..buf.nrec],
-                    new_attributes: if plan.attrs.is_some() {
-                        &buf.attributes
-                    } else {
-                        &[]
-                    },
-                    triangles: &buf.triangles,
-                    position_triangles: &buf.position_triangles,
-                    grid_positions: &buf.grid_positions,
-                    grid_triangles: if plan.is_uniform() {
-                        &self.grid
-                    } else {
-                        &buf.local_triangles
-                    },
-                })?;
+        };
+        let (mut cur, mut next) = self.bufs.split_at_mut(batch);
+        let mut start = 0;
+        let mut len = batch.min(count);
+        build_batch(start, &mut cur[..len]);
+        while len > 0 {
+            let after = start + len;
+            let more = batch.min(count - after);
+            let ready = &cur[..len];
+            let building = &mut next[..more];
+            let result = rayon::in_place_scope(|s| {
+                if more > 0 {
+                    s.spawn(move |_| build_batch(after, building));
+                }
+                for (j, buf) in ready.iter().enumerate() {
+                    self.max_snap = self.max_snap.max(buf.snap);
+                    sink.patch(&PatchOut {
+                        patch: first + start + j,
+                        new_positions: &buf.new_positions[..buf.npos],
+                        new_records: &buf.records[..buf.nrec],
+                        new_attributes: if plan.attrs.is_some() {
+                            &buf.attributes
+                        } else {
+                            &[]
+                        },
+                        triangles: &buf.triangles,
+                        position_triangles: &buf.position_triangles,
+                        grid_positions: &buf.grid_positions,
+                        grid_triangles: if plan.is_uniform() {
+                            grid
+                        } else {
+                            &buf.local_triangles
+                        },
+                    })?;
+                }
+                Ok(())
+            });
+            if let Err(e) = result {
+                self.offsets = offsets;
+                return Err(e);
             }
-            start += len;
+            std::mem::swap(&mut cur, &mut next);
+            (start, len) = (after, more);
         }
         self.offsets = offsets;
         self.next_patch = first + count;
