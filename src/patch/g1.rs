@@ -200,6 +200,313 @@ fn patch_points_into(
     }
 }
 
+/// [`patch_points_into`] with the three edges in the lanes of AVX2 registers (one edge a
+/// lane), for a triangle without given curves: every lane runs the scalar construction's
+/// operations in its order (no fused operations), so the points are bitwise those of
+/// [`patch_points`]. Where some edge would take a fallback it writes nothing and says
+/// `false` (the scalar construction then builds the patch and counts the fallbacks).
+#[cfg(target_arch = "x86_64")]
+mod lanes {
+    use glam::DVec3;
+    use std::arch::x86_64::*;
+
+    /// Four f64 lanes (lane k: edge k from corner k to k + 1; lane 3 repeats edge 0).
+    #[derive(Clone, Copy)]
+    struct L(__m256d);
+
+    // SAFETY (every method of L and V): only reached from `build_avx2`, compiled with AVX2
+    // enabled and called only where the CPU has it (`G1Builder::build`).
+    impl L {
+        #[inline(always)]
+        fn new(a: [f64; 4]) -> L {
+            unsafe { L(_mm256_loadu_pd(a.as_ptr())) }
+        }
+        #[inline(always)]
+        fn splat(x: f64) -> L {
+            unsafe { L(_mm256_set1_pd(x)) }
+        }
+        #[inline(always)]
+        fn add(self, o: L) -> L {
+            unsafe { L(_mm256_add_pd(self.0, o.0)) }
+        }
+        #[inline(always)]
+        fn sub(self, o: L) -> L {
+            unsafe { L(_mm256_sub_pd(self.0, o.0)) }
+        }
+        #[inline(always)]
+        fn mul(self, o: L) -> L {
+            unsafe { L(_mm256_mul_pd(self.0, o.0)) }
+        }
+        #[inline(always)]
+        fn div(self, o: L) -> L {
+            unsafe { L(_mm256_div_pd(self.0, o.0)) }
+        }
+        #[inline(always)]
+        fn sqrt(self) -> L {
+            unsafe { L(_mm256_sqrt_pd(self.0)) }
+        }
+        /// Lanes where `self > o` (false on NaN), as a mask.
+        #[inline(always)]
+        fn gt(self, o: L) -> __m256d {
+            unsafe { _mm256_cmp_pd::<_CMP_GT_OQ>(self.0, o.0) }
+        }
+        /// Lanes where `self` is neither infinite nor NaN, as a mask.
+        #[inline(always)]
+        fn finite(self) -> __m256d {
+            unsafe {
+                let abs = _mm256_andnot_pd(_mm256_set1_pd(-0.0), self.0);
+                _mm256_cmp_pd::<_CMP_LT_OQ>(abs, _mm256_set1_pd(f64::INFINITY))
+            }
+        }
+        /// Lanes set in both masks.
+        #[inline(always)]
+        fn and(a: __m256d, b: __m256d) -> __m256d {
+            unsafe { _mm256_and_pd(a, b) }
+        }
+        /// Lanes 0, 1 and 2 (the three edges) of `m` are set.
+        #[inline(always)]
+        fn edges_set(m: __m256d) -> bool {
+            unsafe { _mm256_movemask_pd(m) & 0b111 == 0b111 }
+        }
+        /// `a` where `m` is set, else `b`.
+        #[inline(always)]
+        fn select(m: __m256d, a: L, b: L) -> L {
+            unsafe { L(_mm256_blendv_pd(b.0, a.0, m)) }
+        }
+        #[inline(always)]
+        fn lanes(self) -> [f64; 4] {
+            let mut a = [0.0; 4];
+            unsafe { _mm256_storeu_pd(a.as_mut_ptr(), self.0) };
+            a
+        }
+        /// Lane k takes lane (k + 2) mod 3: the previous edge's values.
+        #[inline(always)]
+        fn prev(self) -> L {
+            unsafe { L(_mm256_permute4x64_pd::<0b10_01_00_10>(self.0)) }
+        }
+        /// Lane k takes lane (k + 1) mod 3: the next edge's values.
+        #[inline(always)]
+        fn next(self) -> L {
+            unsafe { L(_mm256_permute4x64_pd::<0b01_00_10_01>(self.0)) }
+        }
+    }
+
+    /// A DVec3 per lane, each operation as glam's (component by component, same order).
+    #[derive(Clone, Copy)]
+    struct V {
+        x: L,
+        y: L,
+        z: L,
+    }
+
+    impl V {
+        #[inline(always)]
+        fn of(p: [DVec3; 4]) -> V {
+            V {
+                x: L::new(p.map(|v| v.x)),
+                y: L::new(p.map(|v| v.y)),
+                z: L::new(p.map(|v| v.z)),
+            }
+        }
+        #[inline(always)]
+        fn add(self, o: V) -> V {
+            V {
+                x: self.x.add(o.x),
+                y: self.y.add(o.y),
+                z: self.z.add(o.z),
+            }
+        }
+        #[inline(always)]
+        fn sub(self, o: V) -> V {
+            V {
+                x: self.x.sub(o.x),
+                y: self.y.sub(o.y),
+                z: self.z.sub(o.z),
+            }
+        }
+        /// `s * self` (f64 × DVec3).
+        #[inline(always)]
+        fn scale(self, s: L) -> V {
+            V {
+                x: s.mul(self.x),
+                y: s.mul(self.y),
+                z: s.mul(self.z),
+            }
+        }
+        /// `self / s` (DVec3 ÷ f64).
+        #[inline(always)]
+        fn div(self, s: L) -> V {
+            V {
+                x: self.x.div(s),
+                y: self.y.div(s),
+                z: self.z.div(s),
+            }
+        }
+        /// DVec3::dot: (x x' + y y') + z z'.
+        #[inline(always)]
+        fn dot(self, o: V) -> L {
+            self.x.mul(o.x).add(self.y.mul(o.y)).add(self.z.mul(o.z))
+        }
+        /// DVec3::cross.
+        #[inline(always)]
+        fn cross(self, r: V) -> V {
+            V {
+                x: self.y.mul(r.z).sub(r.y.mul(self.z)),
+                y: self.z.mul(r.x).sub(r.z.mul(self.x)),
+                z: self.x.mul(r.y).sub(r.x.mul(self.y)),
+            }
+        }
+        #[inline(always)]
+        fn select(m: __m256d, a: V, b: V) -> V {
+            V {
+                x: L::select(m, a.x, b.x),
+                y: L::select(m, a.y, b.y),
+                z: L::select(m, a.z, b.z),
+            }
+        }
+        #[inline(always)]
+        fn prev(self) -> V {
+            V {
+                x: self.x.prev(),
+                y: self.y.prev(),
+                z: self.z.prev(),
+            }
+        }
+        #[inline(always)]
+        fn next(self) -> V {
+            V {
+                x: self.x.next(),
+                y: self.y.next(),
+                z: self.z.next(),
+            }
+        }
+        #[inline(always)]
+        fn lanes(self) -> [DVec3; 4] {
+            let (x, y, z) = (self.x.lanes(), self.y.lanes(), self.z.lanes());
+            std::array::from_fn(|k| DVec3::new(x[k], y[k], z[k]))
+        }
+    }
+
+    /// d · w / |w|² where |w|² > 0, else 0 (the construction's λ).
+    #[inline(always)]
+    fn ratio(d: V, w: V) -> L {
+        let w2 = w.dot(w);
+        let zero = L::splat(0.0);
+        L::select(w2.gt(zero), d.dot(w).div(w2), zero)
+    }
+
+    /// Whether the CPU has AVX2 (detected once by the standard library).
+    #[inline]
+    pub(super) fn available() -> bool {
+        std::is_x86_feature_detected!("avx2")
+    }
+
+    /// See the module.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 ([`available`]).
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn build_avx2(
+        q: [DVec3; 3],
+        n: [DVec3; 3],
+        ids: [u32; 3],
+        out: &mut [DVec3; 18],
+    ) -> bool {
+        let (a3, b3) = ([0, 1, 2, 0], [1, 2, 0, 1]);
+        // Edge k from corner a = k to b = k + 1: v0 = q[a], v3 = q[b].
+        let v0 = V::of(a3.map(|i| q[i]));
+        let v3 = V::of(b3.map(|i| q[i]));
+        let na = V::of(a3.map(|i| n[i]));
+        let nb = V::of(b3.map(|i| n[i]));
+        // The cubic runs from the lower id: swapped lanes build it from b to a.
+        let swap = L::new(a3.map(|k| if ids[k] <= ids[(k + 1) % 3] { 0.0 } else { 1.0 }))
+            .gt(L::splat(0.5));
+        let (p, pn) = (V::select(swap, v3, v0), V::select(swap, nb, na));
+        let (r, rn) = (V::select(swap, v0, v3), V::select(swap, na, nb));
+        // walton_meek_offsets(p, pn, r, rn).
+        let e = r.sub(p);
+        let d = e.dot(e).sqrt();
+        let g = e.div(d);
+        let a0 = pn.dot(g);
+        let a1 = rn.dot(g);
+        let a = pn.dot(rn);
+        let den = L::splat(4.0).sub(a.mul(a));
+        let (two, six) = (L::splat(2.0), L::splat(6.0));
+        let zeta = six.mul(two.mul(a0).add(a.mul(a1))).div(den);
+        let theta = six.mul(two.mul(a1).add(a.mul(a0))).div(den);
+        let g6 = g.scale(six);
+        let t0 = g6
+            .sub(pn.scale(two.mul(zeta)))
+            .add(rn.scale(theta))
+            .scale(d)
+            .div(L::splat(18.0));
+        let t1 = g6
+            .add(pn.scale(zeta))
+            .sub(rn.scale(two.mul(theta)))
+            .scale(d)
+            .div(L::splat(18.0));
+        // [p, p + t0, r − t1, r], reversed on swapped lanes.
+        let (pt, rt) = (p.add(t0), r.sub(t1));
+        let v1 = V::select(swap, rt, pt);
+        let v2 = V::select(swap, pt, rt);
+        // edge_data(v, na, nb).
+        let w0 = v1.sub(v0);
+        let w1 = v2.sub(v1);
+        let w2 = v3.sub(v2);
+        let zero = L::splat(0.0);
+        let (l0, l2) = (w0.dot(w0).sqrt(), w2.dot(w2).sqrt());
+        let ra0 = na.cross(w0.div(l0));
+        let ra2 = nb.cross(w2.div(l2));
+        let sum = ra0.add(ra2);
+        let len = sum.dot(sum).sqrt();
+        let rcp = L::splat(1.0).div(len);
+        // The scalar construction's conditions for no fallback: |W0|, |W2| > 0, and
+        // A0 + A2 normalisable with a length above 1e-12.
+        let ok = L::and(
+            L::and(l0.gt(zero), l2.gt(zero)),
+            L::and(L::and(rcp.finite(), rcp.gt(zero)), len.gt(L::splat(1e-12))),
+        );
+        if !L::edges_set(ok) {
+            return false;
+        }
+        let ra1 = sum.scale(rcp);
+        let (three, four, half) = (L::splat(3.0), L::splat(4.0), L::splat(0.5));
+        let b1 = v0.add(v1.scale(three)).div(four);
+        let b2 = v1.add(v2).div(two);
+        let b3 = v2.scale(three).add(v3).div(four);
+        // The Gregory points of edge k, from its neighbours' boundary points.
+        let d0 = b3.prev().sub(v0.add(b1).scale(half));
+        let d3 = b1.next().sub(b3.add(v3).scale(half));
+        let lambda0 = ratio(d0, w0);
+        let mu0 = d0.dot(ra0);
+        let lambda1 = ratio(d3, w2);
+        let mu1 = d3.dot(ra2);
+        let (c1, c2) = (L::splat(1.0 / 3.0), L::splat(2.0 / 3.0));
+        let d1 = w1
+            .scale(c2.mul(lambda0))
+            .add(w0.scale(c1.mul(lambda1)))
+            .add(ra1.scale(c2.mul(mu0)))
+            .add(ra0.scale(c1.mul(mu1)));
+        let d2 = w2
+            .scale(c1.mul(lambda0))
+            .add(w1.scale(c2.mul(lambda1)))
+            .add(ra2.scale(c1.mul(mu0)))
+            .add(ra1.scale(c2.mul(mu1)));
+        let g1 = b1.add(b2).scale(half).add(d1);
+        let g2 = b2.add(b3).scale(half).add(d2);
+        let cols = [v0.lanes(), b1.lanes(), b2.lanes(), b3.lanes()];
+        let (g1, g2) = (g1.lanes(), g2.lanes());
+        for k in 0..3 {
+            for (j, c) in cols.iter().enumerate() {
+                out[4 * k + j] = c[k];
+            }
+            out[12 + 2 * k] = g1[k];
+            out[13 + 2 * k] = g2[k];
+        }
+        true
+    }
+}
+
 /// Unit crease direction at a vertex whose two sides have unit normals `n0` and `n1`:
 /// N0 × N1, computed as N0 × (N1 − N0) so that it stays accurate (and perpendicular to
 /// both normals to rounding) when the normals are close, oriented along `g`. Where the
@@ -289,6 +596,14 @@ impl TriangleBuilder for G1Builder<'_> {
         let mut fallbacks = 0;
         let n = mesh.corner_normals[t];
         if let Some(slot) = out.first_chunk_mut::<18>() {
+            // SAFETY: the CPU has AVX2 (checked first).
+            #[cfg(target_arch = "x86_64")]
+            if given.iter().all(Option::is_none)
+                && lanes::available()
+                && unsafe { lanes::build_avx2(q, n, tri, slot) }
+            {
+                return 0;
+            }
             patch_points_into(q, n, tri, given, &mut fallbacks, slot);
         } else {
             out.copy_from_slice(&patch_points_with_curves(q, n, tri, given, &mut fallbacks));

@@ -95,15 +95,23 @@ struct DenseEdgeWeights {
     /// (padding samples 0).
     data: Vec<f64>,
     /// The terms the kernel adds, per block and per value (w, ∂w/∂s, ∂w/∂t): those points,
-    /// in increasing order, where that value is nonzero in some sample of the
-    /// block, each as (offset of its `width` values in `data`, point). The others
-    /// are skipped: their products are ±0 on a finite point, and adding ±0 to a sum that
-    /// started at +0 leaves it bitwise as it is (such a sum is never −0). Lists, not
-    /// per-point flags, so that the kernel runs counted loops instead of a branch per
-    /// point and value.
-    terms: Vec<(u32, u8)>,
-    /// Block b's lists are `terms[ranges[b][c]..ranges[b][c + 1]]` for value c.
-    ranges: Vec<[u32; 4]>,
+    /// in increasing order, where that value is nonzero in some sample of the block, each
+    /// as (offset of its `width` values in `data`, point). The others are skipped: their
+    /// products are ±0 on a finite point, and adding ±0 to a sum that started at +0 leaves
+    /// it bitwise as it is (such a sum is never −0). Stored as rows of one term per value
+    /// (row i holds term i of each of the three lists), so that the kernel's loop adds to
+    /// all nine sums at once (their additions overlap instead of waiting on one sum's
+    /// chain); a list shorter than the block's longest is padded at its end with a term of
+    /// zero weights (the last `width` values of `data`) on point 0, which adds ±0 as well.
+    rows: Vec<[(u32, u8); 3]>,
+    /// Block b's rows are `rows[ranges[b][0]..ranges[b][1]]`.
+    ranges: Vec<[u32; 2]>,
+    /// One more than the largest point of `rows` (0 without rows): the kernel runs only on
+    /// patches of at least that many points.
+    points: usize,
+    /// Every term's `width` values lie within `data` (checked once here, so that the
+    /// kernel reads them without a bounds check per term).
+    fits: bool,
 }
 
 impl DenseEdgeWeights {
@@ -185,27 +193,46 @@ impl EdgeWeights {
                         }
                     }
                 }
-                let mut terms = Vec::new();
+                // The padding terms' weights: `width` zeros after the blocks.
+                let zeros = data.len() as u32;
+                data.extend(std::iter::repeat_n(0.0, width));
+                let mut rows = Vec::new();
                 let mut ranges = Vec::with_capacity(blocks);
                 for blk in 0..blocks {
-                    let mut r = [0u32; 4];
-                    for (c, start) in r[..3].iter_mut().enumerate() {
-                        *start = terms.len() as u32;
+                    let lists: [Vec<(u32, u8)>; 3] = std::array::from_fn(|c| {
+                        let mut list = Vec::new();
                         for (k, &j) in idx.iter().enumerate() {
                             let o = (blk * idx.len() + k) * 3 * width + c * width;
                             if data[o..o + width].iter().any(|&x| x != 0.0) {
-                                terms.push((o as u32, j));
+                                list.push((o as u32, j));
                             }
                         }
-                    }
-                    r[3] = terms.len() as u32;
-                    ranges.push(r);
+                        list
+                    });
+                    let start = rows.len() as u32;
+                    let n = lists.iter().map(Vec::len).max().unwrap_or(0);
+                    rows.extend((0..n).map(|i| {
+                        std::array::from_fn(|c| lists[c].get(i).copied().unwrap_or((zeros, 0)))
+                    }));
+                    ranges.push([start, rows.len() as u32]);
                 }
+                let points = rows
+                    .iter()
+                    .flatten()
+                    .map(|&(_, j)| j as usize + 1)
+                    .max()
+                    .unwrap_or(0);
+                let fits = rows
+                    .iter()
+                    .flatten()
+                    .all(|&(o, _)| o as usize + width <= data.len());
                 dense.push(DenseEdgeWeights {
                     width,
                     data,
-                    terms,
+                    rows,
                     ranges,
+                    points,
+                    fits,
                 });
             }
         }
@@ -387,6 +414,11 @@ trait F64Lanes: Copy {
     fn splat(x: f64) -> Self;
     /// The first `N` values of `s`.
     fn load(s: &[f64]) -> Self;
+    /// The `N` values from `p`.
+    ///
+    /// # Safety
+    /// `p` points to `N` readable f64 values.
+    unsafe fn load_ptr(p: *const f64) -> Self;
     /// Into the first `N` values of `s`.
     fn store(self, s: &mut [f64]);
     fn add(self, o: Self) -> Self;
@@ -432,6 +464,10 @@ impl F64Lanes for Avx4 {
     fn load(s: &[f64]) -> Self {
         let s = &s[..4];
         unsafe { Avx4(std::arch::x86_64::_mm256_loadu_pd(s.as_ptr())) }
+    }
+    #[inline(always)]
+    unsafe fn load_ptr(p: *const f64) -> Self {
+        unsafe { Avx4(std::arch::x86_64::_mm256_loadu_pd(p)) }
     }
     #[inline(always)]
     fn store(self, s: &mut [f64]) {
@@ -521,6 +557,10 @@ impl F64Lanes for Avx8 {
     fn load(s: &[f64]) -> Self {
         let s = &s[..8];
         unsafe { Avx8(std::arch::x86_64::_mm512_loadu_pd(s.as_ptr())) }
+    }
+    #[inline(always)]
+    unsafe fn load_ptr(p: *const f64) -> Self {
+        unsafe { Avx8(std::arch::x86_64::_mm512_loadu_pd(p)) }
     }
     #[inline(always)]
     fn store(self, s: &mut [f64]) {
@@ -614,6 +654,11 @@ fn edge_side<V: F64Lanes, const RAW: bool>(
     // first sum that is ±∞ or NaN on.
     let mut nonfinite = V::zero();
     let c = table.patch(patch);
+    if !d.fits || d.width != V::N || d.points > c.len() {
+        // Never on weights built for this table's kind (checked here once per side, so
+        // that the terms are read unchecked): the sparse evaluation takes the side.
+        return false;
+    }
     let flat = table.flat_normals[patch];
     let (fx, fy, fz) = (V::splat(flat.x), V::splat(flat.y), V::splat(flat.z));
     let inf = V::splat(f64::INFINITY);
@@ -626,12 +671,11 @@ fn edge_side<V: F64Lanes, const RAW: bool>(
     // features, and would call every intrinsic out of line.)
     for (blk, r) in d.ranges.iter().enumerate() {
         let z = V::zero();
-        let [r0, r1, r2, r3] = [r[0] as usize, r[1] as usize, r[2] as usize, r[3] as usize];
-        let (mut pv, mut sv, mut tv) = ([z; 3], [z; 3], [z; 3]);
-        add_terms(&d.terms[r0..r1], c, &d.data, &mut pv);
-        add_terms(&d.terms[r1..r2], c, &d.data, &mut sv);
-        add_terms(&d.terms[r2..r3], c, &d.data, &mut tv);
-        let ([px, py, pz], [sx, sy, sz], [tx, ty, tz]) = (pv, sv, tv);
+        let mut acc = [[z; 3]; 3];
+        // SAFETY: every term's point is below `d.points` ≤ `c.len()` and its `V::N` =
+        // `d.width` values lie within `d.data` (`d.fits`), both checked above.
+        unsafe { add_rows(&d.rows[r[0] as usize..r[1] as usize], c, &d.data, &mut acc) };
+        let [[px, py, pz], [sx, sy, sz], [tx, ty, tz]] = acc;
         let all = (px.add(py).add(pz.add(sx))).add(sy.add(sz).add(tx.add(ty).add(tz)));
         nonfinite = nonfinite.add(all.sub(all));
         // S_s × S_t as DVec3::cross, its squared length as DVec3::length.
@@ -670,17 +714,29 @@ fn edge_side<V: F64Lanes, const RAW: bool>(
     !nonfinite.any_nan()
 }
 
-/// Adds w · c_j for each term (offset of w in `data`, j) of `list` to the three sums
-/// `acc`, in order.
+/// Adds w · c_j for term c (offset of w in `data`, j) of each row of `rows` to the three
+/// sums `acc[c]`, in order. Reads without bounds checks (about a third of the
+/// instructions of a term were the checks).
+///
+/// # Safety
+/// Every term has j < `c.len()` and `o + V::N ≤ data.len()`.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn add_terms<V: F64Lanes>(list: &[(u32, u8)], c: &[DVec3], data: &[f64], acc: &mut [V; 3]) {
-    for &(o, j) in list {
-        let cj = c[j as usize];
-        let w = V::load(&data[o as usize..]);
-        acc[0] = acc[0].add(w.mul(V::splat(cj.x)));
-        acc[1] = acc[1].add(w.mul(V::splat(cj.y)));
-        acc[2] = acc[2].add(w.mul(V::splat(cj.z)));
+unsafe fn add_rows<V: F64Lanes>(
+    rows: &[[(u32, u8); 3]],
+    c: &[DVec3],
+    data: &[f64],
+    acc: &mut [[V; 3]; 3],
+) {
+    let (cp, dp) = (c.as_ptr(), data.as_ptr());
+    for row in rows {
+        for (a, &(o, j)) in acc.iter_mut().zip(row) {
+            // SAFETY: in bounds by the caller's guarantee.
+            let (cj, w) = unsafe { (*cp.add(j as usize), V::load_ptr(dp.add(o as usize))) };
+            a[0] = a[0].add(w.mul(V::splat(cj.x)));
+            a[1] = a[1].add(w.mul(V::splat(cj.y)));
+            a[2] = a[2].add(w.mul(V::splat(cj.z)));
+        }
     }
 }
 
