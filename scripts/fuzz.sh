@@ -11,11 +11,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 total=${1:-1000000}
 cli=${2:-1000}
-cargo test --release --no-run --quiet --test fuzz
+cargo test --release --no-run --quiet --test suite
 run() { # TEST CASES VAR
     local start end
     start=$(date +%s.%N)
-    env "$3=$2" cargo test --release --quiet --test fuzz -- --exact "$1" >/dev/null
+    env "$3=$2" cargo test --release --quiet --test suite -- --exact "fuzz::$1" >/dev/null
     end=$(date +%s.%N)
     awk -v t="$1" -v n="$2" -v s="$start" -v e="$end" \
         'BEGIN { d = e - s; printf "%-15s %9d cases %8.1f s %9.0f /s\n", t, n, d, n / d }'

@@ -4,7 +4,7 @@
 //! a camera path stay watertight; the WGSL level pass validates and matches the CPU; the
 //! GPU evaluates per-edge patterns with the CPU's topology.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::sync::Arc;

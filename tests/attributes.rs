@@ -2,7 +2,7 @@
 //! each patch's barycentric domain, split at UV seams (records) while positions stay shared
 //! bit for bit, and written by every writer so that the matching reader gives them back.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 

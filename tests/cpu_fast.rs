@@ -11,8 +11,7 @@
 //! `PAIR_COS_TOLERANCE` of them (bitwise where they go through the points), bitwise the
 //! same with both lane widths.
 
-mod common;
-mod eval_cases;
+use crate::eval_cases;
 use eval_cases::{
     angle, cases, evaluators, load, normal_error, regular, EPS32, MESHES, ROUNDING_FACTOR,
 };

@@ -1,7 +1,7 @@
 //! Creases: split normals from a file or from `--crease-angle`, one shared boundary curve
 //! per crease edge (no crack), G1 across every other edge, split output normals.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::path::PathBuf;

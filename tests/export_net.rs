@@ -1,7 +1,7 @@
 //! `g1tess export-net`: the JSON control nets, evaluated here from the README's formula
 //! alone, reproduce the library's surface; G1 nets interpolate the mesh vertices.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::process::Command;

@@ -3,7 +3,7 @@
 
 #![allow(clippy::needless_range_loop)]
 
-mod common;
+use crate::common;
 
 use common::{load, Rng};
 use g1tess::eval::cpu::CpuEvaluator;

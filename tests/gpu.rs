@@ -19,8 +19,8 @@ use g1tess::output::stats::{continuity, edge_points};
 use g1tess::patch::basis::Weights;
 use g1tess::patch::{PatchKind, PatchTable, Scheme};
 
-mod common;
-mod eval_cases;
+use crate::common;
+use crate::eval_cases;
 use eval_cases::{
     angle, cases, load, normal_error, regular, EPS32, EPS64, MESHES, ROUNDING_FACTOR,
 };

@@ -3,7 +3,7 @@
 //! order-3 G1 edges equal to the boundary cubics; the error falling with the order; the
 //! Jacobian bound against dense sampling; physical groups on a mesh with a boundary.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::path::PathBuf;

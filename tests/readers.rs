@@ -3,7 +3,7 @@
 //! format, errors that name the element or line, the format chosen by content, and the
 //! command line's `stats` on written files.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -9,7 +9,7 @@ use g1tess::render::camera::{Camera, DEPTH_MARGIN, MARGIN};
 use g1tess::render::pipeline::{Uniforms, RENDER_WGSL};
 use g1tess::render::{ramp, shader_source, RAMP};
 
-mod common;
+use crate::common;
 
 fn module() -> naga::Module {
     let src = shader_source();

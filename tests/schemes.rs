@@ -3,7 +3,7 @@
 //! interpolates them) at the corners, watertight shared edges, and the identities between
 //! schemes that `SCHEMES.md` states.
 
-mod common;
+use crate::common;
 
 use common::Rng;
 use g1tess::eval::cpu::CpuEvaluator;

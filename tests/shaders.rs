@@ -14,7 +14,7 @@ use g1tess::gpu::Precision;
 use g1tess::patch::basis::MAX_POINTS;
 use g1tess::patch::{PatchKind, PatchTable, Scheme, MIN_NORMAL_LEN_F32, MIN_NORMAL_LEN_F64};
 
-mod common;
+use crate::common;
 
 const PRECISIONS: [Precision; 2] = [Precision::F32, Precision::F64];
 

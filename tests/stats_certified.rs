@@ -3,7 +3,7 @@
 //! (`validity::count_builder`), whatever the chunking, including triangles that no interior
 //! edge reaches.
 
-mod common;
+use crate::common;
 
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::{LoadOptions, Mesh};

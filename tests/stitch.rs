@@ -3,7 +3,7 @@
 //! and non-manifold edges kept, streaming independent of the chunk size, and the f32 path
 //! (kernel → stitcher in f32) with the topology of the f64 one.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 

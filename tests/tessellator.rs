@@ -20,8 +20,8 @@ use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
 use g1tess::tess::stitch::{stitch, StitchPlan, StitchedMesh};
 
-mod common;
-mod eval_cases;
+use crate::common;
+use crate::eval_cases;
 use eval_cases::{angle, context, load, normal_error, open_box, EPS32, EPS64, ROUNDING_FACTOR};
 
 fn fandisk() -> Mesh {

@@ -27,8 +27,8 @@ use g1tess::tess::screen::ScreenView;
 use g1tess::tess::screen_gpu::{LevelParams, LevelPass};
 use g1tess::tess::stitch::{stitch_plan, StitchPlan, StitchedMesh};
 
-mod common;
-mod eval_cases;
+use crate::common;
+use crate::eval_cases;
 use eval_cases::{angle, context, load, normal_error, open_box, EPS32, EPS64, ROUNDING_FACTOR};
 
 #[test]

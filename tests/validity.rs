@@ -1,6 +1,6 @@
 //! The validity certificate of `patch::validity` and the fold repair of `patch::repair`.
 
-mod common;
+use crate::common;
 
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::generators::icosphere;

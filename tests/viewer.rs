@@ -7,11 +7,11 @@
 
 #[path = "../examples/wgpu_viewer.rs"]
 #[allow(dead_code)]
-mod viewer;
+mod wgpu_viewer;
 
 #[test]
 fn gpu_tessellated_bunny_looks_like_the_cpu_tessellated_bunny() {
-    let (device, queue) = match viewer::open_device() {
+    let (device, queue) = match wgpu_viewer::open_device() {
         Ok(d) => d,
         Err(e) => {
             assert!(
@@ -22,11 +22,11 @@ fn gpu_tessellated_bunny_looks_like_the_cpu_tessellated_bunny() {
             return;
         }
     };
-    let (mesh, table) = viewer::bunny().unwrap();
+    let (mesh, table) = wgpu_viewer::bunny().unwrap();
     // Level 2 (278 k triangles) and 192-pixel panels: a fraction of a second of lavapipe.
     let (level, panel) = (2, 192);
-    let gpu = viewer::draw_gpu(&device, &queue, &mesh, &table, level, panel).unwrap();
-    let cpu = viewer::draw_cpu(&device, &queue, &mesh, &table, level, panel).unwrap();
+    let gpu = wgpu_viewer::draw_gpu(&device, &queue, &mesh, &table, level, panel).unwrap();
+    let cpu = wgpu_viewer::draw_cpu(&device, &queue, &mesh, &table, level, panel).unwrap();
     assert_eq!(gpu.len(), (3 * panel * panel * 4) as usize);
     assert_eq!(gpu.len(), cpu.len());
     let background = [255u8, 255, 255];
