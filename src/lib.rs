@@ -27,4 +27,21 @@ pub mod progress;
 pub mod render;
 pub mod tess;
 
+/// Not part of the API: items the integration tests check directly (the library's own
+/// unit-test build would compile the crate a second time). May change without notice.
+#[doc(hidden)]
+pub mod internals {
+    #[cfg(feature = "cli")]
+    pub use crate::cli::common::LazyGpu;
+    pub use crate::eval::cpu::edges::min_len2;
+    pub use crate::mesh::text::{echo, parse_f64, parse_i64, split, statements};
+    pub use crate::output::atomic::DIRECT_ALIGN;
+    pub use crate::output::stats::{Part, BLOCK_PAIRS};
+    pub use crate::patch::validity::{
+        interior_powers, quick_flat, quick_quartic, tables, Tables, QUARTIC_BOUNDARY,
+        QUARTIC_INTERIOR, QUARTIC_UP,
+    };
+    pub use crate::tess::layout::rings;
+}
+
 pub use error::{Error, Result};

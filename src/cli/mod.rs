@@ -2,7 +2,7 @@
 //! non-zero; nothing a user can type makes it panic.
 
 mod bench;
-mod common;
+pub(crate) mod common;
 mod compare;
 mod export_msh;
 mod export_net;

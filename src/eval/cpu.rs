@@ -17,7 +17,7 @@ use crate::patch::basis::Weights;
 use crate::patch::PatchTable;
 use crate::Result;
 
-mod edges;
+pub(crate) mod edges;
 mod grid_f32;
 
 pub use edges::EdgeKernel;

@@ -298,7 +298,7 @@ const PIPE_BLOCKS: usize = 4;
 pub const PIPED_BYTES: u64 = (PIPE_BLOCKS * PIPE_BLOCK_DIRECT) as u64;
 /// Alignment of buffers, file offsets and lengths that direct I/O is given (the page size,
 /// a multiple of every common logical block size).
-const DIRECT_ALIGN: usize = 4096;
+pub const DIRECT_ALIGN: usize = 4096;
 
 /// One aligned page of a block (direct I/O reads the memory it writes from in place).
 #[repr(C, align(4096))]
@@ -806,42 +806,6 @@ impl Drop for EarlyWriteback {
         if let Some((tx, thread)) = self.stop.take() {
             drop(tx);
             let _ = thread.join();
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A stream (with or without an unaligned flush half way, which turns direct I/O off),
-    /// a second writer from a page boundary on, and the second's rest written at the end
-    /// give exactly the bytes written, whether the file system takes direct I/O or not.
-    #[test]
-    fn piped_and_split_writes_land_in_place() {
-        let data: Vec<u8> = (0..5_000_000u32)
-            .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
-            .collect();
-        // A page boundary; the second writer gets one whole block and a rest.
-        let split = 301 * DIRECT_ALIGN;
-        for flush in [false, true] {
-            let path =
-                std::env::temp_dir().join(format!("g1tess-piped-{}-{flush}", std::process::id()));
-            let mut w = PipedWriter::spawn(File::create(&path).unwrap());
-            let mut side = w.split_at(split as u64).unwrap();
-            side.write_all(&data[split..]).unwrap();
-            w.write_all(&data[..1000]).unwrap();
-            if flush {
-                w.flush().unwrap();
-            }
-            w.write_all(&data[1000..split]).unwrap();
-            let (at, rest) = side.finish_at().unwrap();
-            assert_eq!(at as usize + rest.len(), data.len());
-            w.write_at_end(at, rest);
-            drop(w.finish().unwrap());
-            let got = std::fs::read(&path).unwrap();
-            std::fs::remove_file(&path).unwrap();
-            assert!(got == data, "flush {flush}: the file differs");
         }
     }
 }

@@ -156,29 +156,31 @@ pub fn edge_pairs(mesh: &Mesh, adjacency: &Adjacency) -> EdgePairs {
 /// Edge samples (pairs of evaluations) per block of the running statistics: 48 edges.
 /// Blocks are numbered in sample order over the whole run, whatever the chunks, and folded
 /// in parallel.
-const BLOCK_PAIRS: usize = 48 * SAMPLES_PER_EDGE as usize;
+pub const BLOCK_PAIRS: usize = 48 * SAMPLES_PER_EDGE as usize;
 
 /// Statistics of the samples of one block (or the first samples of it). The cos values are
 /// summed with the block's first value subtracted (exact for nearby values, so the sums
 /// keep the digits that matter); blocks are merged with Chan et al.'s pairwise update.
 #[derive(Clone, Copy, Debug)]
-struct Part {
-    n: usize,
-    shift: f64,
-    s1: f64,
-    s2: f64,
-    min: f64,
-    max: f64,
-    worst_abs: f64,
+pub struct Part {
+    pub n: usize,
+    pub shift: f64,
+    pub s1: f64,
+    pub s2: f64,
+    pub min: f64,
+    pub max: f64,
+    pub worst_abs: f64,
     /// Largest squared gap (its square root is the largest gap, exactly).
-    gap2: f64,
-    folded: usize,
-    crease_n: usize,
-    crease_gap2: f64,
+    pub gap2: f64,
+    pub folded: usize,
+    pub crease_n: usize,
+    pub crease_gap2: f64,
 }
 
 impl Part {
-    fn new() -> Part {
+    // Public only for the integration tests (`internals`); an empty part is no default.
+    #[allow(clippy::new_without_default)]
+    pub fn new() -> Part {
         Part {
             n: 0,
             shift: 0.0,
@@ -195,7 +197,7 @@ impl Part {
     }
 
     #[inline]
-    fn push(&mut self, s: PairProducts, crease: bool) {
+    pub fn push(&mut self, s: PairProducts, crease: bool) {
         let gap2 = s.gap2;
         if crease {
             self.crease_n += 1;
@@ -233,7 +235,7 @@ impl Part {
     /// and it is never −0. Only where the smallest or largest cos is a zero (+0 and −0
     /// compare equal, and `f64::min` may keep either) are they taken again in order.
     #[cfg(target_arch = "x86_64")]
-    fn of(samples: &[PairProducts]) -> Part {
+    pub fn of(samples: &[PairProducts]) -> Part {
         // SAFETY: SSE2 is part of every x86_64 CPU.
         unsafe { Part::of_sse2(samples) }
     }
@@ -335,7 +337,7 @@ impl Part {
 
     /// The part of `samples`, none of them on a crease, as [`Part::push`] makes it.
     #[cfg(not(target_arch = "x86_64"))]
-    fn of(samples: &[PairProducts]) -> Part {
+    pub fn of(samples: &[PairProducts]) -> Part {
         let mut p = Part::new();
         for &s in samples {
             p.push(s, false);
@@ -1167,130 +1169,5 @@ impl StatsReport {
             ));
         }
         out
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::mesh::creases::normal_key;
-    use crate::mesh::LoadOptions;
-
-    /// The serial search [`any_split_normals`] replaced: each vertex's first corner in
-    /// triangle order is its representative.
-    fn serial_split_normals(mesh: &Mesh) -> bool {
-        let mut first = vec![u32::MAX; mesh.positions.len()];
-        for (t, (tri, normals)) in mesh.triangles.iter().zip(&mesh.corner_normals).enumerate() {
-            for k in 0..3 {
-                let f = &mut first[tri[k] as usize];
-                if *f == u32::MAX {
-                    *f = (3 * t + k) as u32;
-                    continue;
-                }
-                let (ft, fk) = (*f as usize / 3, *f as usize % 3);
-                if normal_key(mesh.corner_normals[ft][fk]) != normal_key(normals[k]) {
-                    return true;
-                }
-            }
-        }
-        false
-    }
-
-    #[test]
-    fn block_parts_are_those_of_pushing_in_order() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
-        let special = [0.0, -0.0, f64::NAN, -1.0, 1.0, 1.0000000000000004, -0.5];
-        let bits = |p: &Part| {
-            (
-                [p.n, p.folded, p.crease_n],
-                [
-                    p.shift,
-                    p.s1,
-                    p.s2,
-                    p.min,
-                    p.max,
-                    p.worst_abs,
-                    p.gap2,
-                    p.crease_gap2,
-                ]
-                .map(f64::to_bits),
-            )
-        };
-        for len in [0, 1, 2, 3, 17, BLOCK_PAIRS] {
-            for mix in 0..6 {
-                let samples: Vec<PairProducts> = (0..len)
-                    .map(|_| {
-                        let r = next();
-                        let u = (r >> 11) as f64 / (1u64 << 53) as f64;
-                        let pick = special[(r % 7) as usize];
-                        let cos = match mix {
-                            // Near 1 (a smooth surface), then anywhere in [−1, 1].
-                            0 => 1.0 - 1e-6 * u,
-                            1 => 2.0 * u - 1.0,
-                            // Special values among ordinary ones, then only those.
-                            2 if r % 5 == 0 => pick,
-                            2 => 2.0 * u - 1.0,
-                            3 => pick,
-                            // Zeros of both signs only (the order-dependent extremes).
-                            4 => special[(r % 2) as usize],
-                            _ => f64::NAN,
-                        };
-                        let gap2 = if mix == 3 && r % 3 == 0 {
-                            f64::NAN
-                        } else {
-                            u * 1e-30
-                        };
-                        PairProducts { cos, gap2 }
-                    })
-                    .collect();
-                let mut pushed = Part::new();
-                for &s in &samples {
-                    pushed.push(s, false);
-                }
-                assert_eq!(
-                    bits(&Part::of(&samples)),
-                    bits(&pushed),
-                    "{len} samples, mix {mix}"
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn parallel_split_search_agrees_with_the_serial_one() {
-        let mut seen = [false; 2];
-        for name in ["fandisk.obj", "suzanne.obj", "spot.obj"] {
-            for crease in [None, Some(30.0)] {
-                let opts = LoadOptions {
-                    recompute_normals: crease.is_some(),
-                    crease_angle: crease,
-                    ..LoadOptions::default()
-                };
-                let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
-                let mut mesh = Mesh::load(&path, &opts).unwrap();
-                for round in 0..2 {
-                    let expect = serial_split_normals(&mesh);
-                    seen[expect as usize] = true;
-                    for threads in [1, 2, 3] {
-                        let pool = rayon::ThreadPoolBuilder::new()
-                            .num_threads(threads)
-                            .build()
-                            .unwrap();
-                        let got = pool.install(|| any_split_normals(&mesh));
-                        assert_eq!(got, expect, "{name} {crease:?} round {round}");
-                    }
-                    // One corner normal of the last triangle turned a little: a split there.
-                    let last = mesh.corner_normals.last_mut().unwrap();
-                    last[2] = (last[2] + glam::DVec3::new(0.0, 1e-3, 0.0)).normalize();
-                }
-            }
-        }
-        assert_eq!(seen, [true, true]);
     }
 }

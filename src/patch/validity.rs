@@ -173,10 +173,10 @@ pub fn fold_line(mesh_name: &str, table: &PatchTable) -> Option<String> {
 type Cell = [[f64; 3]; 3];
 
 /// Index tables of Bézier triangles up to degree 8.
-struct Tables {
+pub struct Tables {
     /// For degree d ≥ 1 and each multi-index γ of degree d − 1 (in `bezier_powers`
     /// order): the indices of γ + e_0, γ + e_1, γ + e_2 in degree d.
-    up: Vec<Vec<[usize; 3]>>,
+    pub up: Vec<Vec<[usize; 3]>>,
     powers: Vec<Vec<[u32; 3]>>,
     /// For m = 0..=4: (α index, β index, α + β index in degree 2m, weight
     /// C(m; α) C(m; β) / C(2m; α + β)) over all pairs of degree m.
@@ -188,7 +188,7 @@ fn multinomial(p: [u32; 3]) -> f64 {
     f(p[0] + p[1] + p[2]) / (f(p[0]) * f(p[1]) * f(p[2]))
 }
 
-fn tables() -> &'static Tables {
+pub fn tables() -> &'static Tables {
     static T: OnceLock<Tables> = OnceLock::new();
     T.get_or_init(|| {
         let powers: Vec<Vec<[u32; 3]>> = (0..=8).map(basis::bezier_powers).collect();
@@ -467,7 +467,7 @@ const fn quartic_index(p: [u32; 3]) -> usize {
 
 /// Slots in the quartic of [`quick_quartic`] of the G1 layout's 12 boundary points
 /// ([`basis::g1_boundary_powers`]).
-const QUARTIC_BOUNDARY: [usize; 12] = {
+pub const QUARTIC_BOUNDARY: [usize; 12] = {
     let mut out = [0; 12];
     let mut k = 0;
     while k < 3 {
@@ -485,7 +485,7 @@ const QUARTIC_BOUNDARY: [usize; 12] = {
 };
 
 /// Slots in that quartic of corner m's interior point ([`interior_powers`]).
-const QUARTIC_INTERIOR: [usize; 3] = [
+pub const QUARTIC_INTERIOR: [usize; 3] = [
     quartic_index([2, 1, 1]),
     quartic_index([1, 2, 1]),
     quartic_index([1, 1, 2]),
@@ -493,7 +493,7 @@ const QUARTIC_INTERIOR: [usize; 3] = [
 
 /// `tables().up[4]` at compile time: for each multi-index γ of degree 3 (in
 /// [`basis::bezier_powers`] order), the slots of γ + e_0, γ + e_1, γ + e_2 in degree 4.
-const QUARTIC_UP: [[usize; 3]; 10] = {
+pub const QUARTIC_UP: [[usize; 3]; 10] = {
     let mut out = [[0; 3]; 10];
     let mut n = 0;
     let mut i = 4;
@@ -517,7 +517,7 @@ const QUARTIC_UP: [[usize; 3]; 10] = {
 };
 
 /// Powers (2 on m, 1 on m + 1, 1 on m + 2) of corner m's interior point.
-fn interior_powers(m: usize) -> [u32; 3] {
+pub fn interior_powers(m: usize) -> [u32; 3] {
     let mut a = [1u32; 3];
     a[m] = 2;
     a
@@ -649,7 +649,7 @@ fn quick_gregory(c: &[DVec3], nref: DVec3) -> bool {
 /// its derivative coefficients along s and t (degree 3: the first 10 of each), the bound r
 /// on the derivatives of what it leaves out, and the largest control point coordinate.
 #[inline(always)]
-fn quick_quartic(c: &[DVec3]) -> ([DVec3; 15], [DVec3; 15], f64, f64) {
+pub fn quick_quartic(c: &[DVec3]) -> ([DVec3; 15], [DVec3; 15], f64, f64) {
     let mut q = [DVec3::ZERO; 15];
     for (j, &slot) in QUARTIC_BOUNDARY.iter().enumerate() {
         q[slot] = c[j];
@@ -680,7 +680,7 @@ fn quick_quartic(c: &[DVec3]) -> ([DVec3; 15], [DVec3; 15], f64, f64) {
 /// (e_1 × e_2) · n − |e_1| b − a |e_2| − a b. True only when that, less a rounding
 /// tolerance no smaller than [`quick_gregory`]'s (|ds_j| ≤ |e_1| + a), is positive.
 #[inline(always)]
-fn quick_flat(
+pub fn quick_flat(
     c: &[DVec3],
     ds: &[DVec3; 15],
     dt: &[DVec3; 15],
@@ -827,51 +827,4 @@ pub fn repair_line(
     } else {
         line
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::mesh::{LoadOptions, Mesh};
-    use crate::patch::{Scheme, SchemeOptions};
-
-    /// The compile-time index tables of [`quick_quartic`] are those of the runtime
-    /// functions they stand for.
-    #[test]
-    fn quartic_tables_match_the_basis() {
-        for (j, p) in basis::g1_boundary_powers().iter().enumerate() {
-            assert_eq!(QUARTIC_BOUNDARY[j], basis::bezier_index(4, *p));
-        }
-        for (m, &slot) in QUARTIC_INTERIOR.iter().enumerate() {
-            assert_eq!(slot, basis::bezier_index(4, interior_powers(m)));
-        }
-        assert_eq!(tables().up[4], QUARTIC_UP.to_vec());
-    }
-
-    /// Every bunny G1 patch that [`quick_flat`] certifies has J > 0 at the 15 points of a
-    /// level-4 barycentric grid by the patch's own f64 evaluation (independent of the
-    /// bound), and the pre-test certifies the bulk of the patches of this fine mesh.
-    #[test]
-    fn quick_flat_certifies_only_positive_jacobians() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/stanford-bunny.obj");
-        let mesh = Mesh::load(path, &LoadOptions::default()).unwrap();
-        let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
-        let mut passed = 0;
-        for i in 0..table.len() {
-            let c = table.patch(i);
-            let (ds, dt, r, cmax) = quick_quartic(c);
-            if !quick_flat(c, &ds, &dt, r, table.flat_normals[i], cmax) {
-                continue;
-            }
-            passed += 1;
-            for p in basis::bezier_powers(4) {
-                let b = p.map(|k| k as f64 / 4.0);
-                // Strictly positive: the certificate keeps a margin far above rounding.
-                let (j, _) = jacobian(&table, i, b);
-                assert!(j > 0.0, "patch {i} at {b:?}: J = {j}");
-            }
-        }
-        // Deterministic: 66,615 of the 69,451 patches.
-        assert_eq!((passed, table.len()), (66_615, 69_451));
-    }
 }

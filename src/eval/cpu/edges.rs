@@ -69,7 +69,7 @@ pub(super) struct EdgeWeights {
 /// [`crate::patch::MIN_NORMAL_LEN_F64`]: as the rounded square root is monotonic,
 /// `sqrt(d) > MIN_NORMAL_LEN_F64` exactly where `d > min_len2()`, so the products mode
 /// picks the flat normal at exactly the samples where the unit normals do.
-fn min_len2() -> f64 {
+pub fn min_len2() -> f64 {
     let m = crate::patch::MIN_NORMAL_LEN_F64;
     // Neighbours of a positive finite f64 through its bits (f64::next_up is newer than
     // the crate's minimum Rust).
@@ -838,16 +838,4 @@ fn products_avx(a: &[f64], b: &[f64], lanes: usize, out: &mut [PairProducts]) {
 #[target_feature(enable = "avx512f")]
 fn products_avx512(a: &[f64], b: &[f64], lanes: usize, out: &mut [PairProducts]) {
     products::<Avx8>(a, b, lanes, out)
-}
-
-#[cfg(test)]
-mod tests {
-    /// `min_len2` is the exact threshold: its root is not above the minimum length, the
-    /// next f64's is.
-    #[test]
-    fn min_len2_is_the_square_root_threshold() {
-        let (t, m) = (super::min_len2(), crate::patch::MIN_NORMAL_LEN_F64);
-        let next = f64::from_bits(t.to_bits() + 1);
-        assert!(t > 0.0 && t.sqrt() <= m && next.sqrt() > m, "{t:e}");
-    }
 }
