@@ -31,8 +31,8 @@ impl EdgeKernel {
     /// f64 lanes of the kernel that runs on this CPU (0: none).
     pub fn lanes(self) -> usize {
         match self {
-            EdgeKernel::Auto if has_avx512f() => 8,
-            EdgeKernel::Auto | EdgeKernel::Avx if has_avx() => 4,
+            EdgeKernel::Auto if cpu_has!("avx512f") => 8,
+            EdgeKernel::Auto | EdgeKernel::Avx if cpu_has!("avx") => 4,
             _ => 0,
         }
     }
@@ -379,28 +379,6 @@ pub(super) struct PairScratch {
     b: Vec<f64>,
     p: Vec<DVec3>,
     n: Vec<DVec3>,
-}
-
-fn has_avx() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-fn has_avx512f() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx512f")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
 }
 
 /// The few f64 vector operations of the edge kernel, each lane by lane as the scalar

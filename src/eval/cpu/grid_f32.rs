@@ -72,7 +72,7 @@ impl GridWeightsF32 {
         let level = level.max(1);
         let b = grid_barycentrics(level);
         let per = b.len();
-        let width = if has_avx512f() { LANES16 } else { LANES };
+        let width = if cpu_has!("avx512f") { LANES16 } else { LANES };
         GridWeightsF32 {
             kind,
             level,
@@ -466,28 +466,6 @@ fn patch_f32_avx512(
     patch_f32::<LANES16, Avx512>(g, cp, origin, flat, pos, nrm)
 }
 
-fn has_avx512f() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx512f")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-fn has_avx2_fma() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 /// Instruction set of the f32 fast path.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum F32Kernel {
@@ -512,8 +490,8 @@ enum Isa {
 impl F32Kernel {
     fn isa(self) -> Isa {
         match self {
-            F32Kernel::Auto if has_avx512f() => Isa::Avx512,
-            F32Kernel::Auto | F32Kernel::Avx2 if has_avx2_fma() => Isa::Avx2,
+            F32Kernel::Auto if cpu_has!("avx512f") => Isa::Avx512,
+            F32Kernel::Auto | F32Kernel::Avx2 if cpu_has!("avx2", "fma") => Isa::Avx2,
             _ => Isa::Portable,
         }
     }
@@ -561,10 +539,10 @@ fn run_patches_f32(
             let flat = [f.x as f32, f.y as f32, f.z as f32];
             let cp = &cp[..g.stride];
             match isa {
-                // SAFETY: the CPU has AVX-512F (checked by has_avx512f in `isa`).
+                // SAFETY: the CPU has AVX-512F (checked by `cpu_has!` in `isa`).
                 #[cfg(target_arch = "x86_64")]
                 Isa::Avx512 => unsafe { patch_f32_avx512(g, cp, origin, flat, p, n) },
-                // SAFETY: the CPU has AVX2 and FMA (checked by has_avx2_fma in `isa`).
+                // SAFETY: the CPU has AVX2 and FMA (checked by `cpu_has!` in `isa`).
                 #[cfg(target_arch = "x86_64")]
                 Isa::Avx2 => unsafe { patch_f32_avx2(g, cp, origin, flat, p, n) },
                 _ => patch_f32::<LANES, Portable>(g, cp, origin, flat, p, n),
