@@ -37,7 +37,9 @@ fn check_rate(r: &serde_json::Value, samples: f64, roofline: f64) {
 #[test]
 fn bench_json_rows_and_rates_are_consistent() {
     let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
-    let gpu = g1tess::gpu::GpuContext::shared().is_ok();
+    let context = g1tess::gpu::GpuContext::shared();
+    let gpu = context.is_ok();
+    let software = context.is_ok_and(|c| c.info.device_type == wgpu::DeviceType::Cpu);
     assert!(gpu || !ci, "CI=true and no GPU adapter");
     let v = bench(&[
         "sphere320",
@@ -101,7 +103,21 @@ fn bench_json_rows_and_rates_are_consistent() {
                 (f * rate("cpu_f32_all_threads") / d - 1.0).abs() < QUOTIENT,
                 "{r}"
             );
+            // The patch loop's bound exists where grids run the patch loop: on software
+            // adapters (G1 at any level, flat's basis fits the uniform table at 2 and 3).
+            if software {
+                check_rate(&r["gpu_loop_bound"], samples, roofline);
+                let b = r["gpu_loop_bound_fraction"].as_f64().unwrap();
+                assert!(
+                    (b * rate("gpu_ceiling") / rate("gpu_loop_bound") - 1.0).abs() < QUOTIENT,
+                    "{r}"
+                );
+            } else {
+                assert!(r["gpu_loop_bound"].is_null(), "{r}");
+                assert!(r["gpu_loop_bound_fraction"].is_null(), "{r}");
+            }
         } else {
+            assert!(r["gpu_loop_bound"].is_null(), "{r}");
             assert!(r["gpu_ceiling_fraction"].is_null(), "{r}");
             assert!(r["gpu_cpu_f32_fraction"].is_null(), "{r}");
         }

@@ -6,9 +6,10 @@
 use std::collections::BTreeSet;
 
 use g1tess::gpu::shaders::{
-    ceiling_source, file_for, header, module_source, patch_vecs, stats_source, validate, variants,
-    BEZIER, CEILING, COMMON, EXTRA_VECS, FILES, GREGORY, SLOT_CORNERS, SLOT_FLAT_NORMAL,
-    SLOT_ORIGIN_LO, STATS, STATS_REALS, UNIFORM_TABLE_BYTES, WORKGROUP,
+    ceiling_source, file_for, header, loop_bound_source, module_source, patch_vecs, stats_source,
+    validate, variants, BEZIER, CEILING, COMMON, EXTRA_VECS, FILES, GREGORY, LOOP_BOUND,
+    SLOT_CORNERS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO, STATS, STATS_REALS, UNIFORM_TABLE_BYTES,
+    WORKGROUP,
 };
 use g1tess::gpu::Precision;
 use g1tess::patch::basis::MAX_POINTS;
@@ -323,6 +324,51 @@ fn uniform_table_size_and_ceiling_shader() {
             value(&tok) <= 4.0 || tok == "7",
             "shaders/ceiling.wgsl: literal {tok}"
         );
+    }
+}
+
+/// The loop bound of `bench` (a kind's module with shaders/loop_bound.wgsl's
+/// kind_loop_point in place of the kind's) validates for every kind in both precisions,
+/// with the kind's entry points, exactly one kind_loop_point (the bound's: the kind's is
+/// renamed and still there) and no number but components and zero.
+#[test]
+fn loop_bound_module_validates_for_every_kind() {
+    for kind in PatchKind::all() {
+        for precision in PRECISIONS {
+            let src = loop_bound_source(kind, precision).unwrap();
+            let module = validate(&src, precision)
+                .unwrap_or_else(|e| panic!("loop bound {kind:?} {precision}: {e}"));
+            let entries: Vec<_> = module
+                .entry_points
+                .iter()
+                .map(|e| e.name.as_str())
+                .collect();
+            assert_eq!(
+                entries,
+                [
+                    "grid_main",
+                    "grid_table_main",
+                    "points_main",
+                    "grid_patch_main"
+                ],
+                "{kind:?}"
+            );
+            let names: Vec<_> = module
+                .functions
+                .iter()
+                .filter_map(|(_, f)| f.name.as_deref())
+                .filter(|n| n.starts_with("kind_loop_point"))
+                .collect();
+            assert_eq!(
+                names,
+                ["kind_loop_point_evaluated", "kind_loop_point"],
+                "{kind:?} {precision}"
+            );
+            assert!(src.ends_with(LOOP_BOUND.source));
+        }
+    }
+    for (tok, _) in literals(LOOP_BOUND.source) {
+        assert!(value(&tok) <= 2.0, "shaders/loop_bound.wgsl: literal {tok}");
     }
 }
 

@@ -145,6 +145,14 @@ pub struct Row {
     pub gpu_ceiling_per_sample: Option<Rate>,
     /// gpu_dispatch_only ÷ gpu_ceiling_per_sample.
     pub gpu_ceiling_per_sample_fraction: Option<f64>,
+    /// The patch loop's bound where the grid runs one thread per patch (software adapters):
+    /// `grid_patch_main` as this kind runs it, with the same uploads, control-point loads,
+    /// normalisation and stores, evaluating nothing (`shaders/loop_bound.wgsl`). No
+    /// evaluation of the kind in that loop can be faster.
+    pub gpu_loop_bound: Option<Rate>,
+    /// gpu_loop_bound ÷ gpu_ceiling: the most of the ceiling an evaluation in the patch
+    /// loop can reach.
+    pub gpu_loop_bound_fraction: Option<f64>,
     /// gpu_dispatch_only ÷ cpu_f32_all_threads (samples per second), the same run.
     pub gpu_cpu_f32_fraction: Option<f64>,
 }
@@ -413,23 +421,38 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                         Ok(())
                     })?))
                 };
-                let (dispatch, readback, (ceiling, ceiling1), sink2, sink1) = match &mut gpu {
+                let (dispatch, readback, (ceiling, ceiling1), sink2, sink1, bound) = match &mut gpu
+                {
                     Some(g) => {
                         // The first run builds the pipelines and warms the driver.
                         g.time_grid(&table, 1)?;
-                        let d = best_time(min, || {
-                            g.time_grid(&table, level)?;
-                            Ok(())
-                        })?;
-                        let ceiling = |shape| {
-                            g.time_ceiling(1, shape)?;
-                            best_time(min, || {
-                                g.time_ceiling(samples, shape)?;
-                                Ok(())
-                            })
-                        };
-                        let c1 = ceiling(CeilingShape::PerSample)?;
-                        let c4 = ceiling(CeilingShape::Quads)?;
+                        g.time_ceiling(1, CeilingShape::PerSample)?;
+                        g.time_ceiling(1, CeilingShape::Quads)?;
+                        let bound_pipes = g.loop_bound(table.kind)?;
+                        // The dispatch, the two ceilings and the loop bound in turn, round
+                        // after round, so that the host's changes of speed reach all of
+                        // them alike; the best of each. The times the calls return (each
+                        // builds or finds its pipelines before its clock starts).
+                        let mut best = [f64::INFINITY; 4];
+                        let start = Instant::now();
+                        for round in 0..5 {
+                            let mut take = |k: usize, t: Duration| {
+                                best[k] = best[k].min(t.as_secs_f64());
+                            };
+                            take(0, g.time_grid(&table, level)?.elapsed);
+                            take(1, g.time_ceiling(samples, CeilingShape::PerSample)?.elapsed);
+                            take(2, g.time_ceiling(samples, CeilingShape::Quads)?.elapsed);
+                            if let Some(b) = &bound_pipes {
+                                if let Some(t) = g.time_loop_bound(b, &table, level)? {
+                                    take(3, t.elapsed);
+                                }
+                            }
+                            if round >= 1 && start.elapsed() >= 2 * min {
+                                break;
+                            }
+                        }
+                        let [d, c1, c4, b] = best;
+                        let bound = b.is_finite().then(|| rate(b));
                         let r = best_time(Duration::ZERO, || {
                             g.evaluate(&table, &Pattern::Grid { level }, &mut |c| {
                                 std::hint::black_box(c.positions.last());
@@ -458,9 +481,10 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                             (Some(rate(c1.min(c4))), Some(rate(c1))),
                             Some(rate(s2)),
                             Some(rate(s1)),
+                            bound,
                         )
                     }
-                    None => (None, None, (None, None), None, None),
+                    None => (None, None, (None, None), None, None, None),
                 };
                 let cpu_all_rate = rate(cpu_all);
                 rows.push(Row {
@@ -486,6 +510,10 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                     gpu_ceiling_per_sample_fraction: dispatch
                         .zip(ceiling1)
                         .map(|(d, c)| d.samples_per_s / c.samples_per_s),
+                    gpu_loop_bound: bound,
+                    gpu_loop_bound_fraction: bound
+                        .zip(ceiling)
+                        .map(|(b, c)| b.samples_per_s / c.samples_per_s),
                     gpu_cpu_f32_fraction: dispatch
                         .map(|d| d.samples_per_s / cpu_all_rate.samples_per_s),
                 });
@@ -521,8 +549,8 @@ pub fn to_text(r: &BenchReport) -> String {
         "machine: {} · {} threads · {} · CPU kernel {}, {} samples per chunk\n\
          gpu: {}{}\n\
          memory write bandwidth ({} MiB buffer): {:.2} GB/s all threads, {:.2} GB/s 1 thread → roofline {:.1} M samples/s at 24 B/sample\n\n\
-         | mesh | scheme | level | samples | build ms | CPU f32 1 thr M/s (roof) | CPU f32 all M/s (roof) | CPU f32 all, whole output M/s (roof) | CPU f64 ref all M/s | GPU dispatch M/s (roof) | GPU +readback M/s (roof) | GPU → f32 sink M/s (1 buffer) | GPU ceiling M/s (per sample) | dispatch ÷ ceiling (per sample) | dispatch ÷ CPU f32 all |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+         | mesh | scheme | level | samples | build ms | CPU f32 1 thr M/s (roof) | CPU f32 all M/s (roof) | CPU f32 all, whole output M/s (roof) | CPU f64 ref all M/s | GPU dispatch M/s (roof) | GPU +readback M/s (roof) | GPU → f32 sink M/s (1 buffer) | GPU ceiling M/s (per sample) | dispatch ÷ ceiling (per sample) | loop bound M/s (÷ ceiling) | dispatch ÷ CPU f32 all |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         m.cpu,
         m.threads,
         m.os,
@@ -550,7 +578,7 @@ pub fn to_text(r: &BenchReport) -> String {
     };
     for row in &r.rows {
         s += &format!(
-            "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             row.mesh,
             row.scheme,
             row.level,
@@ -590,6 +618,14 @@ pub fn to_text(r: &BenchReport) -> String {
                     percent(row.gpu_ceiling_per_sample_fraction)
                 ),
                 _ => "–".into(),
+            },
+            match row.gpu_loop_bound {
+                Some(b) => format!(
+                    "{:.1} ({})",
+                    b.samples_per_s / 1e6,
+                    percent(row.gpu_loop_bound_fraction)
+                ),
+                None => "–".into(),
             },
             percent(row.gpu_cpu_f32_fraction),
         );

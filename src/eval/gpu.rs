@@ -217,8 +217,21 @@ pub fn create_pipelines_with(
     precision: Precision,
     runtime_checks: bool,
 ) -> Result<Pipelines> {
-    let file = shaders::file_for(kind);
     let source = shaders::module_source(kind, precision)?;
+    pipelines_from(device, layout, kind, precision, runtime_checks, source)
+}
+
+/// The pipelines of `kind` built from `source`, a module with `kind`'s layout (the
+/// kind's own, or [`shaders::loop_bound_source`]).
+fn pipelines_from(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    kind: PatchKind,
+    precision: Precision,
+    runtime_checks: bool,
+    source: String,
+) -> Result<Pipelines> {
+    let file = shaders::file_for(kind);
     shaders::validate(&source, precision)
         .map_err(|e| Error::Gpu(format!("shaders/{} ({kind:?}): {e}", file.name)))?;
     let module = shader_module(device, file.name, source, runtime_checks);
@@ -824,6 +837,21 @@ impl GpuEvaluator {
         Ok(n)
     }
 
+    /// Whether [`Self::grid`] runs `grid_patch_main` for the grid of `level` on `table` in
+    /// reals of `rb` bytes, where the kind's pipelines have it: [`Self::patch_loop`] on,
+    /// the kind's basis in the uniform table (G1 evaluates its own: any level), and a whole
+    /// patch within one dispatch.
+    fn grid_runs_patch_loop(&self, table: &PatchTable, level: u32, rb: usize) -> Result<bool> {
+        let per = grid_len(level.max(1));
+        let per_dispatch = self.limit_samples(OUT_REALS * rb)?;
+        let table_bytes = (per * table.stride * 3 * rb) as u64;
+        let use_table = table_bytes <= self.max_grid_table_bytes.min(self.max_binding_bytes);
+        let uniform_fits = per * table.stride * 4 * rb <= shaders::UNIFORM_TABLE_BYTES;
+        Ok(self.patch_loop
+            && ((use_table && uniform_fits) || table.kind == PatchKind::Gregory)
+            && per_dispatch >= per)
+    }
+
     /// Evaluates the grid of `level` into `target` (with [`Target::Discard`] nothing is
     /// read back: the timing of dispatches alone).
     fn grid<R: Real>(
@@ -868,11 +896,7 @@ impl GpuEvaluator {
         // sample count is a multiple of 4 (grid_patch_main then stores vec4s).
         let quad = 4 / gcd(per, 4);
         let patch_loop = match &pipes.grid_patch {
-            Some((layout, pipeline))
-                if self.patch_loop
-                    && ((use_table && uniform_fits) || table.kind == PatchKind::Gregory)
-                    && out_samples >= per =>
-            {
+            Some((layout, pipeline)) if self.grid_runs_patch_loop(table, level, rb)? => {
                 let patches = out_samples / per;
                 out_samples = if patches >= quad {
                     (patches - patches % quad) * per
@@ -1193,6 +1217,57 @@ impl GpuEvaluator {
             samples: grid_len(level.max(1)) * table.len(),
             elapsed: start.elapsed(),
         })
+    }
+}
+
+/// The pipelines of a kind's patch loop with no evaluation ([`GpuEvaluator::loop_bound`]).
+pub struct LoopBound {
+    pipes: Pipelines,
+}
+
+impl GpuEvaluator {
+    /// The patch loop's bound for `kind`: `grid_patch_main` as the kind runs it, with a
+    /// `kind_loop_point` that evaluates nothing (`shaders/loop_bound.wgsl`): the same
+    /// uploads, control-point loads, normalisation and stores. No evaluation of the kind in
+    /// that loop runs faster. `None` where the device has no patch loop. Time it with
+    /// [`Self::time_loop_bound`].
+    pub fn loop_bound(&self, kind: PatchKind) -> Result<Option<LoopBound>> {
+        let pipes = pipelines_from(
+            &self.ctx.device,
+            &self.layout,
+            kind,
+            self.precision,
+            self.shader_runtime_checks,
+            shaders::loop_bound_source(kind, self.precision)?,
+        )?;
+        self.ctx.check()?;
+        Ok(pipes.grid_patch.is_some().then_some(LoopBound { pipes }))
+    }
+
+    /// The grid of `level` on `table` through `bound` (of `table.kind`), timed as
+    /// [`Self::time_grid`] times a grid. `None` where the grid does not run the patch loop
+    /// (a GPU's, or [`Self::patch_loop`] off). Nothing is read back; the samples are
+    /// meaningless.
+    pub fn time_loop_bound(
+        &self,
+        bound: &LoopBound,
+        table: &PatchTable,
+        level: u32,
+    ) -> Result<Option<GridTiming>> {
+        if bound.pipes.kind != table.kind
+            || !self.grid_runs_patch_loop(table, level, self.precision.bytes())?
+        {
+            return Ok(None);
+        }
+        let start = Instant::now();
+        match self.precision {
+            Precision::F32 => self.grid::<f32>(&bound.pipes, table, level, &mut Target::Discard)?,
+            Precision::F64 => self.grid::<f64>(&bound.pipes, table, level, &mut Target::Discard)?,
+        }
+        Ok(Some(GridTiming {
+            samples: grid_len(level.max(1)) * table.len(),
+            elapsed: start.elapsed(),
+        }))
     }
 }
 

@@ -80,6 +80,37 @@ pub fn ceiling_source() -> String {
     )
 }
 
+/// The patch loop with no evaluation, which `bench` times as the loop's bound
+/// ([`loop_bound_source`]).
+pub const LOOP_BOUND: ShaderFile = ShaderFile {
+    name: "loop_bound.wgsl",
+    source: include_str!("../../shaders/loop_bound.wgsl"),
+};
+
+/// The name the kinds' files give their patch-loop sample, which [`loop_bound_source`]
+/// replaces.
+const KIND_LOOP_POINT: &str = "fn kind_loop_point(";
+
+/// The module of `kind` ([`module_source`]) with the kind's `kind_loop_point` renamed and
+/// `shaders/loop_bound.wgsl`'s in its place: `grid_patch_main` as `kind` runs it (the same
+/// layout, loads and stores), evaluating nothing. Only that entry point means anything in
+/// it.
+pub fn loop_bound_source(kind: PatchKind, precision: Precision) -> Result<String> {
+    let source = module_source(kind, precision)?;
+    if source.matches(KIND_LOOP_POINT).count() != 1 {
+        return Err(Error::Gpu(format!(
+            "shaders/{}: expected one `{KIND_LOOP_POINT}` for the loop bound",
+            file_for(kind).name
+        )));
+    }
+    Ok(format!(
+        "{}\n// ---- shaders/{} ----\n{}",
+        source.replace(KIND_LOOP_POINT, "fn kind_loop_point_evaluated("),
+        LOOP_BOUND.name,
+        LOOP_BOUND.source
+    ))
+}
+
 /// Table 1's reductions on the device (entry point `stats_main`), appended to a kind's
 /// evaluation module.
 pub const STATS: ShaderFile = ShaderFile {
