@@ -60,6 +60,22 @@ fn constant_real(module: &naga::Module, name: &str) -> (f64, bool) {
     }
 }
 
+/// The entry points of every evaluation module, in order.
+const EVAL_ENTRIES: [&str; 4] = [
+    "grid_main",
+    "grid_table_main",
+    "points_main",
+    "grid_patch_main",
+];
+
+fn entry_points(module: &naga::Module) -> Vec<&str> {
+    module
+        .entry_points
+        .iter()
+        .map(|e| e.name.as_str())
+        .collect()
+}
+
 #[test]
 fn every_kind_validates_in_f32_and_f64() {
     let all = variants();
@@ -70,22 +86,7 @@ fn every_kind_validates_in_f32_and_f64() {
             let src = module_source(kind, precision).unwrap();
             let module = validate(&src, precision)
                 .unwrap_or_else(|e| panic!("{} {kind:?} {precision}: {e}", file.name));
-            let entries: Vec<_> = module
-                .entry_points
-                .iter()
-                .map(|e| e.name.as_str())
-                .collect();
-            assert_eq!(
-                entries,
-                [
-                    "grid_main",
-                    "grid_table_main",
-                    "points_main",
-                    "grid_patch_main"
-                ],
-                "{}",
-                file.name
-            );
+            assert_eq!(entry_points(&module), EVAL_ENTRIES, "{}", file.name);
             // The f64 module really computes in f64 (the f32 one validated without the
             // FLOAT64 capability, so it has none).
             assert_eq!(
@@ -311,12 +312,10 @@ fn uniform_table_size_and_ceiling_shader() {
         }
     }
     let module = validate(&ceiling_source(), Precision::F32).unwrap();
-    let entries: Vec<_> = module
-        .entry_points
-        .iter()
-        .map(|e| e.name.as_str())
-        .collect();
-    assert_eq!(entries, ["ceiling_main", "ceiling_quads_main"]);
+    assert_eq!(
+        entry_points(&module),
+        ["ceiling_main", "ceiling_quads_main"]
+    );
     assert_eq!(constant_u32(&module, "WORKGROUP"), WORKGROUP as usize);
     // Components, binding numbers and the 4 samples of a quad; nothing else.
     for (tok, _) in literals(CEILING.source) {
@@ -338,21 +337,7 @@ fn loop_bound_module_validates_for_every_kind() {
             let src = loop_bound_source(kind, precision).unwrap();
             let module = validate(&src, precision)
                 .unwrap_or_else(|e| panic!("loop bound {kind:?} {precision}: {e}"));
-            let entries: Vec<_> = module
-                .entry_points
-                .iter()
-                .map(|e| e.name.as_str())
-                .collect();
-            assert_eq!(
-                entries,
-                [
-                    "grid_main",
-                    "grid_table_main",
-                    "points_main",
-                    "grid_patch_main"
-                ],
-                "{kind:?}"
-            );
+            assert_eq!(entry_points(&module), EVAL_ENTRIES, "{kind:?}");
             let names: Vec<_> = module
                 .functions
                 .iter()
