@@ -1229,9 +1229,13 @@ impl GpuEvaluator {
     /// The patch loop's bound for `kind`: `grid_patch_main` as the kind runs it, with a
     /// `kind_loop_point` that evaluates nothing (`shaders/loop_bound.wgsl`): the same
     /// uploads, control-point loads, normalisation and stores. No evaluation of the kind in
-    /// that loop runs faster. `None` where the device has no patch loop. Time it with
+    /// that loop runs faster. `None` where grids do not run the patch loop
+    /// ([`Self::patch_loop`] off, as on GPUs) or the device has none. Time it with
     /// [`Self::time_loop_bound`].
     pub fn loop_bound(&self, kind: PatchKind) -> Result<Option<LoopBound>> {
+        if !self.patch_loop {
+            return Ok(None);
+        }
         let pipes = pipelines_from(
             &self.ctx.device,
             &self.layout,
