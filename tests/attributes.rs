@@ -20,18 +20,8 @@ use glam::DVec3;
 /// have their own square of the UV plane: every cube edge is a UV seam, the face diagonals
 /// are not. With `colors`, each corner also gets a colour (with alpha) of its face.
 fn seamed_cube(colors: bool) -> Mesh {
-    let p: Vec<[f64; 3]> = (0..8)
-        .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
-        .collect();
-    // Faces as quads (counter-clockwise seen from outside).
-    let quads: [[u32; 4]; 6] = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
+    let p = common::cube_corners();
+    let quads = common::CUBE_QUADS;
     let mut tris = Vec::new();
     let mut uvs = Vec::new();
     let mut cols = Vec::new();

@@ -87,19 +87,12 @@ mod creases {
 
     /// A unit cube, 12 triangles, outward, one normal per vertex (smooth).
     fn cube() -> Mesh {
-        let p: Vec<DVec3> = (0..8)
-            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
+        let p: Vec<DVec3> = crate::common::cube_corners()
+            .into_iter()
+            .map(DVec3::from)
             .collect();
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
         let mut tris = Vec::new();
-        for q in quads {
+        for q in crate::common::CUBE_QUADS {
             tris.push([q[0], q[1], q[2]]);
             tris.push([q[0], q[2], q[3]]);
         }

@@ -15,6 +15,23 @@ pub fn shared_mesh(name: &str) -> PathBuf {
     p
 }
 
+/// The unit cube's corners: corner i at the bits of i (x = bit 0, y = bit 1, z = bit 2).
+pub fn cube_corners() -> Vec<[f64; 3]> {
+    (0..8)
+        .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
+        .collect()
+}
+
+/// The unit cube's faces as quads of [`cube_corners`], counter-clockwise seen from outside.
+pub const CUBE_QUADS: [[u32; 4]; 6] = [
+    [0, 2, 3, 1],
+    [4, 5, 7, 6],
+    [0, 1, 5, 4],
+    [2, 6, 7, 3],
+    [0, 4, 6, 2],
+    [1, 3, 7, 5],
+];
+
 /// [`shared_mesh`] as the string `Mesh::load` and the command line take.
 pub fn shared_spec(name: &str) -> String {
     shared_mesh(name).display().to_string()
