@@ -23,37 +23,6 @@ fn tmp(name: &str) -> PathBuf {
     dir.join(name)
 }
 
-/// Unit cube as OBJ text: 6 quads, with (`flat`) one `vn` per face or without normals.
-fn cube_obj(flat: bool) -> String {
-    let mut s = String::new();
-    for i in 0..8 {
-        s += &format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
-    }
-    let faces = [
-        ([1, 3, 4, 2], [0, 0, -1]),
-        ([5, 6, 8, 7], [0, 0, 1]),
-        ([1, 2, 6, 5], [0, -1, 0]),
-        ([3, 7, 8, 4], [0, 1, 0]),
-        ([1, 5, 7, 3], [-1, 0, 0]),
-        ([2, 4, 8, 6], [1, 0, 0]),
-    ];
-    for (i, (_, n)) in faces.iter().enumerate() {
-        if flat {
-            s += &format!("vn {} {} {}\n", n[0], n[1], n[2]);
-        }
-        let _ = i;
-    }
-    for (i, (q, _)) in faces.iter().enumerate() {
-        if flat {
-            let c: Vec<String> = q.iter().map(|v| format!("{v}//{}", i + 1)).collect();
-            s += &format!("f {}\n", c.join(" "));
-        } else {
-            s += &format!("f {} {} {} {}\n", q[0], q[1], q[2], q[3]);
-        }
-    }
-    s
-}
-
 fn stats(mesh: &Mesh, table: &PatchTable) -> Continuity {
     continuity(mesh, &mesh.adjacency(), table, &CpuEvaluator::default()).unwrap()
 }
@@ -65,7 +34,7 @@ fn stats(mesh: &Mesh, table: &PatchTable) -> Continuity {
 fn cube_is_reproduced_exactly() {
     for flat in [true, false] {
         let path = tmp(if flat { "flat.obj" } else { "plain.obj" });
-        std::fs::write(&path, cube_obj(flat)).unwrap();
+        std::fs::write(&path, common::cube_obj(flat)).unwrap();
         let opts = LoadOptions {
             crease_angle: if flat { None } else { Some(30.0) },
             ..Default::default()

@@ -18,6 +18,8 @@ use g1tess::tess::stitch::{
     stitch_in, stitch_into, PatchOut, StitchPlan, StitchSink, StitchedMesh,
 };
 
+use crate::common;
+
 fn dir() -> PathBuf {
     let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join(format!("g1tess-formats-{}", std::process::id()));
@@ -28,26 +30,7 @@ fn dir() -> PathBuf {
 /// A smooth mesh and one with split normals (cube with one normal per face).
 fn meshes() -> Vec<Mesh> {
     let cube = dir().join("cube.obj");
-    let mut s = String::new();
-    for i in 0..8 {
-        s += &format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
-    }
-    s += "vn 0 0 -1\nvn 0 0 1\nvn 0 -1 0\nvn 0 1 0\nvn -1 0 0\nvn 1 0 0\n";
-    for (i, q) in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ]
-    .iter()
-    .enumerate()
-    {
-        let c: Vec<String> = q.iter().map(|v| format!("{v}//{}", i + 1)).collect();
-        s += &format!("f {}\n", c.join(" "));
-    }
-    std::fs::write(&cube, s).unwrap();
+    std::fs::write(&cube, common::cube_obj(true)).unwrap();
     vec![
         Mesh::load("torus200", &LoadOptions::default()).unwrap(),
         Mesh::load(cube.to_str().unwrap(), &LoadOptions::default()).unwrap(),

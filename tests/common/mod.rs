@@ -32,6 +32,41 @@ pub const CUBE_QUADS: [[u32; 4]; 6] = [
     [1, 3, 7, 5],
 ];
 
+/// The outward normal of each face of [`CUBE_QUADS`].
+pub const CUBE_FACE_NORMALS: [[i32; 3]; 6] = [
+    [0, 0, -1],
+    [0, 0, 1],
+    [0, -1, 0],
+    [0, 1, 0],
+    [-1, 0, 0],
+    [1, 0, 0],
+];
+
+/// The unit cube as OBJ text: its 8 corners and 6 quads, with (`flat`) one `vn` per face
+/// or without normals.
+pub fn cube_obj(flat: bool) -> String {
+    let mut s = String::new();
+    for p in cube_corners() {
+        s += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    if flat {
+        for n in CUBE_FACE_NORMALS {
+            s += &format!("vn {} {} {}\n", n[0], n[1], n[2]);
+        }
+    }
+    for (i, q) in CUBE_QUADS.iter().enumerate() {
+        let c: Vec<String> = q
+            .iter()
+            .map(|v| match flat {
+                true => format!("{}//{}", v + 1, i + 1),
+                false => format!("{}", v + 1),
+            })
+            .collect();
+        s += &format!("f {}\n", c.join(" "));
+    }
+    s
+}
+
 /// [`shared_mesh`] as the string `Mesh::load` and the command line take.
 pub fn shared_spec(name: &str) -> String {
     shared_mesh(name).display().to_string()
