@@ -15,6 +15,23 @@
 //! Without default features the library builds without any of them and keeps meshes,
 //! patches, the CPU and GPU evaluators (wgpu), statistics, the writers and the render pass.
 
+/// Whether the CPU has every named instruction set (detected at run time, once, by the
+/// standard library; false off x86-64): the one check behind the kernels' choice of lanes
+/// (`eval::cpu`) and the G1 builder's (`patch::g1`). Defined before the modules, so that
+/// every module sees it.
+macro_rules! cpu_has {
+    ($($feature:tt),+) => {{
+        #[cfg(target_arch = "x86_64")]
+        {
+            true $(&& std::is_x86_feature_detected!($feature))+
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            false
+        }
+    }};
+}
+
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod error;
@@ -23,6 +40,7 @@ pub mod gpu;
 pub mod mesh;
 pub mod output;
 pub mod patch;
+mod pipelined;
 pub mod progress;
 pub mod render;
 pub mod tess;

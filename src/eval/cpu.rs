@@ -17,21 +17,6 @@ use crate::patch::basis::Weights;
 use crate::patch::PatchTable;
 use crate::Result;
 
-/// Whether the CPU has every named instruction set (detected at run time, once, by the
-/// standard library; false off x86-64): the kernels' choice of lanes.
-macro_rules! cpu_has {
-    ($($feature:tt),+) => {{
-        #[cfg(target_arch = "x86_64")]
-        {
-            true $(&& std::is_x86_feature_detected!($feature))+
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            false
-        }
-    }};
-}
-
 pub(crate) mod edges;
 mod grid_f32;
 

@@ -395,16 +395,10 @@ mod lanes {
         L::select(w2.gt(zero), d.dot(w).div(w2), zero)
     }
 
-    /// Whether the CPU has AVX2 (detected once by the standard library).
-    #[inline]
-    pub(super) fn available() -> bool {
-        std::is_x86_feature_detected!("avx2")
-    }
-
     /// See the module.
     ///
     /// # Safety
-    /// The CPU has AVX2 ([`available`]).
+    /// The CPU has AVX2 (`cpu_has!("avx2")`).
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn build_avx2(
         q: [DVec3; 3],
@@ -599,7 +593,7 @@ impl TriangleBuilder for G1Builder<'_> {
             // SAFETY: the CPU has AVX2 (checked first).
             #[cfg(target_arch = "x86_64")]
             if given.iter().all(Option::is_none)
-                && lanes::available()
+                && cpu_has!("avx2")
                 && unsafe { lanes::build_avx2(q, n, tri, slot) }
             {
                 return 0;

@@ -992,7 +992,7 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             self.bufs.resize_with(sets, PatchBuf::default);
         }
         let (store, grid, grid_bary) = (&self.store, &self.grid, &self.grid_bary);
-        let build_batch = |start: usize, bufs: &mut [PatchBuf<V>]| {
+        let build_batch = |start: usize, len: usize, bufs: &mut [PatchBuf<V>]| {
             let build = |(j, buf): (usize, &mut PatchBuf<V>)| {
                 let k = start + j;
                 build_patch(
@@ -1009,27 +1009,25 @@ impl<'a, V: Vector> Stitcher<'a, V> {
                     build_attributes(plan, attrs, grid_bary, first + k, buf);
                 }
             };
-            if bufs.len() > 1 {
+            let bufs = &mut bufs[..len];
+            if len > 1 {
                 bufs.par_iter_mut().enumerate().for_each(build);
             } else {
                 bufs.iter_mut().enumerate().for_each(build);
             }
         };
-        let (mut cur, mut next) = self.bufs.split_at_mut(batch);
-        let mut start = 0;
-        let mut len = batch.min(count);
-        build_batch(start, &mut cur[..len]);
-        while len > 0 {
-            let after = start + len;
-            let more = batch.min(count - after);
-            let ready = &cur[..len];
-            let building = &mut next[..more];
-            let result = rayon::in_place_scope(|s| {
-                if more > 0 {
-                    s.spawn(move |_| build_batch(after, building));
-                }
-                for (j, buf) in ready.iter().enumerate() {
-                    self.max_snap = self.max_snap.max(buf.snap);
+        let max_snap = &mut self.max_snap;
+        let (cur, next) = self.bufs.split_at_mut(batch);
+        // The sink reads each batch, in patch order, while the pool builds the next.
+        let result = crate::pipelined::double_buffered(
+            cur,
+            next,
+            count,
+            batch,
+            build_batch,
+            |start, len, ready| {
+                for (j, buf) in ready[..len].iter().enumerate() {
+                    *max_snap = max_snap.max(buf.snap);
                     sink.patch(&PatchOut {
                         patch: first + start + j,
                         new_positions: &buf.new_positions[..buf.npos],
@@ -1050,15 +1048,10 @@ impl<'a, V: Vector> Stitcher<'a, V> {
                     })?;
                 }
                 Ok(())
-            });
-            if let Err(e) = result {
-                self.offsets = offsets;
-                return Err(e);
-            }
-            std::mem::swap(&mut cur, &mut next);
-            (start, len) = (after, more);
-        }
+            },
+        );
         self.offsets = offsets;
+        result?;
         self.next_patch = first + count;
         Ok(())
     }

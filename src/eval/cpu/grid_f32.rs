@@ -571,44 +571,45 @@ impl CpuEvaluator {
         let n = table.len();
         let chunk = self.chunk_samples.min(PIPELINE_SAMPLES);
         let patches_per_chunk = (chunk / per).max(1).min(n.max(1));
-        let mut cur = (
-            vec![[0f32; 3]; patches_per_chunk * per],
-            vec![[0f32; 3]; patches_per_chunk * per],
+        let buffers = |patches: usize| {
+            (
+                vec![[0f32; 3]; patches * per],
+                vec![[0f32; 3]; patches * per],
+            )
+        };
+        // A second pair only where there is a second chunk.
+        let (mut cur, mut next) = (
+            buffers(patches_per_chunk),
+            buffers(if n > patches_per_chunk {
+                patches_per_chunk
+            } else {
+                0
+            }),
         );
-        let mut next = (Vec::new(), Vec::new());
-        let mut first = 0;
-        let mut count = patches_per_chunk.min(n);
-        run_patches_f32(
-            table,
-            weights,
-            kernel,
-            0,
-            &mut cur.0[..count * per],
-            &mut cur.1[..count * per],
-        );
-        while count > 0 {
-            // The kernel fills the next chunk on the pool while the sink reads this one.
-            let after = first + count;
-            let more = patches_per_chunk.min(n - after);
-            if more > 0 && next.0.is_empty() {
-                next = (cur.0.clone(), cur.1.clone());
-            }
-            let (p, q) = (&mut next.0[..more * per], &mut next.1[..more * per]);
-            let result = rayon::in_place_scope(|s| {
-                if more > 0 {
-                    s.spawn(move |_| run_patches_f32(table, weights, kernel, after, p, q));
-                }
+        // The kernel fills the next chunk on the pool while the sink reads this one.
+        crate::pipelined::double_buffered(
+            &mut cur,
+            &mut next,
+            n,
+            patches_per_chunk,
+            |first, count, (p, q)| {
+                run_patches_f32(
+                    table,
+                    weights,
+                    kernel,
+                    first,
+                    &mut p[..count * per],
+                    &mut q[..count * per],
+                )
+            },
+            |first, count, (p, q)| {
                 sink(Chunk {
                     first,
-                    positions: &cur.0[..count * per],
-                    normals: &cur.1[..count * per],
+                    positions: &p[..count * per],
+                    normals: &q[..count * per],
                 })
-            });
-            result?;
-            std::mem::swap(&mut cur, &mut next);
-            (first, count) = (after, more);
-        }
-        Ok(())
+            },
+        )
     }
 
     /// The f32 kernel into caller-owned arrays of `grid_len(level) × table.len()` samples
