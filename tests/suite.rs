@@ -19,6 +19,7 @@ mod cli_errors;
 mod cli_output;
 mod cpu_fast;
 mod creases;
+mod docs;
 mod export_net;
 mod formats;
 mod fuzz;

@@ -21,46 +21,36 @@ use g1tess::patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
 use g1tess::tess::stitch::{stitch, StitchPlan, StitchedMesh};
 
 use crate::common;
+use crate::docs;
 use crate::eval_cases;
 use eval_cases::{angle, context, load, normal_error, open_box, EPS32, EPS64, ROUNDING_FACTOR};
 
-/// The embedding sample of README.md and ARCHITECTURE.md (the ```rust block after
+/// The embedding sample of docs/gpu.md and ARCHITECTURE.md (the ```rust block after
 /// `heading`) is the module doctest of `src/gpu/tessellator.rs` (compiled by `cargo test`)
 /// without its hidden `# ` lines, line for line: the documents show code that compiles.
 #[test]
-fn readme_and_architecture_samples_are_the_tessellator_doctest() {
+fn docs_samples_are_the_tessellator_doctest() {
     let root = env!("CARGO_MANIFEST_DIR");
     let read = |path: &str| std::fs::read_to_string(format!("{root}/{path}")).unwrap();
-    let module = read("src/gpu/tessellator.rs");
-    let doc: Vec<&str> = module
-        .lines()
-        .map_while(|l| l.strip_prefix("//!"))
-        .map(|l| l.strip_prefix(' ').unwrap_or(l))
-        .collect();
-    let start = doc.iter().position(|l| *l == "```no_run").unwrap() + 1;
-    let len = doc[start..].iter().position(|l| *l == "```").unwrap();
-    let doctest: Vec<&str> = doc[start..start + len]
-        .iter()
-        .copied()
-        .filter(|l| !(l.starts_with("# ") || *l == "#"))
-        .collect();
+    let doctest = docs::module_doctest(&read("src/gpu/tessellator.rs"), "```no_run");
     assert!(doctest.len() > 20 && doctest[0].starts_with("use g1tess::"));
     for (path, heading) in [
-        ("README.md", "### Tessellating on your own wgpu device"),
+        ("docs/gpu.md", "## Tessellating on your own wgpu device"),
         (
             "ARCHITECTURE.md",
             "## Embedding the GPU tessellator in a wgpu program",
         ),
     ] {
         let text = read(path);
-        let after: Vec<&str> = text
-            .lines()
-            .skip_while(|l| *l != heading)
-            .skip_while(|l| *l != "```rust")
-            .skip(1)
-            .take_while(|l| *l != "```")
-            .collect();
-        assert_eq!(after, doctest, "{path}: the sample under {heading:?}");
+        assert!(
+            text.lines().any(|l| l == heading),
+            "{path}: no heading {heading:?}"
+        );
+        assert_eq!(
+            docs::sample_after(&text, heading),
+            doctest,
+            "{path}: the sample under {heading:?}"
+        );
     }
 }
 

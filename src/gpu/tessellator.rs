@@ -2,50 +2,14 @@
 //! compute passes straight into a vertex and an index buffer on the host program's own
 //! `wgpu::Device`, ready for its render pass, with nothing read back.
 //!
-//! wgpu has no tessellation stage; [`GpuTessellator`] stands in for one. It is built once
-//! on the host's device and queue from a [`Mesh`] and its [`PatchTable`] (any patch kind,
-//! any backend the host chose), uploads the patch data and a level-independent
-//! [`Topology`] table once, and then, frame after frame, records the tessellation of any
-//! uniform grid level into the host's `CommandEncoder`:
-//!
-//! - [`GpuTessellator::vertices`]: one entry per vertex record, absolute f32 position and
-//!   unit f32 normal, 24 bytes ([`vertex_layout`]), usable as `VERTEX | STORAGE`;
-//! - [`GpuTessellator::indices`]: `u32` triangle indices (`INDEX | STORAGE`), level² per
-//!   patch;
-//! - [`GpuTessellator::indirect`]: the `draw_indexed_indirect` arguments
-//!   ([`wgpu::util::DrawIndexedIndirectArgs`], `INDIRECT`), and [`TessCounts`] on the host.
-//!
-//! Buffers are reused while they are large enough for the level asked for.
-//!
-//! **Numbering.** The output is the one of [`crate::tess::stitch::StitchPlan`] (records in
-//! the order they first appear, patch after patch: corners, edges from their lower vertex
-//! id, the interior in grid order), so the CPU and GPU paths give the same vertex and index
-//! buffers up to the rounding of the evaluated samples. Shared vertices and edge samples
-//! are written once, by the first patch that uses them (no cracks); where the input splits
-//! normals (creases) an edge sample has one record per side, with that side's normal and
-//! the owner's position. Corner samples are the input vertices rounded once to f32, bit for
-//! bit.
-//!
-//! **The topology table.** Every item of that order (a corner record, a block of n − 1
-//! edge records, a patch's interior) starts at `a + b (n − 1) + c (n − 1)(n − 2)/2`,
-//! where `a`, `b` and `c` count the corner records, edge blocks and interiors before it,
-//! none of which depends on the level n. [`Topology`] keeps `(a, b, c)` of every item a
-//! patch refers to ([`TOPO_STRIDE`] u32 per patch), so one compute pass places every
-//! sample and writes every triangle at any level, with no plan per level.
-//!
-//! **Per-edge levels.** [`GpuTessellator::tessellate_levels`] tessellates with a level per
-//! edge and an inner level per patch ([`crate::tess::layout`]'s pattern, after OpenSubdiv
-//! Bfr) from a device buffer of edge levels (as [`crate::tess::screen_gpu::LevelPass`]
-//! writes them from the camera, inner levels by an [`InnerRule`]) or from host
-//! [`Levels`], with nothing read back: the same table serves, `b (n − 1)` and
-//! `c (n − 1)(n − 2)/2` becoming the exclusive prefix sums, over edge blocks and over
-//! patches in creation order, of each block's `E − 1` and each interior's
-//! `(n' − 1)(n' − 2)/2` samples, computed on the device each time
-//! (`shaders/tessellate_levels.wgsl`: inner levels, four prefix sums, the indirect draw
-//! and dispatch arguments from their totals, one thread per sample, a serial walk of each
-//! patch's pattern for its triangles). The output is
-//! [`crate::tess::stitch::StitchPlan::with_levels`]'s numbering and triangles exactly.
-//! Buffers are sized for a level cap (`max_level`) and reused while large enough.
+//! [`GpuTessellator`] stands in for the tessellation stage wgpu lacks. Built once from a
+//! [`Mesh`] and its [`PatchTable`], it records into the host's `CommandEncoder` the
+//! tessellation of a uniform level ([`GpuTessellator::tessellate`]) or of per-edge levels
+//! kept on the device ([`GpuTessellator::tessellate_levels`]), leaving
+//! [`GpuTessellator::vertices`] (24 bytes per record, [`vertex_layout`]),
+//! [`GpuTessellator::indices`] and [`GpuTessellator::indirect`]. The output is
+//! [`crate::tess::stitch::StitchPlan`]'s numbering, placed at any level through the
+//! level-independent [`Topology`] table (`docs/gpu.md` explains both).
 //!
 //! ```no_run
 //! # fn demo(

@@ -1,4 +1,4 @@
-//! Built-in meshes of the paper (`spec/EVALUATION.md`) and their parametrised
+//! Built-in meshes of the paper (`docs/cli.md`) and their parametrised
 //! forms. Usable wherever a mesh file path is accepted.
 
 use std::collections::HashMap;

@@ -1,6 +1,6 @@
 //! The point-normal mesh format `.pn` (version 1): positions, vertex normals, optional
 //! per-corner normals and triangles, as text with full f64 round-trip precision. The
-//! Blender add-on (`blender/`) writes it; the README documents it.
+//! Blender add-on (`blender/`) writes it; `docs/formats.md` documents it.
 //!
 //! ```text
 //! g1tess-pn 1

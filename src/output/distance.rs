@@ -1,4 +1,4 @@
-//! The distance study of the paper's figures 17–18 (`spec/EVALUATION.md`): every
+//! The distance study of the paper's figures 17–18 (`docs/schemes.md`): every
 //! scheme sampled on the barycentric grid of each patch, the distance of each sample to the
 //! analytic surface the mesh was taken from, and the observed convergence order as the
 //! mesh is refined.

@@ -1,6 +1,6 @@
 //! Control nets for solvers: every patch's control points as JSON (`g1tess export-net`),
 //! so a boundary-element code can evaluate the patches itself. The format is documented in
-//! the README ("Control nets").
+//! `docs/formats.md` ("Control nets").
 
 use std::io::Write;
 use std::path::Path;

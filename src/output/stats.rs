@@ -1,5 +1,5 @@
 //! Continuity statistics across shared edges (Table 1 protocol of
-//! `spec/EVALUATION.md`): 21 points per interior edge, cos of the two patches'
+//! `docs/schemes.md`): 21 points per interior edge, cos of the two patches'
 //! unit normals, and the position gap between them.
 //!
 //! Crease edges (the two triangles give an end vertex different normals, see

@@ -1,5 +1,5 @@
 //! The Bézier G1 patch of Walton & Meek (1996) as corrected in
-//! `spec/G1-CONSTRUCTION.md`. Mirrored on the GPU by `shaders/g1.wgsl`, which
+//! `spec/G1-CONSTRUCTION.md`. Mirrored on the GPU by `shaders/gregory.wgsl`, which
 //! evaluates the table built here.
 //!
 //! Documented fallbacks (counted in [`crate::patch::PatchTable::fallbacks`]): where a

@@ -1,4 +1,4 @@
-//! Nagata patches (Nagata 2005), `spec/SCHEMES.md`.
+//! Nagata patches (Nagata 2005), `docs/schemes.md`.
 //!
 //! Each edge becomes the quadratic x(t) = P_i + (dx − c) t + c t² whose tangents are
 //! orthogonal to n_i at t = 0 and to n_j at t = 1 (in the least-squares sense of Nagata's

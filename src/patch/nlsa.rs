@@ -1,7 +1,7 @@
 //! NLSA triangles ("near least squares acceleration", Barrera, Hast & Bengtsson 2002) —
 //! a **reconstruction**: the original text could not be consulted.
 //!
-//! The form used here (`spec/SCHEMES.md`) is a quadratic Bézier triangle with
+//! The form used here (`docs/schemes.md`) is a quadratic Bézier triangle with
 //! corners P_i and edge points
 //! C_ij = (P_i + P_j)/2 − ¼[((P_j − P_i)·n_i) n_i − ((P_j − P_i)·n_j) n_j].
 //! It reproduces the paper's NLSA rows of Table 1 to every printed digit, which is the

@@ -1,4 +1,4 @@
-//! Phong tessellation (Boubekeur & Alexa 2008), `spec/SCHEMES.md`.
+//! Phong tessellation (Boubekeur & Alexa 2008), `docs/schemes.md`.
 //!
 //! The linear triangle p(b) = Σ b_i P_i is projected onto the tangent plane of each corner,
 //! π_i(q) = q − ((q − P_i)·n_i) n_i, and blended back with shape factor α:

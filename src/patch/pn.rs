@@ -1,4 +1,4 @@
-//! Curved PN triangles (Vlachos, Peters, Boyd & Mitchell 2001), `spec/SCHEMES.md`.
+//! Curved PN triangles (Vlachos, Peters, Boyd & Mitchell 2001), `docs/schemes.md`.
 //!
 //! Geometry: a cubic Bézier triangle with corners b_(3 on i) = P_i, edge points
 //! b_(2 on i, 1 on j) = (2 P_i + P_j − w_ij n_i)/3 with w_ij = (P_j − P_i)·n_i, and centre
