@@ -45,7 +45,9 @@ class Mesh:
 
     ``vertices``: (N, 3) floats; ``triangles``: (M, 3) integer indices into them,
     counter-clockwise seen from outside; ``normals``: optional (N, 3), one per vertex
-    (estimated from the faces when omitted). The keyword options are ``load``'s.
+    (estimated from the faces when omitted). The keyword options are ``load``'s. Arrays
+    already C-contiguous of the right dtype (float64, uint32) are read in place, with the
+    GIL released: write them from no other thread until the constructor returns.
     """
 
     def __init__(
@@ -66,14 +68,16 @@ class Mesh:
             raise ValueError(f"triangles must have shape (M, 3), got {t.shape}")
         if t.size and not np.issubdtype(t.dtype, np.integer):
             raise ValueError(f"triangles must hold integers, got {t.dtype}")
-        t = t.astype(np.int64, copy=False)
-        if t.size and (t.min() < 0 or t.max() > np.iinfo(np.uint32).max):
-            bad = int(np.argmax((t < 0).any(axis=1) | (t > np.iinfo(np.uint32).max).any(axis=1)))
-            idx = int(t[bad][(t[bad] < 0) | (t[bad] > np.iinfo(np.uint32).max)][0])
-            raise ValueError(
-                f"{name}: triangle {bad} has vertex index {idx}, out of range "
-                f"(the soup has {len(v)} vertices)"
-            )
+        if t.dtype != np.uint32:  # uint32 indices are all in range (and read in place)
+            t = t.astype(np.int64, copy=False)
+            hi = np.iinfo(np.uint32).max
+            if t.size and (t.min() < 0 or t.max() > hi):
+                bad = int(np.argmax((t < 0).any(axis=1) | (t > hi).any(axis=1)))
+                idx = int(t[bad][(t[bad] < 0) | (t[bad] > hi)][0])
+                raise ValueError(
+                    f"{name}: triangle {bad} has vertex index {idx}, out of range "
+                    f"(the soup has {len(v)} vertices)"
+                )
         t = np.ascontiguousarray(t, dtype=np.uint32)
         n = None if normals is None else _triples("normals", normals, np.float64)
         self._native = _native.Mesh(

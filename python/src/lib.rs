@@ -2,9 +2,10 @@
 //!
 //! [`PyMesh`] (`g1tess._native.Mesh`) holds a welded mesh and the scheme options it was
 //! loaded with; [`load`] reads one from a file or a built-in spec. Arrays cross as numpy
-//! arrays: inputs are read in place (C-contiguous, of the dtype asked for), outputs hand
-//! their Rust buffers to numpy without a copy. Every call releases the GIL while the
-//! library works. Library errors become `OSError` (files; `FileNotFoundError` for a
+//! arrays: inputs are read in place (C-contiguous, of the dtype asked for), outputs are
+//! Rust buffers handed to numpy without a copy (a tessellation's as the stitcher made
+//! them, a mesh's arrays copied once out of the mesh). Every call releases the GIL while
+//! the library works. Library errors become `OSError` (files; `FileNotFoundError` for a
 //! missing one) or `ValueError` (anything else) with the library's one-line message, the
 //! text the command line prints after `error: `.
 
@@ -304,7 +305,8 @@ impl PyMesh {
     /// Mesh(name, vertices, triangles, normals, *, normal_weighting="angle",
     /// recompute_normals=False, crease_angle=None, phong_alpha=0.75): a triangle soup
     /// (C-contiguous float64 (N, 3), uint32 (M, 3), float64 (N, 3) or None), welded like
-    /// file input (`Mesh::from_soup`).
+    /// file input (`Mesh::from_soup`). The arrays are read in place with the GIL
+    /// released: no thread may write them until the call returns.
     #[new]
     #[pyo3(signature = (
         name, vertices, triangles, normals=None, *, normal_weighting="angle",
