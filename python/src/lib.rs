@@ -1,354 +1,545 @@
-//! `g1tess._native`: the Python extension behind the `g1tess` package (python/g1tess).
+//! `g1tess._native`: the compiled part of the `g1tess` package (python/g1tess).
 //!
-//! Written against PyO3 without its procedural macros, on purpose: the macros pull in a
-//! second `syn` with other features, which changes the build of `serde_derive` and with it
-//! of every crate that uses serde (wgpu, naga, …), so the extension could not reuse the
-//! dependencies `cargo test --release` has just built. Without them the extension compiles
-//! PyO3, the library without its `cli` feature, and itself.
-//!
-//! The module holds plain functions; a mesh travels as a capsule (`g1tess.Mesh` wraps it),
-//! arrays as native-endian bytes (the package converts them to and from numpy, so no numpy
-//! headers are needed). Every function releases the GIL while the library works. Library
-//! errors become `OSError` (files) or `ValueError` (anything else) with the library's
-//! one-line message, the text the command line prints after `error: `.
+//! [`PyMesh`] (`g1tess._native.Mesh`) holds a welded mesh and the scheme options it was
+//! loaded with; [`load`] reads one from a file or a built-in spec. Arrays cross as numpy
+//! arrays: inputs are read in place (C-contiguous, of the dtype asked for), outputs are
+//! Rust buffers handed to numpy without a copy (a tessellation's as the stitcher made
+//! them, a mesh's arrays copied once out of the mesh). Every call releases the GIL while
+//! the library works. Library errors become `OSError` (files; `FileNotFoundError` for a
+//! missing one) or `ValueError` (anything else) with the library's one-line message, the
+//! text the command line prints after `error: `.
 
-use std::ffi::CStr;
-use std::path::Path;
+use std::io::ErrorKind;
+use std::path::{Path, PathBuf};
 
 use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::mesh::{LoadOptions, Mesh};
+use g1tess::mesh::{generators, LoadOptions, Mesh, NormalWeighting};
 use g1tess::output::msh::export_msh;
 use g1tess::output::stats::stats_report;
 use g1tess::output::writers::{write_stitched, MeshFormat};
+use g1tess::patch::repair::RepairReport;
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::progress::NoProgress;
-use g1tess::tess::stitch::{stitch_in, stitch_into, StitchPlan};
-use glam::DVec3;
-use pyo3::exceptions::{PyOSError, PyTypeError, PyValueError};
+use g1tess::tess::adaptive::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
+use g1tess::tess::layout::MAX_LEVEL;
+use g1tess::tess::stitch::{stitch_into, StitchPlan, StitchedMesh};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::{
+    PyFileNotFoundError, PyIsADirectoryError, PyOSError, PyPermissionError, PyValueError,
+};
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyCFunction, PyCapsule, PyCapsuleMethods, PyDict, PyTuple};
-use pyo3::{ffi, IntoPyObjectExt};
 
-/// Name of the capsules that hold a [`Mesh`].
-const MESH: &CStr = c"g1tess.Mesh";
+/// Default cap on the levels a tolerance chooses (`g1tess tessellate --max-level`).
+const DEFAULT_MAX_LEVEL: u32 = 64;
+
+/// Refinement rounds after the first measurement when a tolerance chooses the levels, as
+/// `g1tess tessellate --tolerance` runs them.
+const TOLERANCE_ROUNDS: u32 = 8;
+
+/// Grid level when neither a level nor a tolerance is given (`g1tess tessellate`).
+const DEFAULT_LEVEL: u32 = 8;
 
 /// The library's error as the Python exception of its kind.
 fn py_err(e: g1tess::Error) -> PyErr {
+    let message = e.to_string();
     match e {
-        g1tess::Error::Io { .. } => PyOSError::new_err(e.to_string()),
-        _ => PyValueError::new_err(e.to_string()),
+        g1tess::Error::Io { cause, .. } => match cause.kind() {
+            ErrorKind::NotFound => PyFileNotFoundError::new_err(message),
+            ErrorKind::PermissionDenied => PyPermissionError::new_err(message),
+            ErrorKind::IsADirectory => PyIsADirectoryError::new_err(message),
+            _ => PyOSError::new_err(message),
+        },
+        _ => PyValueError::new_err(message),
     }
+}
+
+/// The error of `Mesh::load(spec)`: `FileNotFoundError` where `spec` names neither a file
+/// nor a built-in mesh (the library reports that as a bad argument), else [`py_err`].
+fn load_err(spec: &str, e: g1tess::Error) -> PyErr {
+    // `spec_triangles` answers without building a mesh; where it finds no well-formed
+    // built-in, `from_spec` only parses (an error for a malformed one, `None` otherwise).
+    let missing = matches!(e, g1tess::Error::Invalid(_))
+        && generators::spec_triangles(spec).is_none()
+        && !Path::new(spec).exists()
+        && matches!(generators::from_spec(spec), Ok(None));
+    if missing {
+        PyFileNotFoundError::new_err(e.to_string())
+    } else {
+        py_err(e)
+    }
+}
+
+fn invalid(message: impl Into<String>) -> g1tess::Error {
+    g1tess::Error::Invalid(message.into())
 }
 
 fn scheme(name: &str) -> PyResult<Scheme> {
     Scheme::parse(name).map_err(py_err)
 }
 
-fn level(level: u32) -> PyResult<u32> {
-    if level == 0 {
-        return Err(PyValueError::new_err("level must be at least 1"));
+/// The evaluator for `backend`: the package runs on the CPU (`auto` included).
+fn evaluator(backend: &str) -> PyResult<CpuEvaluator> {
+    match backend {
+        "cpu" | "auto" => Ok(CpuEvaluator::default()),
+        "gpu" => Err(PyValueError::new_err(
+            "backend 'gpu' is not available: the g1tess Python package runs on the CPU \
+             (backend 'cpu' or 'auto'); the g1tess command line has the GPU backend",
+        )),
+        other => Err(PyValueError::new_err(format!(
+            "unknown backend '{other}' (known: cpu, auto)"
+        ))),
     }
-    Ok(level)
 }
 
-/// Native-endian f64 triples from `bytes`.
-fn triples(bytes: &[u8]) -> Vec<DVec3> {
-    bytes
-        .chunks_exact(24)
-        .map(|c| {
-            let f = |i: usize| f64::from_ne_bytes(c[8 * i..8 * i + 8].try_into().unwrap_or([0; 8]));
-            DVec3::new(f(0), f(1), f(2))
-        })
-        .collect()
-}
-
-/// The native-endian bytes of a slice of plain numbers.
-fn ne_bytes<T: Copy, const N: usize>(v: &[T], f: impl Fn(T) -> [u8; N]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(v.len() * N);
-    for &x in v {
-        out.extend(f(x));
-    }
-    out
-}
-
-/// Positional argument `i` of `args`, converted.
-fn arg<'py, T: FromPyObjectOwned<'py>>(args: &Bound<'py, PyTuple>, i: usize) -> PyResult<T> {
-    args.get_item(i)
-        .map_err(|_| PyTypeError::new_err(format!("missing argument {i}")))?
-        .extract::<T>()
-        .map_err(Into::into)
-}
-
-/// The mesh in the capsule given as argument 0. It lives as long as the capsule, which
-/// the caller's argument tuple holds for the whole call.
-fn mesh_arg<'a>(args: &'a Bound<'_, PyTuple>) -> PyResult<&'a Mesh> {
-    let item = args.get_item(0)?;
-    let capsule = item
-        .cast::<PyCapsule>()
-        .map_err(|_| PyTypeError::new_err("argument 0 must be a g1tess.Mesh capsule"))?;
-    let ptr = capsule.pointer_checked(Some(MESH))?;
-    // SAFETY: capsules named MESH are made only by `wrap`, from a `Box<Mesh>` that lives
-    // until the capsule is destroyed; the argument tuple keeps the capsule alive, and the
-    // mesh is never mutated.
-    Ok(unsafe { &*(ptr.as_ptr() as *const Mesh) })
-}
-
-fn wrap(py: Python<'_>, mesh: Mesh) -> PyResult<Py<PyAny>> {
-    Ok(PyCapsule::new_with_value(py, mesh, MESH)?
-        .into_any()
-        .unbind())
-}
-
-fn bytes3(py: Python<'_>, (a, b, c): (Vec<u8>, Vec<u8>, Vec<u8>)) -> PyResult<Py<PyAny>> {
-    (
-        PyBytes::new(py, &a),
-        PyBytes::new(py, &b),
-        PyBytes::new(py, &c),
-    )
-        .into_py_any(py)
-}
-
-type Args<'a, 'py> = &'a Bound<'py, PyTuple>;
-
-/// load(path) -> mesh: a mesh file or a built-in mesh, as the command line reads it.
-fn load(args: Args) -> PyResult<Py<PyAny>> {
-    let py = args.py();
-    let path: String = arg(args, 0)?;
-    let mesh = py
-        .detach(|| Mesh::load(&path, &LoadOptions::default()))
-        .map_err(py_err)?;
-    wrap(py, mesh)
-}
-
-/// from_soup(name, vertices, triangles, normals) -> mesh: f64 triples, u32 triples, f64
-/// triples or None, as bytes (`Mesh::from_soup`).
-fn from_soup(args: Args) -> PyResult<Py<PyAny>> {
-    let py = args.py();
-    let name: String = arg(args, 0)?;
-    let (v, t, n) = (args.get_item(1)?, args.get_item(2)?, args.get_item(3)?);
-    let vertices = v.cast::<PyBytes>()?.as_bytes();
-    let triangles = t.cast::<PyBytes>()?.as_bytes();
-    let normals = if n.is_none() {
-        None
-    } else {
-        Some(n.cast::<PyBytes>()?.as_bytes())
+/// The options of `g1tess --normals/--recompute-normals/--crease-angle` (load) and
+/// `--phong-alpha` (patches).
+fn options(
+    weighting: &str,
+    recompute_normals: bool,
+    crease_angle: Option<f64>,
+    phong_alpha: f64,
+) -> PyResult<(LoadOptions, SchemeOptions)> {
+    let weighting = match weighting {
+        "angle" => NormalWeighting::Angle,
+        "area" => NormalWeighting::Area,
+        "unweighted" => NormalWeighting::Unweighted,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "unknown normal weighting '{other}' (known: angle, area, unweighted)"
+            )))
+        }
     };
-    let mesh = py
-        .detach(|| {
-            let v = triples(vertices);
-            let t: Vec<[u32; 3]> = triangles
-                .chunks_exact(12)
-                .map(|c| {
-                    std::array::from_fn(|i| {
-                        u32::from_ne_bytes(c[4 * i..4 * i + 4].try_into().unwrap_or([0; 4]))
-                    })
+    if !phong_alpha.is_finite() {
+        return Err(PyValueError::new_err(format!(
+            "phong_alpha must be a finite number, got {phong_alpha}"
+        )));
+    }
+    let load = LoadOptions {
+        weighting,
+        recompute_normals,
+        crease_angle,
+    };
+    let scheme = SchemeOptions {
+        phong_alpha,
+        repair_folds: false,
+    };
+    Ok((load, scheme))
+}
+
+/// The fold repair (`--repair-folds`): the mesh with repaired normals and the report.
+fn repair(
+    mesh: &Mesh,
+    scheme: Scheme,
+    opts: &SchemeOptions,
+) -> g1tess::Result<(Mesh, RepairReport)> {
+    g1tess::patch::repair::repair(mesh, scheme, opts)
+}
+
+/// How a tessellation chooses its grid (`g1tess tessellate --level`, or `--tolerance` /
+/// `--tolerance-rel` with `--max-level`).
+#[derive(Clone, Copy, Debug)]
+enum Grid {
+    Uniform(u32),
+    /// Levels per edge and per patch within a distance, absolute or relative to the
+    /// bounding box's diagonal, each at most `cap`.
+    Tolerance {
+        distance: Distance,
+        cap: u32,
+    },
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Distance {
+    Absolute(f64),
+    Relative(f64),
+}
+
+impl Grid {
+    /// The grid the arguments ask for, checked as `g1tess tessellate` checks them.
+    fn new(
+        level: Option<u32>,
+        tolerance: Option<f64>,
+        tolerance_rel: Option<f64>,
+        max_level: Option<u32>,
+    ) -> PyResult<Grid> {
+        let distance = match (tolerance, tolerance_rel) {
+            (Some(_), Some(_)) => {
+                return Err(PyValueError::new_err(
+                    "tolerance and tolerance_rel exclude each other",
+                ))
+            }
+            (Some(t), None) => Some((t, Distance::Absolute(t))),
+            (None, Some(r)) => Some((r, Distance::Relative(r))),
+            (None, None) => None,
+        };
+        let Some((t, distance)) = distance else {
+            if max_level.is_some() {
+                return Err(PyValueError::new_err(
+                    "max_level caps the levels tolerance or tolerance_rel choose; give one of \
+                     them",
+                ));
+            }
+            let level = level.unwrap_or(DEFAULT_LEVEL);
+            if level == 0 {
+                return Err(PyValueError::new_err("level must be at least 1"));
+            }
+            return Ok(Grid::Uniform(level));
+        };
+        if level.is_some() {
+            return Err(PyValueError::new_err(
+                "level and tolerance (or tolerance_rel) exclude each other",
+            ));
+        }
+        if !(t.is_finite() && t > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "tolerance and tolerance_rel take a positive distance (got {t})"
+            )));
+        }
+        let cap = max_level.unwrap_or(DEFAULT_MAX_LEVEL);
+        if !(1..=MAX_LEVEL).contains(&cap) {
+            return Err(PyValueError::new_err(format!(
+                "max_level must be in 1..={MAX_LEVEL}"
+            )));
+        }
+        Ok(Grid::Tolerance { distance, cap })
+    }
+
+    /// The stitch plan of `table` on this grid (the levels measured where a tolerance
+    /// chooses them), the title the writers put in a file, and what the tolerance met.
+    fn plan(self, mesh: &Mesh, table: &PatchTable) -> g1tess::Result<Planned> {
+        let adjacency = mesh.adjacency();
+        let (distance, cap) = match self {
+            Grid::Uniform(level) => {
+                return Ok(Planned {
+                    plan: StitchPlan::new(mesh, &adjacency, level)?,
+                    title: format!(
+                        "g1tess: {}, scheme {}, level {level}",
+                        mesh.name, table.scheme
+                    ),
+                    tolerance: None,
                 })
-                .collect();
-            let n = normals.map(triples);
-            Mesh::from_soup(name, &v, &t, n.as_deref(), &LoadOptions::default())
-        })
-        .map_err(py_err)?;
-    wrap(py, mesh)
-}
-
-/// name(mesh) -> str.
-fn name(args: Args) -> PyResult<Py<PyAny>> {
-    mesh_arg(args)?.name.clone().into_py_any(args.py())
-}
-
-/// arrays(mesh) -> (vertices f64, triangles u32, corner normals f64), as bytes.
-fn arrays(args: Args) -> PyResult<Py<PyAny>> {
-    let m = mesh_arg(args)?;
-    let flat = |v: &[DVec3]| {
-        ne_bytes(
-            &v.iter().flat_map(|p| p.to_array()).collect::<Vec<_>>(),
-            f64::to_ne_bytes,
-        )
-    };
-    let v = flat(&m.positions);
-    let t = ne_bytes(&m.triangles.concat(), u32::to_ne_bytes);
-    let n = flat(&m.corner_normals.concat());
-    bytes3(args.py(), (v, t, n))
-}
-
-/// tessellate(mesh, scheme, level) -> (positions f32, triangles u32, normals f32) of the
-/// stitched surface's vertex records, as bytes: the CPU's f32 kernel, as `g1tess
-/// tessellate --backend cpu` writes them to PLY.
-fn tessellate(args: Args) -> PyResult<Py<PyAny>> {
-    let py = args.py();
-    let mesh = mesh_arg(args)?;
-    let scheme = scheme(&arg::<String>(args, 1)?)?;
-    let level = level(arg(args, 2)?)?;
-    let out = py
-        .detach(|| -> g1tess::Result<_> {
-            let table = PatchTable::build(mesh, scheme, &SchemeOptions::default())?;
-            let (out, _, _) = stitch_in::<[f32; 3]>(mesh, &table, &CpuEvaluator::default(), level)?;
-            let v = ne_bytes(&out.record_positions().concat(), f32::to_ne_bytes);
-            let f = ne_bytes(&out.triangles.concat(), u32::to_ne_bytes);
-            let n = ne_bytes(&out.normals.concat(), f32::to_ne_bytes);
-            Ok((v, f, n))
-        })
-        .map_err(py_err)?;
-    bytes3(py, out)
-}
-
-/// write_tessellation(mesh, path, scheme, level) -> (vertices, triangles): the stitched
-/// surface written to `path` (.obj, .ply, .stl or .glb), atomically, as `g1tess tessellate
-/// --backend cpu` writes it.
-fn write_tessellation(args: Args) -> PyResult<Py<PyAny>> {
-    let py = args.py();
-    let mesh = mesh_arg(args)?;
-    let path: String = arg(args, 1)?;
-    let scheme = scheme(&arg::<String>(args, 2)?)?;
-    let level = level(arg(args, 3)?)?;
-    let counts = py
-        .detach(|| -> g1tess::Result<_> {
-            let path = Path::new(&path);
-            let format = MeshFormat::from_path(path)?;
-            let table = PatchTable::build(mesh, scheme, &SchemeOptions::default())?;
-            let plan = StitchPlan::new(mesh, &mesh.adjacency(), level)?;
-            let title = format!(
-                "g1tess: {}, scheme {}, level {level}",
-                mesh.name, table.scheme
-            );
-            let ev = CpuEvaluator::default();
-            write_stitched::<[f32; 3]>(path, format, &plan, &title, &NoProgress, &mut |sink| {
-                stitch_into(&plan, &table, &ev, sink, &NoProgress).map(|_| ())
-            })?;
-            Ok((format.file_vertices(&plan), plan.triangles))
-        })
-        .map_err(py_err)?;
-    counts.into_py_any(py)
-}
-
-/// stats_json(mesh, scheme) -> str: what `g1tess stats --backend cpu --json` prints.
-fn stats_json(args: Args) -> PyResult<Py<PyAny>> {
-    let py = args.py();
-    let mesh = mesh_arg(args)?;
-    let scheme = scheme(&arg::<String>(args, 1)?)?;
-    let json = py
-        .detach(|| -> g1tess::Result<String> {
-            let r = stats_report(
-                mesh,
-                scheme,
-                &SchemeOptions::default(),
-                &CpuEvaluator::default(),
-            )?;
-            serde_json::to_string(&r).map_err(|e| g1tess::Error::Invalid(e.to_string()))
-        })
-        .map_err(py_err)?;
-    json.into_py_any(py)
-}
-
-/// export_msh(mesh, path, order, binary, scheme) -> str: `g1tess export-msh`, its JSON
-/// summary.
-fn export_msh_json(args: Args) -> PyResult<Py<PyAny>> {
-    let py = args.py();
-    let mesh = mesh_arg(args)?;
-    let path: String = arg(args, 1)?;
-    let order: u32 = arg(args, 2)?;
-    let binary: bool = arg(args, 3)?;
-    let scheme = scheme(&arg::<String>(args, 4)?)?;
-    let json = py
-        .detach(|| -> g1tess::Result<String> {
-            let table = PatchTable::build(mesh, scheme, &SchemeOptions::default())?;
-            let s = export_msh(mesh, &table, order, binary, Path::new(&path), &NoProgress)?;
-            serde_json::to_string(&s).map_err(|e| g1tess::Error::Invalid(e.to_string()))
-        })
-        .map_err(py_err)?;
-    json.into_py_any(py)
-}
-
-/// repair_folds(mesh, scheme) -> (mesh, str): the mesh with its normals repaired so that
-/// every `scheme` patch is certified valid (`patch::repair::repair`, what `--repair-folds`
-/// does), and the repair's report as JSON (the `repair` object of `stats --json`).
-fn repair_folds(args: Args) -> PyResult<Py<PyAny>> {
-    let py = args.py();
-    let mesh = mesh_arg(args)?;
-    let scheme = scheme(&arg::<String>(args, 1)?)?;
-    let (fixed, json) = py
-        .detach(|| -> g1tess::Result<_> {
-            let (fixed, report) =
-                g1tess::patch::repair::repair(mesh, scheme, &SchemeOptions::default())?;
-            let json = serde_json::to_string(&report)
-                .map_err(|e| g1tess::Error::Invalid(e.to_string()))?;
-            Ok((fixed, json))
-        })
-        .map_err(py_err)?;
-    (wrap(py, fixed)?, json).into_py_any(py)
-}
-
-type Function = fn(Args) -> PyResult<Py<PyAny>>;
-
-const FUNCTIONS: &[(&CStr, Function)] = &[
-    (c"load", load),
-    (c"from_soup", from_soup),
-    (c"name", name),
-    (c"arrays", arrays),
-    (c"tessellate", tessellate),
-    (c"write_tessellation", write_tessellation),
-    (c"stats_json", stats_json),
-    (c"export_msh", export_msh_json),
-    (c"repair_folds", repair_folds),
-];
-
-fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    let py = m.py();
-    for &(name, f) in FUNCTIONS {
-        let func = PyCFunction::new_closure(
-            py,
-            Some(name),
-            None,
-            move |args: &Bound<'_, PyTuple>, kwargs: Option<&Bound<'_, PyDict>>| {
-                if kwargs.is_some_and(|k| !k.is_empty()) {
-                    return Err(PyTypeError::new_err("keyword arguments are not accepted"));
-                }
-                f(args)
+            }
+            Grid::Tolerance { distance, cap } => (distance, cap),
+        };
+        let eps = match distance {
+            Distance::Absolute(t) => t,
+            Distance::Relative(r) => r * mesh.diagonal(),
+        };
+        let chosen = levels_for_tolerance(
+            mesh,
+            &adjacency,
+            table,
+            &CpuEvaluator::default(),
+            &ToleranceOptions {
+                tolerance: eps,
+                max_level: cap,
+                rounds: TOLERANCE_ROUNDS,
             },
+            &NoProgress,
         )?;
-        m.add(name.to_str().unwrap_or("function"), func)?;
+        Ok(Planned {
+            plan: StitchPlan::with_levels(mesh, &adjacency, &chosen.levels)?,
+            title: format!(
+                "g1tess: {}, scheme {}, tolerance {eps:e}",
+                mesh.name, table.scheme
+            ),
+            tolerance: Some((chosen, eps, cap)),
+        })
     }
+}
+
+/// A stitch plan ready to evaluate ([`Grid::plan`]).
+struct Planned {
+    plan: StitchPlan,
+    title: String,
+    /// Where a tolerance chose the levels: what was measured, the distance and the cap.
+    tolerance: Option<(ToleranceLevels, f64, u32)>,
+}
+
+impl Planned {
+    /// Fails, as `g1tess tessellate` does after writing, where the measured deviation
+    /// exceeds the tolerance; `written` names the file written all the same.
+    fn check_met(&self, written: Option<&Path>) -> g1tess::Result<()> {
+        let Some((t, eps, cap)) = &self.tolerance else {
+            return Ok(());
+        };
+        if t.met {
+            return Ok(());
+        }
+        let written = written
+            .map(|p| format!("; {} was written with these levels", p.display()))
+            .unwrap_or_default();
+        Err(invalid(format!(
+            "tolerance {eps:e} not met: the measured deviation is {:e} ({} patches at the \
+             level cap {cap}; raise max_level){written}",
+            t.deviation.max, t.capped_patches
+        )))
+    }
+}
+
+/// (rows, 3) of `a` as triples, read in place.
+fn triples<'a, T: numpy::Element>(
+    what: &str,
+    a: &'a PyReadonlyArray2<'_, T>,
+) -> PyResult<&'a [[T; 3]]> {
+    if a.shape()[1] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "{what} must have shape (N, 3), got {:?}",
+            a.shape()
+        )));
+    }
+    Ok(a.as_slice()?.as_chunks::<3>().0)
+}
+
+/// A triangle mesh with per-corner unit normals and the scheme options it was loaded with
+/// (`g1tess.Mesh` wraps it).
+#[pyclass(name = "Mesh", module = "g1tess._native", frozen)]
+struct PyMesh {
+    mesh: Mesh,
+    options: SchemeOptions,
+}
+
+#[pymethods]
+impl PyMesh {
+    /// Mesh(name, vertices, triangles, normals, *, normal_weighting="angle",
+    /// recompute_normals=False, crease_angle=None, phong_alpha=0.75): a triangle soup
+    /// (C-contiguous float64 (N, 3), uint32 (M, 3), float64 (N, 3) or None), welded like
+    /// file input (`Mesh::from_soup`). The arrays are read in place with the GIL
+    /// released: no thread may write them until the call returns.
+    #[new]
+    #[pyo3(signature = (
+        name, vertices, triangles, normals=None, *, normal_weighting="angle",
+        recompute_normals=false, crease_angle=None, phong_alpha=0.75
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        name: String,
+        vertices: PyReadonlyArray2<'_, f64>,
+        triangles: PyReadonlyArray2<'_, u32>,
+        normals: Option<PyReadonlyArray2<'_, f64>>,
+        normal_weighting: &str,
+        recompute_normals: bool,
+        crease_angle: Option<f64>,
+        phong_alpha: f64,
+    ) -> PyResult<PyMesh> {
+        let (load, options) = options(
+            normal_weighting,
+            recompute_normals,
+            crease_angle,
+            phong_alpha,
+        )?;
+        let v = triples("vertices", &vertices)?;
+        let t = triples("triangles", &triangles)?;
+        let n = normals
+            .as_ref()
+            .map(|n| triples("normals", n))
+            .transpose()?;
+        let mesh = py
+            .detach(|| Mesh::from_soup(name, v, t, n, &load))
+            .map_err(py_err)?;
+        Ok(PyMesh { mesh, options })
+    }
+
+    /// The name shown in reports (the file name, or the soup's name).
+    #[getter]
+    fn name(&self) -> &str {
+        &self.mesh.name
+    }
+
+    /// Welded vertex positions, (N, 3) float64.
+    #[getter]
+    fn vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let v: Vec<[f64; 3]> = self.mesh.positions.iter().map(|p| p.to_array()).collect();
+        Array2::from(v).into_pyarray(py)
+    }
+
+    /// Triangles as indices into the vertices, (M, 3) uint32.
+    #[getter]
+    fn triangles<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<u32>> {
+        Array2::from(self.mesh.triangles.clone()).into_pyarray(py)
+    }
+
+    /// Unit normal of each corner of each triangle, (M, 3, 3) float64.
+    #[getter]
+    fn corner_normals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
+        let n: Vec<[[f64; 3]; 3]> = self
+            .mesh
+            .corner_normals
+            .iter()
+            .map(|c| c.map(|n| n.to_array()))
+            .collect();
+        Array3::from(n).into_pyarray(py)
+    }
+
+    /// tessellate(scheme="g1", level=None, *, tolerance=None, tolerance_rel=None,
+    /// max_level=None, backend="cpu") -> (positions float32 (V, 3), triangles uint32
+    /// (F, 3), normals float32 (V, 3)): the stitched surface's vertex records as `g1tess
+    /// tessellate --backend cpu` writes them to PLY.
+    #[pyo3(signature = (
+        scheme="g1", level=None, *, tolerance=None, tolerance_rel=None, max_level=None,
+        backend="cpu"
+    ))]
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
+    fn tessellate<'py>(
+        &self,
+        py: Python<'py>,
+        scheme: &str,
+        level: Option<u32>,
+        tolerance: Option<f64>,
+        tolerance_rel: Option<f64>,
+        max_level: Option<u32>,
+        backend: &str,
+    ) -> PyResult<(
+        Bound<'py, PyArray2<f32>>,
+        Bound<'py, PyArray2<u32>>,
+        Bound<'py, PyArray2<f32>>,
+    )> {
+        let scheme = self::scheme(scheme)?;
+        let grid = Grid::new(level, tolerance, tolerance_rel, max_level)?;
+        let ev = evaluator(backend)?;
+        let out = py
+            .detach(|| -> g1tess::Result<_> {
+                let table = PatchTable::build(&self.mesh, scheme, &self.options)?;
+                let planned = grid.plan(&self.mesh, &table)?;
+                let mut out = StitchedMesh::<[f32; 3]>::default();
+                stitch_into(&planned.plan, &table, &ev, &mut out, &NoProgress)?;
+                planned.check_met(None)?;
+                Ok(out)
+            })
+            .map_err(py_err)?;
+        let positions = Array2::from(out.record_positions()).into_pyarray(py);
+        let triangles = Array2::from(out.triangles).into_pyarray(py);
+        let normals = Array2::from(out.normals).into_pyarray(py);
+        Ok((positions, triangles, normals))
+    }
+
+    /// write_tessellation(path, scheme="g1", level=None, *, tolerance=None,
+    /// tolerance_rel=None, max_level=None, backend="cpu") -> (vertices, triangles): the
+    /// stitched surface written to `path` (.obj, .ply, .stl or .glb), atomically, as
+    /// `g1tess tessellate --backend cpu` writes it; the counts are the file's.
+    #[pyo3(signature = (
+        path, scheme="g1", level=None, *, tolerance=None, tolerance_rel=None,
+        max_level=None, backend="cpu"
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn write_tessellation(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        scheme: &str,
+        level: Option<u32>,
+        tolerance: Option<f64>,
+        tolerance_rel: Option<f64>,
+        max_level: Option<u32>,
+        backend: &str,
+    ) -> PyResult<(usize, usize)> {
+        let scheme = self::scheme(scheme)?;
+        let grid = Grid::new(level, tolerance, tolerance_rel, max_level)?;
+        let ev = evaluator(backend)?;
+        py.detach(|| -> g1tess::Result<_> {
+            let format = MeshFormat::from_path(&path)?;
+            let table = PatchTable::build(&self.mesh, scheme, &self.options)?;
+            let planned = grid.plan(&self.mesh, &table)?;
+            let plan = &planned.plan;
+            write_stitched::<[f32; 3]>(
+                &path,
+                format,
+                plan,
+                &planned.title,
+                &NoProgress,
+                &mut |sink| stitch_into(plan, &table, &ev, sink, &NoProgress).map(|_| ()),
+            )?;
+            planned.check_met(Some(&path))?;
+            Ok((format.file_vertices(plan), plan.triangles))
+        })
+        .map_err(py_err)
+    }
+
+    /// stats_json(scheme="g1", *, backend="cpu") -> str: what `g1tess stats --backend cpu
+    /// --json` prints.
+    #[pyo3(signature = (scheme="g1", *, backend="cpu"))]
+    fn stats_json(&self, py: Python<'_>, scheme: &str, backend: &str) -> PyResult<String> {
+        let scheme = self::scheme(scheme)?;
+        let ev = evaluator(backend)?;
+        py.detach(|| -> g1tess::Result<String> {
+            let r = stats_report(&self.mesh, scheme, &self.options, &ev)?;
+            serde_json::to_string(&r).map_err(|e| invalid(e.to_string()))
+        })
+        .map_err(py_err)
+    }
+
+    /// export_msh(path, order, binary, scheme) -> str: `g1tess export-msh`, its JSON
+    /// summary.
+    fn export_msh(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        order: u32,
+        binary: bool,
+        scheme: &str,
+    ) -> PyResult<String> {
+        let scheme = self::scheme(scheme)?;
+        py.detach(|| -> g1tess::Result<String> {
+            let table = PatchTable::build(&self.mesh, scheme, &self.options)?;
+            let s = export_msh(&self.mesh, &table, order, binary, &path, &NoProgress)?;
+            serde_json::to_string(&s).map_err(|e| invalid(e.to_string()))
+        })
+        .map_err(py_err)
+    }
+
+    /// repair_folds(scheme) -> (Mesh, str): the mesh with its normals repaired so that
+    /// every `scheme` patch is certified valid (what `--repair-folds` does), and the
+    /// repair's report as JSON (the `repair` object of `stats --json`).
+    fn repair_folds(&self, py: Python<'_>, scheme: &str) -> PyResult<(PyMesh, String)> {
+        let scheme = self::scheme(scheme)?;
+        let (mesh, json) = py
+            .detach(|| -> g1tess::Result<_> {
+                let (fixed, report) = repair(&self.mesh, scheme, &self.options)?;
+                let json = serde_json::to_string(&report).map_err(|e| invalid(e.to_string()))?;
+                Ok((fixed, json))
+            })
+            .map_err(py_err)?;
+        let options = self.options;
+        Ok((PyMesh { mesh, options }, json))
+    }
+}
+
+/// load(path, *, normal_weighting="angle", recompute_normals=False, crease_angle=None,
+/// phong_alpha=0.75) -> Mesh: a mesh file or a built-in mesh, as the command line reads
+/// it with `--normals`, `--recompute-normals`, `--crease-angle` and `--phong-alpha`.
+#[pyfunction]
+#[pyo3(signature = (
+    path, *, normal_weighting="angle", recompute_normals=false, crease_angle=None,
+    phong_alpha=0.75
+))]
+fn load(
+    py: Python<'_>,
+    path: String,
+    normal_weighting: &str,
+    recompute_normals: bool,
+    crease_angle: Option<f64>,
+    phong_alpha: f64,
+) -> PyResult<PyMesh> {
+    let (load, options) = options(
+        normal_weighting,
+        recompute_normals,
+        crease_angle,
+        phong_alpha,
+    )?;
+    let mesh = py
+        .detach(|| Mesh::load(&path, &load))
+        .map_err(|e| load_err(&path, e))?;
+    Ok(PyMesh { mesh, options })
+}
+
+/// The compiled part of g1tess (see the package g1tess).
+#[pymodule]
+#[pyo3(name = "_native")]
+fn native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyMesh>()?;
+    m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
-}
-
-static mut MODULE_DEF: ffi::PyModuleDef = ffi::PyModuleDef {
-    m_base: ffi::PyModuleDef_HEAD_INIT,
-    m_name: c"g1tess._native".as_ptr(),
-    m_doc: c"The compiled part of g1tess (see the package g1tess).".as_ptr(),
-    m_size: -1,
-    m_methods: std::ptr::null_mut(),
-    m_slots: std::ptr::null_mut(),
-    m_traverse: None,
-    m_clear: None,
-    m_free: None,
-};
-
-/// The module's initialisation, called by the interpreter on `import g1tess._native`.
-///
-/// # Safety
-/// Called by CPython with the GIL held, once per import.
-#[allow(non_snake_case)]
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn PyInit__native() -> *mut ffi::PyObject {
-    Python::attach(|py| {
-        // SAFETY: MODULE_DEF is a valid module definition, handed only to the interpreter.
-        let m = unsafe { ffi::PyModule_Create(&raw mut MODULE_DEF) };
-        if m.is_null() {
-            return m;
-        }
-        // SAFETY: `m` is a new (owned) reference to a module object.
-        let module = unsafe { Bound::from_owned_ptr(py, m) };
-        let result = module
-            .cast_into::<PyModule>()
-            .map_err(PyErr::from)
-            .and_then(|module| init(&module).map(|()| module));
-        match result {
-            Ok(module) => module.into_ptr(),
-            Err(e) => {
-                e.restore(py);
-                std::ptr::null_mut()
-            }
-        }
-    })
 }

@@ -133,9 +133,14 @@ def test_errors_carry_the_cli_messages(cli, tmp_path):
     with pytest.raises(ValueError) as e:
         g1tess.load(bad)
     assert str(e.value) == cli_message(cli, "stats", bad)
-    with pytest.raises(ValueError) as e:
+    # A missing file: FileNotFoundError (an OSError), with the command line's message.
+    with pytest.raises(FileNotFoundError) as e:
         g1tess.load(tmp_path / "missing.obj")
     assert str(e.value) == cli_message(cli, "stats", tmp_path / "missing.obj")
+    # A malformed built-in mesh stays a ValueError.
+    with pytest.raises(ValueError) as e:
+        g1tess.load("icosphere:9")
+    assert str(e.value) == cli_message(cli, "stats", "icosphere:9")
     # A file that cannot be written: the writer's I/O error.
     nowhere = tmp_path / "no" / "dir" / "x.msh"
     with pytest.raises(OSError) as e:

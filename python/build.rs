@@ -1,2 +1,0 @@
-//! No build step: the build dependencies only align features (see Cargo.toml).
-fn main() {}
