@@ -25,13 +25,14 @@ use crate::eval_cases;
 use eval_cases::{angle, context, load, normal_error, open_box, EPS32, EPS64, ROUNDING_FACTOR};
 
 /// The embedding sample of README.md and ARCHITECTURE.md (the ```rust block after
-/// `heading`) is the module doctest of `src/gpu/tessellator.rs` (compiled by `cargo test`)
-/// without its hidden `# ` lines, line for line: the documents show code that compiles.
+/// `heading`) is the module doctest of `src/gpu/tessellator/mod.rs` (compiled by `cargo
+/// test`) without its hidden `# ` lines, line for line: the documents show code that
+/// compiles.
 #[test]
 fn readme_and_architecture_samples_are_the_tessellator_doctest() {
     let root = env!("CARGO_MANIFEST_DIR");
     let read = |path: &str| std::fs::read_to_string(format!("{root}/{path}")).unwrap();
-    let module = read("src/gpu/tessellator.rs");
+    let module = read("src/gpu/tessellator/mod.rs");
     let doc: Vec<&str> = module
         .lines()
         .map_while(|l| l.strip_prefix("//!"))
