@@ -26,13 +26,13 @@ use crate::eval_cases;
 use eval_cases::{angle, context, load, normal_error, open_box, EPS32, EPS64, ROUNDING_FACTOR};
 
 /// The embedding sample of docs/gpu.md and ARCHITECTURE.md (the ```rust block after
-/// `heading`) is the module doctest of `src/gpu/tessellator.rs` (compiled by `cargo test`)
+/// `heading`) is the module doctest of `src/gpu/tessellator/mod.rs` (compiled by `cargo test`)
 /// without its hidden `# ` lines, line for line: the documents show code that compiles.
 #[test]
 fn docs_samples_are_the_tessellator_doctest() {
     let root = env!("CARGO_MANIFEST_DIR");
     let read = |path: &str| std::fs::read_to_string(format!("{root}/{path}")).unwrap();
-    let doctest = docs::module_doctest(&read("src/gpu/tessellator.rs"), "```no_run");
+    let doctest = docs::module_doctest(&read("src/gpu/tessellator/mod.rs"), "```no_run");
     assert!(doctest.len() > 20 && doctest[0].starts_with("use g1tess::"));
     for (path, heading) in [
         ("docs/gpu.md", "## Tessellating on your own wgpu device"),

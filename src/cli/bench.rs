@@ -29,6 +29,9 @@ use crate::gpu::{GpuContext, Precision};
 use crate::mesh::{LoadOptions, Mesh};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 
+mod end_to_end;
+use end_to_end::run_end_to_end;
+
 /// Bytes one sample writes: f32 position + f32 normal.
 pub const SAMPLE_BYTES: f64 = 24.0;
 
@@ -289,20 +292,8 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     } else {
         a.schemes.clone()
     };
-    let show = !a.quiet && std::io::stderr().is_terminal();
     let steps = (meshes.len() * schemes.len() * a.levels.len()) as u64;
-    let bar = ProgressBar::with_draw_target(
-        Some(steps),
-        if show {
-            ProgressDrawTarget::stderr()
-        } else {
-            ProgressDrawTarget::hidden()
-        },
-    );
-    bar.set_style(
-        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = progress_bar(a.quiet, steps);
 
     let budget = a.memory.budget();
     check_bandwidth_buffer(a, &budget)?;
@@ -310,18 +301,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     let (bw, bw1) = write_bandwidth(a.bandwidth_mib)?;
     let roofline = bw * 1e9 / SAMPLE_BYTES;
 
-    let (mut gpu, gpu_note) = if a.no_gpu {
-        (None, Some("--no-gpu".to_string()))
-    } else {
-        match GpuContext::shared().and_then(|c| GpuEvaluator::new(c, a.precision)) {
-            Ok(mut g) => {
-                g.shader_runtime_checks = a.gpu_runtime_checks;
-                g.patch_loop &= !a.gpu_thread_per_sample;
-                (Some(g), None)
-            }
-            Err(e) => (None, Some(e.to_string())),
-        }
-    };
+    let (mut gpu, gpu_note) = gpu_evaluator(a);
     if let Some(note) = &gpu_note {
         bar.suspend(|| eprintln!("note: no GPU figures: {note}"));
     }
@@ -341,182 +321,23 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         roofline_samples_per_s: roofline,
     };
 
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    let cpu = CpuEvaluator::with_chunk_samples(a.cpu_chunk_samples.max(1));
-    let min = Duration::from_millis(500);
+    let bench = KernelBench {
+        one: rayon::ThreadPoolBuilder::new().num_threads(1).build()?,
+        cpu: CpuEvaluator::with_chunk_samples(a.cpu_chunk_samples.max(1)),
+        min: Duration::from_millis(500),
+        roofline,
+        reference: !a.no_reference,
+    };
     let mut rows = Vec::new();
     for spec in &meshes {
         let mesh = load_mesh(spec)?;
-        // The largest level's whole output (f32 positions and normals, one array each),
-        // beside the basis weights (stride × 3 f32 per grid point, the largest stride) and a
-        // CPU chunk in f64 (the reference).
-        let stride = schemes
-            .iter()
-            .map(|s| s.kind().layout().stride)
-            .max()
-            .unwrap_or(1) as u64;
-        for &level in &a.levels {
-            let per = grid_len(level) as u64;
-            let samples = per.saturating_mul(mesh.triangles.len() as u64);
-            let need = samples
-                .saturating_mul(SAMPLE_BYTES as u64)
-                .saturating_add(per.saturating_mul(stride * 12))
-                .saturating_add((a.cpu_chunk_samples.max(1) as u64).saturating_mul(48));
-            budget.check(
-                "bench",
-                &format!("{} at level {level}", mesh.name),
-                need,
-                &format!(
-                    "the whole output of {} samples in one array",
-                    super::common::human_count(samples)
-                ),
-            )?;
-        }
+        check_output_budget(a, &budget, &mesh, &schemes)?;
         for &scheme in &schemes {
-            let opts = SchemeOptions::default();
-            let mut table = None;
-            let mut build_s = f64::INFINITY;
-            for _ in 0..3 {
-                let t = Instant::now();
-                table = Some(PatchTable::build(&mesh, scheme, &opts)?);
-                build_s = build_s.min(t.elapsed().as_secs_f64());
-            }
-            let table = table.expect("built three times");
+            let (table, build_s) = build_table(&mesh, scheme)?;
             for &level in &a.levels {
                 bar.set_message(format!("{} {scheme} level {level}", mesh.name));
-                let samples = grid_len(level) * table.len();
-                let rate = |seconds: f64| Rate {
-                    seconds,
-                    samples_per_s: samples as f64 / seconds,
-                    roofline_fraction: samples as f64 / seconds / roofline,
-                };
-                let weights = GridWeightsF32::new(table.kind, level);
-                let fast = || {
-                    cpu.grid_f32(&table, &weights, &mut |c| {
-                        std::hint::black_box(c.positions.last());
-                        Ok(())
-                    })
-                    .map_err(anyhow::Error::from)
-                };
-                let cpu1 = best_time(min, || one.install(fast))?;
-                let cpu_all = best_time(min, fast)?;
-                let whole = {
-                    let mut pos = vec![[0f32; 3]; samples];
-                    let mut nrm = vec![[0f32; 3]; samples];
-                    let mut run = || {
-                        cpu.grid_f32_into(&table, &weights, &mut pos, &mut nrm)
-                            .map_err(anyhow::Error::from)
-                    };
-                    run()?; // first touch of every page, untimed
-                    best_time(min, run)?
-                };
-                let reference = if a.no_reference {
-                    None
-                } else {
-                    Some(rate(best_time(Duration::ZERO, || {
-                        cpu.evaluate(&table, &Pattern::Grid { level }, &mut |c| {
-                            std::hint::black_box(c.positions.last());
-                            Ok(())
-                        })?;
-                        Ok(())
-                    })?))
-                };
-                let (dispatch, readback, (ceiling, ceiling1), sink2, sink1, bound) = match &mut gpu
-                {
-                    Some(g) => {
-                        // The first run builds the pipelines and warms the driver.
-                        g.time_grid(&table, 1)?;
-                        g.time_ceiling(1, CeilingShape::PerSample)?;
-                        g.time_ceiling(1, CeilingShape::Quads)?;
-                        let bound_pipes = g.loop_bound(table.kind)?;
-                        // The dispatch, the two ceilings and the loop bound in turn, round
-                        // after round, so that the host's changes of speed reach all of
-                        // them alike; the best of each. The times the calls return (each
-                        // builds or finds its pipelines before its clock starts).
-                        let mut best = [f64::INFINITY; 4];
-                        let start = Instant::now();
-                        for round in 0..5 {
-                            let mut take = |k: usize, t: Duration| {
-                                best[k] = best[k].min(t.as_secs_f64());
-                            };
-                            take(0, g.time_grid(&table, level)?.elapsed);
-                            take(1, g.time_ceiling(samples, CeilingShape::PerSample)?.elapsed);
-                            take(2, g.time_ceiling(samples, CeilingShape::Quads)?.elapsed);
-                            if let Some(b) = &bound_pipes {
-                                if let Some(t) = g.time_loop_bound(b, &table, level)? {
-                                    take(3, t.elapsed);
-                                }
-                            }
-                            if round >= 1 && start.elapsed() >= 2 * min {
-                                break;
-                            }
-                        }
-                        let [d, c1, c4, b] = best;
-                        let bound = b.is_finite().then(|| rate(b));
-                        let r = best_time(Duration::ZERO, || {
-                            g.evaluate(&table, &Pattern::Grid { level }, &mut |c| {
-                                std::hint::black_box(c.positions.last());
-                                Ok(())
-                            })?;
-                            Ok(())
-                        })?;
-                        let mut encoded: Vec<u8> = Vec::new();
-                        let mut to_sink = |g: &GpuEvaluator| {
-                            best_time(Duration::ZERO, || {
-                                g.evaluate_f32(&table, &Pattern::Grid { level }, &mut |c| {
-                                    encode_samples(c.positions, c.normals, &mut encoded);
-                                    std::io::Write::write_all(&mut std::io::sink(), &encoded)
-                                        .map_err(|e| crate::Error::Invalid(e.to_string()))
-                                })?;
-                                Ok(())
-                            })
-                        };
-                        g.double_buffer = false;
-                        let s1 = to_sink(g)?;
-                        g.double_buffer = true;
-                        let s2 = to_sink(g)?;
-                        (
-                            Some(rate(d)),
-                            Some(rate(r)),
-                            (Some(rate(c1.min(c4))), Some(rate(c1))),
-                            Some(rate(s2)),
-                            Some(rate(s1)),
-                            bound,
-                        )
-                    }
-                    None => (None, None, (None, None), None, None, None),
-                };
-                let cpu_all_rate = rate(cpu_all);
-                rows.push(Row {
-                    mesh: mesh.name.clone(),
-                    scheme: scheme.to_string(),
-                    triangles: table.len(),
-                    level,
-                    samples,
-                    build_s,
-                    cpu_f32_1_thread: rate(cpu1),
-                    cpu_f32_all_threads: cpu_all_rate,
-                    cpu_f32_all_threads_whole_output: rate(whole),
-                    cpu_f64_reference_all_threads: reference,
-                    gpu_dispatch_only: dispatch,
-                    gpu_with_readback: readback,
-                    gpu_to_f32_sink: sink2,
-                    gpu_to_f32_sink_single_buffer: sink1,
-                    gpu_ceiling: ceiling,
-                    gpu_ceiling_fraction: dispatch
-                        .zip(ceiling)
-                        .map(|(d, c)| d.samples_per_s / c.samples_per_s),
-                    gpu_ceiling_per_sample: ceiling1,
-                    gpu_ceiling_per_sample_fraction: dispatch
-                        .zip(ceiling1)
-                        .map(|(d, c)| d.samples_per_s / c.samples_per_s),
-                    gpu_loop_bound: bound,
-                    gpu_loop_bound_fraction: bound
-                        .zip(ceiling)
-                        .map(|(b, c)| b.samples_per_s / c.samples_per_s),
-                    gpu_cpu_f32_fraction: dispatch
-                        .map(|d| d.samples_per_s / cpu_all_rate.samples_per_s),
-                });
+                let times = bench.times(&table, level, gpu.as_mut())?;
+                rows.push(bench.row(&mesh, scheme, &table, build_s, level, times));
                 bar.inc(1);
             }
         }
@@ -529,6 +350,302 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         println!("{}", to_text(&report));
     }
     Ok(())
+}
+
+/// A bar of `steps` steps on standard error, hidden when `quiet` or not a terminal.
+fn progress_bar(quiet: bool, steps: u64) -> ProgressBar {
+    let show = !quiet && std::io::stderr().is_terminal();
+    let bar = ProgressBar::with_draw_target(
+        Some(steps),
+        if show {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        },
+    );
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// The GPU evaluator the arguments ask for, or why there is none.
+fn gpu_evaluator(a: &BenchArgs) -> (Option<GpuEvaluator>, Option<String>) {
+    if a.no_gpu {
+        return (None, Some("--no-gpu".to_string()));
+    }
+    match GpuContext::shared().and_then(|c| GpuEvaluator::new(c, a.precision)) {
+        Ok(mut g) => {
+            g.shader_runtime_checks = a.gpu_runtime_checks;
+            g.patch_loop &= !a.gpu_thread_per_sample;
+            (Some(g), None)
+        }
+        Err(e) => (None, Some(e.to_string())),
+    }
+}
+
+/// Refuses a level whose whole output (f32 positions and normals, one array each), beside
+/// the basis weights (stride × 3 f32 per grid point, the largest stride) and a CPU chunk in
+/// f64 (the reference), is over the memory budget.
+fn check_output_budget(
+    a: &BenchArgs,
+    budget: &super::common::Budget,
+    mesh: &Mesh,
+    schemes: &[Scheme],
+) -> anyhow::Result<()> {
+    let stride = schemes
+        .iter()
+        .map(|s| s.kind().layout().stride)
+        .max()
+        .unwrap_or(1) as u64;
+    for &level in &a.levels {
+        let per = grid_len(level) as u64;
+        let samples = per.saturating_mul(mesh.triangles.len() as u64);
+        let need = samples
+            .saturating_mul(SAMPLE_BYTES as u64)
+            .saturating_add(per.saturating_mul(stride * 12))
+            .saturating_add((a.cpu_chunk_samples.max(1) as u64).saturating_mul(48));
+        budget.check(
+            "bench",
+            &format!("{} at level {level}", mesh.name),
+            need,
+            &format!(
+                "the whole output of {} samples in one array",
+                super::common::human_count(samples)
+            ),
+        )?;
+    }
+    Ok(())
+}
+
+/// The patch table of `mesh` under `scheme`, and its build time (best of 3), seconds.
+fn build_table(mesh: &Mesh, scheme: Scheme) -> anyhow::Result<(PatchTable, f64)> {
+    let opts = SchemeOptions::default();
+    let mut table = None;
+    let mut build_s = f64::INFINITY;
+    for _ in 0..3 {
+        let t = Instant::now();
+        table = Some(PatchTable::build(mesh, scheme, &opts)?);
+        build_s = build_s.min(t.elapsed().as_secs_f64());
+    }
+    Ok((table.expect("built three times"), build_s))
+}
+
+/// What the kernel measurements of one run share.
+struct KernelBench {
+    /// A pool of one thread.
+    one: rayon::ThreadPool,
+    cpu: CpuEvaluator,
+    /// Least time spent on one figure.
+    min: Duration,
+    /// Samples per second the all-threads write bandwidth allows.
+    roofline: f64,
+    /// Whether the f64 CPU reference is timed.
+    reference: bool,
+}
+
+/// The best times of one grid, seconds.
+struct Times {
+    samples: usize,
+    cpu1: f64,
+    cpu_all: f64,
+    whole: f64,
+    reference: Option<f64>,
+    gpu: Option<GpuTimes>,
+}
+
+/// The best GPU times of one grid, seconds.
+struct GpuTimes {
+    dispatch: f64,
+    readback: f64,
+    /// The ceiling stored value by value, and as vec4s.
+    ceiling_per_sample: f64,
+    ceiling_quads: f64,
+    sink_double_buffer: f64,
+    sink_single_buffer: f64,
+    /// Infinite where the kind has no loop bound.
+    loop_bound: f64,
+}
+
+impl KernelBench {
+    /// Times the grid of `level` on `table`: the CPU f32 paths, the f64 reference (unless
+    /// skipped), then the GPU where there is one.
+    fn times(
+        &self,
+        table: &PatchTable,
+        level: u32,
+        gpu: Option<&mut GpuEvaluator>,
+    ) -> anyhow::Result<Times> {
+        let (cpu, min) = (&self.cpu, self.min);
+        let samples = grid_len(level) * table.len();
+        let weights = GridWeightsF32::new(table.kind, level);
+        let fast = || {
+            cpu.grid_f32(table, &weights, &mut |c| {
+                std::hint::black_box(c.positions.last());
+                Ok(())
+            })
+            .map_err(anyhow::Error::from)
+        };
+        let cpu1 = best_time(min, || self.one.install(fast))?;
+        let cpu_all = best_time(min, fast)?;
+        let whole = {
+            let mut pos = vec![[0f32; 3]; samples];
+            let mut nrm = vec![[0f32; 3]; samples];
+            let mut run = || {
+                cpu.grid_f32_into(table, &weights, &mut pos, &mut nrm)
+                    .map_err(anyhow::Error::from)
+            };
+            run()?; // first touch of every page, untimed
+            best_time(min, run)?
+        };
+        let reference = if self.reference {
+            Some(best_time(Duration::ZERO, || {
+                cpu.evaluate(table, &Pattern::Grid { level }, &mut |c| {
+                    std::hint::black_box(c.positions.last());
+                    Ok(())
+                })?;
+                Ok(())
+            })?)
+        } else {
+            None
+        };
+        let gpu = match gpu {
+            Some(g) => Some(gpu_times(g, table, level, samples, min)?),
+            None => None,
+        };
+        Ok(Times {
+            samples,
+            cpu1,
+            cpu_all,
+            whole,
+            reference,
+            gpu,
+        })
+    }
+
+    /// The row of one grid: its times as rates, and the ratios between them.
+    fn row(
+        &self,
+        mesh: &Mesh,
+        scheme: Scheme,
+        table: &PatchTable,
+        build_s: f64,
+        level: u32,
+        times: Times,
+    ) -> Row {
+        let samples = times.samples;
+        let rate = |seconds: f64| Rate {
+            seconds,
+            samples_per_s: samples as f64 / seconds,
+            roofline_fraction: samples as f64 / seconds / self.roofline,
+        };
+        let g = times.gpu.as_ref();
+        let dispatch = g.map(|g| rate(g.dispatch));
+        let ceiling = g.map(|g| rate(g.ceiling_per_sample.min(g.ceiling_quads)));
+        let ceiling1 = g.map(|g| rate(g.ceiling_per_sample));
+        let bound = g.and_then(|g| g.loop_bound.is_finite().then(|| rate(g.loop_bound)));
+        let cpu_all_rate = rate(times.cpu_all);
+        Row {
+            mesh: mesh.name.clone(),
+            scheme: scheme.to_string(),
+            triangles: table.len(),
+            level,
+            samples,
+            build_s,
+            cpu_f32_1_thread: rate(times.cpu1),
+            cpu_f32_all_threads: cpu_all_rate,
+            cpu_f32_all_threads_whole_output: rate(times.whole),
+            cpu_f64_reference_all_threads: times.reference.map(rate),
+            gpu_dispatch_only: dispatch,
+            gpu_with_readback: g.map(|g| rate(g.readback)),
+            gpu_to_f32_sink: g.map(|g| rate(g.sink_double_buffer)),
+            gpu_to_f32_sink_single_buffer: g.map(|g| rate(g.sink_single_buffer)),
+            gpu_ceiling: ceiling,
+            gpu_ceiling_fraction: dispatch
+                .zip(ceiling)
+                .map(|(d, c)| d.samples_per_s / c.samples_per_s),
+            gpu_ceiling_per_sample: ceiling1,
+            gpu_ceiling_per_sample_fraction: dispatch
+                .zip(ceiling1)
+                .map(|(d, c)| d.samples_per_s / c.samples_per_s),
+            gpu_loop_bound: bound,
+            gpu_loop_bound_fraction: bound
+                .zip(ceiling)
+                .map(|(b, c)| b.samples_per_s / c.samples_per_s),
+            gpu_cpu_f32_fraction: dispatch.map(|d| d.samples_per_s / cpu_all_rate.samples_per_s),
+        }
+    }
+}
+
+/// Times the grid of `level` on `table` (`samples` samples) on the GPU: dispatches alone
+/// beside the ceilings and the loop bound, then read back, then into an f32 sink with two
+/// output buffers and with one.
+fn gpu_times(
+    g: &mut GpuEvaluator,
+    table: &PatchTable,
+    level: u32,
+    samples: usize,
+    min: Duration,
+) -> anyhow::Result<GpuTimes> {
+    // The first run builds the pipelines and warms the driver.
+    g.time_grid(table, 1)?;
+    g.time_ceiling(1, CeilingShape::PerSample)?;
+    g.time_ceiling(1, CeilingShape::Quads)?;
+    let bound_pipes = g.loop_bound(table.kind)?;
+    // The dispatch, the two ceilings and the loop bound in turn, round after round, so that
+    // the host's changes of speed reach all of them alike; the best of each. The times the
+    // calls return (each builds or finds its pipelines before its clock starts).
+    let mut best = [f64::INFINITY; 4];
+    let start = Instant::now();
+    for round in 0..5 {
+        let mut take = |k: usize, t: Duration| {
+            best[k] = best[k].min(t.as_secs_f64());
+        };
+        take(0, g.time_grid(table, level)?.elapsed);
+        take(1, g.time_ceiling(samples, CeilingShape::PerSample)?.elapsed);
+        take(2, g.time_ceiling(samples, CeilingShape::Quads)?.elapsed);
+        if let Some(b) = &bound_pipes {
+            if let Some(t) = g.time_loop_bound(b, table, level)? {
+                take(3, t.elapsed);
+            }
+        }
+        if round >= 1 && start.elapsed() >= 2 * min {
+            break;
+        }
+    }
+    let [dispatch, ceiling_per_sample, ceiling_quads, loop_bound] = best;
+    let readback = best_time(Duration::ZERO, || {
+        g.evaluate(table, &Pattern::Grid { level }, &mut |c| {
+            std::hint::black_box(c.positions.last());
+            Ok(())
+        })?;
+        Ok(())
+    })?;
+    let mut encoded: Vec<u8> = Vec::new();
+    let mut to_sink = |g: &GpuEvaluator| {
+        best_time(Duration::ZERO, || {
+            g.evaluate_f32(table, &Pattern::Grid { level }, &mut |c| {
+                encode_samples(c.positions, c.normals, &mut encoded);
+                std::io::Write::write_all(&mut std::io::sink(), &encoded)
+                    .map_err(|e| crate::Error::Invalid(e.to_string()))
+            })?;
+            Ok(())
+        })
+    };
+    g.double_buffer = false;
+    let sink_single_buffer = to_sink(g)?;
+    g.double_buffer = true;
+    let sink_double_buffer = to_sink(g)?;
+    Ok(GpuTimes {
+        dispatch,
+        readback,
+        ceiling_per_sample,
+        ceiling_quads,
+        sink_double_buffer,
+        sink_single_buffer,
+        loop_bound,
+    })
 }
 
 /// What a binary writer does with a chunk: each sample's f32 position and normal
@@ -628,480 +745,6 @@ pub fn to_text(r: &BenchReport) -> String {
                 None => "–".into(),
             },
             percent(row.gpu_cpu_f32_fraction),
-        );
-    }
-    s
-}
-
-// ---- end to end ----
-
-/// One end-to-end measurement.
-#[derive(Clone, Debug, Serialize)]
-pub struct EndToEndRow {
-    /// What was timed: "tessellate_memory", "tessellate_ply_file", "plain_write",
-    /// "piped_write", "load_obj", "count_words", "wc_w", "stats".
-    pub step: String,
-    /// How, in words.
-    pub what: String,
-    pub seconds: f64,
-    /// CPU seconds of this process during the step (all threads; none for `wc_w`, another
-    /// process).
-    pub cpu_seconds: Option<f64>,
-    /// Samples produced or consumed (tessellation grid samples, stats edge samples).
-    pub samples: Option<u64>,
-    pub samples_per_s: Option<f64>,
-    /// Bytes written or read.
-    pub bytes: Option<u64>,
-    /// bytes / seconds / 10^6.
-    pub mb_per_s: Option<f64>,
-    /// seconds / the baseline's seconds (tessellate_ply_file and piped_write: plain_write;
-    /// load_obj: count_words).
-    pub ratio_to_baseline: Option<f64>,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct EndToEndMachine {
-    pub cpu: String,
-    /// CPUs the process may use.
-    pub cpus: usize,
-    pub threads: usize,
-    pub os: String,
-    pub cpu_kernel: String,
-    /// Folder of the temporary files.
-    pub dir: String,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct EndToEndReport {
-    pub machine: EndToEndMachine,
-    pub mesh: String,
-    pub triangles: usize,
-    pub scheme: String,
-    pub tess_level: u32,
-    pub stats_level: u32,
-    /// Triangles of the mesh given to stats and loaded from OBJ.
-    pub stats_triangles: usize,
-    pub rows: Vec<EndToEndRow>,
-}
-
-/// Removes a file when dropped (temporary files of the end-to-end run).
-struct TempFile(std::path::PathBuf);
-
-impl Drop for TempFile {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.0);
-    }
-}
-
-/// A plain sequential write of `bytes` bytes (1 MiB blocks through one buffer, then
-/// fsync, as the writers do): the baseline of writing a file of that size here.
-fn plain_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
-    use std::io::Write;
-    let block = vec![0x5au8; 1 << 20];
-    let mut f = std::fs::File::create(path)?;
-    let mut left = bytes;
-    while left > 0 {
-        let n = left.min(block.len() as u64) as usize;
-        f.write_all(&block[..n])?;
-        left -= n as u64;
-    }
-    f.sync_all()?;
-    Ok(())
-}
-
-/// `bytes` bytes written as the mesh writers write them ([`write_atomic_piped`]: a writer
-/// thread, direct I/O where the file system suits it, temporary file, fsync, rename), in
-/// 1 MiB pieces of one buffer: what `tessellate_ply_file` would take if computing and
-/// encoding cost nothing.
-fn piped_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
-    use std::io::Write;
-    let block = vec![0x5au8; 1 << 20];
-    crate::output::atomic::write_atomic_piped(path, |w| {
-        let mut left = bytes;
-        while left > 0 {
-            let n = left.min(block.len() as u64) as usize;
-            w.write_all(&block[..n])
-                .map_err(|e| crate::Error::io(path, e))?;
-            left -= n as u64;
-        }
-        Ok(())
-    })?;
-    Ok(())
-}
-
-/// Whitespace-separated words of a file, read through a 1 MiB buffer (what `wc -w` does).
-fn count_words(path: &std::path::Path) -> anyhow::Result<u64> {
-    use std::io::Read;
-    let mut f = std::fs::File::open(path)?;
-    let mut buf = vec![0u8; 1 << 20];
-    let (mut words, mut in_word) = (0u64, false);
-    loop {
-        let n = f.read(&mut buf)?;
-        if n == 0 {
-            return Ok(words);
-        }
-        for &b in &buf[..n] {
-            let space = matches!(b, b' ' | b'\n' | b'\t' | b'\r' | 0x0b | 0x0c);
-            words += (!space && !in_word) as u64;
-            in_word = !space;
-        }
-    }
-}
-
-/// Runs the real `wc -w` on `path`: (seconds, words), or None where there is no `wc`.
-fn real_wc(path: &std::path::Path) -> Option<(f64, u64)> {
-    let t = Instant::now();
-    let out = std::process::Command::new("wc")
-        .arg("-w")
-        .arg(path)
-        .output()
-        .ok()?;
-    let s = t.elapsed().as_secs_f64();
-    let words = String::from_utf8_lossy(&out.stdout)
-        .split_whitespace()
-        .next()?
-        .parse()
-        .ok()?;
-    out.status.success().then_some((s, words))
-}
-
-fn available_cpus() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
-}
-
-/// CPU time of this process so far (all threads, user + system), from `/proc/self/stat`
-/// in clock ticks of 1/100 s; None where there is no such file.
-fn process_cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the command name (which is in parentheses and may hold spaces).
-    let rest = stat.get(stat.rfind(')')? + 2..)?;
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?;
-    Some(ticks as f64 / 100.0)
-}
-
-/// Wall and CPU seconds of one run of `f`.
-fn timed(f: impl FnOnce() -> anyhow::Result<()>) -> anyhow::Result<(f64, Option<f64>)> {
-    let c0 = process_cpu_seconds();
-    let t = Instant::now();
-    f()?;
-    let wall = t.elapsed().as_secs_f64();
-    let cpu = process_cpu_seconds().zip(c0).map(|(b, a)| b - a);
-    Ok((wall, cpu))
-}
-
-/// The faster of `runs` runs of `f` (wall time), with its CPU time.
-fn best_of(
-    runs: usize,
-    mut f: impl FnMut() -> anyhow::Result<()>,
-) -> anyhow::Result<(f64, Option<f64>)> {
-    let mut best = (f64::INFINITY, None);
-    for _ in 0..runs.max(1) {
-        let r = timed(&mut f)?;
-        if r.0 < best.0 {
-            best = r;
-        }
-    }
-    Ok(best)
-}
-
-/// `bench --end-to-end`: the commands a user runs, timed in one process on the first mesh
-/// (default the bunny) with the first scheme (default G1), CPU backend:
-/// - `tessellate_memory`: f32 grid kernel → stitcher in f32 → a sink that keeps nothing
-///   (best of 2);
-/// - `tessellate_ply_file`: the same into a binary PLY file (atomic write, fsync), beside
-///   `plain_write` of the same byte count and `piped_write` (the same bytes through the
-///   writers' own output path, nothing computed); the three alternate, plain first, best of
-///   2 each;
-/// - `load_obj`: `Mesh::load` of the mesh tessellated at `--stats-level` and written as
-///   OBJ (f32 values), beside `count_words` (a buffered `wc -w` in Rust) and the real
-///   `wc -w` where present (best of 2 each, the file in the page cache for all);
-/// - `stats`: adjacency, patch table and the continuity statistics of that mesh, after
-///   loading.
-///
-/// Each row also gives the CPU seconds of the process during the step, which tell a
-/// loaded machine's figures from an idle one's.
-pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
-    use crate::output::stats::stats_report;
-    use crate::output::writers::{ply_file_bytes, write_stitched, MeshFormat};
-    use crate::progress::NoProgress;
-    use crate::tess::stitch::{stitch_into, CountingSink, StitchPlan};
-
-    anyhow::ensure!(
-        a.tess_level >= 1 && a.stats_level >= 1,
-        "--tess-level and --stats-level must be at least 1"
-    );
-    let spec = a.meshes.first().map_or(DEFAULT_MESH, |m| m.as_str());
-    let scheme = a.schemes.first().copied().unwrap_or(Scheme::G1);
-    let dir = a.dir.clone().unwrap_or_else(std::env::temp_dir);
-    let stamp = format!("g1tess-bench-{}", std::process::id());
-    let say = |what: &str| {
-        if !a.quiet {
-            eprintln!("bench: {what}");
-        }
-    };
-    let cpu = CpuEvaluator::with_chunk_samples(a.cpu_chunk_samples.max(1));
-    let mut rows = Vec::new();
-    let mut row = |step: &str,
-                   what: String,
-                   (seconds, cpu_seconds): (f64, Option<f64>),
-                   samples: Option<u64>,
-                   bytes: Option<u64>,
-                   baseline: Option<f64>| {
-        rows.push(EndToEndRow {
-            step: step.into(),
-            what,
-            seconds,
-            cpu_seconds,
-            samples,
-            samples_per_s: samples.map(|n| n as f64 / seconds),
-            bytes,
-            mb_per_s: bytes.map(|b| b as f64 / seconds / 1e6),
-            ratio_to_baseline: baseline.map(|b| seconds / b),
-        });
-    };
-
-    let budget = a.memory.budget();
-    let mesh = load_mesh(spec)?;
-    let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default())?;
-    let adjacency = mesh.adjacency();
-    let level = a.tess_level;
-    let (need, _, _) = super::common::tessellation_need(
-        &mesh,
-        adjacency.edges.len(),
-        table.stride,
-        level,
-        MeshFormat::Ply.needs(),
-        MeshFormat::Ply.buffer_bytes(level, mesh.triangles.len()),
-    );
-    budget.check("bench", &format!("--tess-level {level}"), need, "")?;
-    let plan = StitchPlan::new(&mesh, &adjacency, level)?;
-    let samples = (grid_len(level) * table.len()) as u64;
-
-    say(&format!(
-        "tessellate {} level {level} into memory",
-        mesh.name
-    ));
-    let memory = best_of(2, || {
-        let mut sink = CountingSink::default();
-        stitch_into::<[f32; 3]>(&plan, &table, &cpu, &mut sink, &NoProgress)?;
-        anyhow::ensure!(sink.records == plan.records, "stitching lost records");
-        Ok(())
-    })?;
-    row(
-        "tessellate_memory",
-        format!(
-            "f32 kernel -> stitcher (f32) -> sink keeping nothing; {} positions, {} records",
-            plan.positions, plan.records
-        ),
-        memory,
-        Some(samples),
-        None,
-        None,
-    );
-
-    // The plain write, the piped write and the PLY file alternate (plain, piped, PLY,
-    // plain, piped, PLY), best of 2 each:
-    // the first large write after other work pays the page cache's reclaim, which a single
-    // ordered pair would charge to whichever went first. Each file is removed after its
-    // timing. The plain write has the PLY's size, known from the plan.
-    say("plain writes alternating with tessellations into a binary PLY file");
-    let bytes = ply_file_bytes(&plan, "bench");
-    let (mut file, mut plain) = ((f64::INFINITY, None), (f64::INFINITY, None));
-    let mut piped = (f64::INFINITY, None);
-    for _ in 0..2 {
-        let plain_file = TempFile(dir.join(format!("{stamp}.plain")));
-        let t = timed(|| plain_write(&plain_file.0, bytes))?;
-        drop(plain_file);
-        if t.0 < plain.0 {
-            plain = t;
-        }
-        let piped_file = TempFile(dir.join(format!("{stamp}.piped")));
-        let t = timed(|| piped_write(&piped_file.0, bytes))?;
-        drop(piped_file);
-        if t.0 < piped.0 {
-            piped = t;
-        }
-        let ply = TempFile(dir.join(format!("{stamp}.ply")));
-        let t = timed(|| {
-            write_stitched::<[f32; 3]>(
-                &ply.0,
-                MeshFormat::Ply,
-                &plan,
-                "bench",
-                &NoProgress,
-                &mut |sink| stitch_into(&plan, &table, &cpu, sink, &NoProgress).map(|_| ()),
-            )?;
-            Ok(())
-        })?;
-        let len = std::fs::metadata(&ply.0)?.len();
-        drop(ply);
-        anyhow::ensure!(
-            len == bytes,
-            "the PLY file has {len} bytes, the plan says {bytes}"
-        );
-        if t.0 < file.0 {
-            file = t;
-        }
-    }
-    row(
-        "tessellate_ply_file",
-        "tessellate into binary PLY on disk (atomic: temporary file, fsync, rename); best of 2, alternating with plain_write and piped_write (plain, piped, PLY, plain, piped, PLY)".into(),
-        file,
-        Some(samples),
-        Some(bytes),
-        Some(plain.0),
-    );
-    row(
-        "plain_write",
-        "the same byte count in 1 MiB blocks, fsync; best of 2, alternating with the others".into(),
-        plain,
-        None,
-        Some(bytes),
-        None,
-    );
-    row(
-        "piped_write",
-        "the same byte count through the writers' own output path (PipedWriter: direct I/O where the file system suits it, atomic), nothing computed: the floor of tessellate_ply_file; best of 2, alternating with the others".into(),
-        piped,
-        None,
-        Some(bytes),
-        Some(plain.0),
-    );
-
-    say(&format!("OBJ of {} at level {}", mesh.name, a.stats_level));
-    let obj = TempFile(dir.join(format!("{stamp}.obj")));
-    let obj_plan = StitchPlan::new(&mesh, &adjacency, a.stats_level)?;
-    write_stitched::<[f32; 3]>(
-        &obj.0,
-        MeshFormat::Obj,
-        &obj_plan,
-        "bench",
-        &NoProgress,
-        &mut |sink| stitch_into(&obj_plan, &table, &cpu, sink, &NoProgress).map(|_| ()),
-    )?;
-    let obj_bytes = std::fs::metadata(&obj.0)?.len();
-    let mut words = 0;
-    let count = best_of(2, || {
-        words = count_words(&obj.0)?;
-        Ok(())
-    })?;
-    // Best of 2, as the others.
-    let wc = match (real_wc(&obj.0), real_wc(&obj.0)) {
-        (Some(x), Some(y)) => Some((x.0.min(y.0), x.1)),
-        (x, _) => x,
-    };
-    say("load the OBJ");
-    let obj_spec = obj.0.display().to_string();
-    let mut loaded = None;
-    let load = best_of(2, || {
-        loaded = Some(Mesh::load(&obj_spec, &LoadOptions::default())?);
-        Ok(())
-    })?;
-    let big = loaded.expect("loaded at least once");
-    drop(obj);
-    row(
-        "load_obj",
-        format!("Mesh::load of the OBJ ({} triangles)", big.triangles.len()),
-        load,
-        None,
-        Some(obj_bytes),
-        Some(count.0),
-    );
-    row(
-        "count_words",
-        format!("whitespace-separated words, 1 MiB buffer ({words} words)"),
-        count,
-        None,
-        Some(obj_bytes),
-        None,
-    );
-    if let Some((s, w)) = wc {
-        row(
-            "wc_w",
-            format!("the system's wc -w ({w} words)"),
-            (s, None),
-            None,
-            Some(obj_bytes),
-            None,
-        );
-    }
-
-    say(&format!("stats on {} triangles", big.triangles.len()));
-    let mut pairs = 0;
-    let stats = timed(|| {
-        // Exactly what `g1tess stats --backend cpu` runs after loading.
-        let r = stats_report(&big, scheme, &SchemeOptions::default(), &cpu)?;
-        pairs = (r.samples + r.crease_samples) as u64;
-        Ok(())
-    })?;
-    row(
-        "stats",
-        "`stats` after loading: edge index, patches built per chunk of edges, continuity (f64 CPU reference); samples are edge sample pairs".into(),
-        stats,
-        Some(pairs),
-        None,
-        None,
-    );
-
-    let report = EndToEndReport {
-        machine: EndToEndMachine {
-            cpu: cpu_model(),
-            cpus: available_cpus(),
-            threads: rayon::current_num_threads(),
-            os: format!("{} {}", std::env::consts::OS, std::env::consts::ARCH),
-            cpu_kernel: F32Kernel::Auto.name().to_string(),
-            dir: dir.display().to_string(),
-        },
-        mesh: mesh.name.clone(),
-        triangles: mesh.triangles.len(),
-        scheme: scheme.to_string(),
-        tess_level: level,
-        stats_level: a.stats_level,
-        stats_triangles: big.triangles.len(),
-        rows,
-    };
-    if a.json {
-        println!("{}", serde_json::to_string(&report)?);
-    } else {
-        println!("{}", end_to_end_text(&report));
-    }
-    Ok(())
-}
-
-/// The end-to-end report as a Markdown table (what BENCHMARKS.md records).
-pub fn end_to_end_text(r: &EndToEndReport) -> String {
-    let m = &r.machine;
-    let mut s = format!(
-        "machine: {} · {} CPUs, {} threads · {} · CPU kernel {} · files in {}\n\
-         mesh: {} ({} triangles), scheme {}, tessellation level {}; stats and OBJ: level {} ({} triangles)\n\n\
-         | step | seconds | CPU s | M samples/s | MB/s | × baseline | what |\n|---|---|---|---|---|---|---|\n",
-        m.cpu,
-        m.cpus,
-        m.threads,
-        m.os,
-        m.cpu_kernel,
-        m.dir,
-        r.mesh,
-        r.triangles,
-        r.scheme,
-        r.tess_level,
-        r.stats_level,
-        r.stats_triangles
-    );
-    let opt = |x: Option<f64>, scale: f64, digits: usize| {
-        x.map_or("–".to_string(), |v| format!("{:.*}", digits, v / scale))
-    };
-    for row in &r.rows {
-        s += &format!(
-            "| {} | {:.3} | {} | {} | {} | {} | {} |\n",
-            row.step,
-            row.seconds,
-            opt(row.cpu_seconds, 1.0, 2),
-            opt(row.samples_per_s, 1e6, 1),
-            opt(row.mb_per_s, 1.0, 0),
-            opt(row.ratio_to_baseline, 1.0, 2),
-            row.what
         );
     }
     s

@@ -573,6 +573,50 @@ fn uniform_table<R: Real>(kind: PatchKind, level: u32, out: &mut [R]) {
     }
 }
 
+/// The dispatches of a grid on `patches` patches: (first patch of its chunk, patches of
+/// the chunk, first sample of the dispatch in the chunk, samples). Chunks of
+/// `patches_per_chunk` patches of `per` samples, dispatches of up to `out_samples`; with
+/// `whole_quads` (the patch loop's quad), a dispatch of whole quads of patches, then the
+/// rest.
+fn grid_jobs(
+    patches: usize,
+    patches_per_chunk: usize,
+    per: usize,
+    out_samples: usize,
+    whole_quads: Option<usize>,
+) -> Vec<(usize, usize, usize, usize)> {
+    let mut jobs = Vec::new();
+    let mut first = 0;
+    while first < patches {
+        let count = patches_per_chunk.min(patches - first);
+        let total = count * per;
+        let mut s0 = 0;
+        while s0 < total {
+            let mut n = out_samples.min(total - s0);
+            let whole = n / per;
+            if let Some(quad) = whole_quads.filter(|&q| whole > q && !whole.is_multiple_of(q)) {
+                n = (whole - whole % quad) * per;
+            }
+            jobs.push((first, count, s0, n));
+            s0 += n;
+        }
+        first += count;
+    }
+    jobs
+}
+
+/// Sets the corner samples of the grids of `level` in `pos` (one grid per patch, from
+/// patch `first`) to the patches' corners exactly. Grid index 0 is corner 0, index
+/// `level` (i = n, j = 0) corner 1, the last index (j = n) corner 2.
+fn grid_corners(table: &PatchTable, level: u32, first: usize, pos: &mut [DVec3]) {
+    let per = grid_len(level);
+    for (p, s) in pos.chunks_mut(per).enumerate() {
+        for (k, local) in [0, level as usize, per - 1].into_iter().enumerate() {
+            s[local] = table.corner(first + p, k);
+        }
+    }
+}
+
 fn gcd(a: usize, b: usize) -> usize {
     if b == 0 {
         a
@@ -944,26 +988,13 @@ impl GpuEvaluator {
         } else {
             &pipes.grid
         };
-        // Every dispatch: (first patch of its chunk, patches of the chunk, first sample of
-        // the dispatch in the chunk, samples).
-        let mut jobs: Vec<(usize, usize, usize, usize)> = Vec::new();
-        let mut first = 0;
-        while first < table.len() {
-            let count = patches_per_chunk.min(table.len() - first);
-            let total = count * per;
-            let mut s0 = 0;
-            while s0 < total {
-                let mut n = out_samples.min(total - s0);
-                // The patch loop: a dispatch of whole quads of patches, then the rest.
-                let patches = n / per;
-                if patch_loop.is_some() && patches > quad && !patches.is_multiple_of(quad) {
-                    n = (patches - patches % quad) * per;
-                }
-                jobs.push((first, count, s0, n));
-                s0 += n;
-            }
-            first += count;
-        }
+        let jobs = grid_jobs(
+            table.len(),
+            patches_per_chunk,
+            per,
+            out_samples,
+            patch_loop.map(|_| quad),
+        );
         // Two output and staging buffers when results are read back and there is more than
         // one dispatch: dispatch k + 1 is submitted before the results of dispatch k are
         // read and handed to the target, so the device computes while the host consumes.
@@ -981,15 +1012,7 @@ impl GpuEvaluator {
                 patch_loop.map(|(layout, _)| (layout, &patch_uniform)),
             ));
         }
-        let corners = |first: usize, pos: &mut [DVec3]| {
-            // Grid index 0 is corner 0, index `level` (i = n, j = 0) corner 1, the last
-            // index (j = n) corner 2.
-            for (p, s) in pos.chunks_mut(per).enumerate() {
-                for (k, local) in [0, level as usize, per - 1].into_iter().enumerate() {
-                    s[local] = table.corner(first + p, k);
-                }
-            }
-        };
+        let corners = |first: usize, pos: &mut [DVec3]| grid_corners(table, level, first, pos);
         let mut patch_data: Vec<R> = Vec::with_capacity(patches_per_chunk * upload_reals);
         let mut samples = Samples::<R>::new();
         let mut pending: Option<(usize, wgpu::SubmissionIndex)> = None;

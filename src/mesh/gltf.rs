@@ -37,261 +37,388 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
     } else {
         (&data[..], None)
     };
+    let doc = document(json).map_err(err)?;
+    let buffers = load_buffers(path, &doc, blob).map_err(err)?;
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| err("no scene to read".into()))?;
+    let mut gathered = Gathered::default();
+    walk_nodes(&scene, doc.nodes().count(), |node, world| {
+        let Some(mesh) = node.mesh() else {
+            return Ok(());
+        };
+        let placement = Placement::new(world);
+        for prim in mesh.primitives() {
+            let what = format!("mesh {} primitive {}", mesh.index(), prim.index());
+            gathered
+                .primitive(&buffers, &prim, &placement, &what)
+                .map_err(|m| format!("{what}: {m}"))?;
+        }
+        Ok(())
+    })
+    .map_err(err)?;
+    let soup = gathered.into_soup().map_err(err)?;
+    soup.build(super::display_name(path), opts)
+}
+
+/// Parses and validates the JSON part of the file.
+fn document(json: &[u8]) -> std::result::Result<::gltf::Document, String> {
     let root: ::gltf::json::Root = serde_json::from_slice(json)
-        .map_err(|e| err(format!("not valid glTF: {}", one_line(&e.to_string()))))?;
+        .map_err(|e| format!("not valid glTF: {}", one_line(&e.to_string())))?;
     // The gltf crate's validation indexes the POSITION accessor before checking it: check
     // it first.
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (k, prim) in mesh.primitives.iter().enumerate() {
             for (sem, acc) in &prim.attributes {
                 if acc.value() >= root.accessors.len() {
-                    return Err(err(format!(
+                    return Err(format!(
                         "mesh {m} primitive {k}: attribute {} names accessor {}, which does \
                          not exist ({} accessors)",
                         super::text::echo(&format!("{sem:?}")),
                         acc.value(),
                         root.accessors.len()
-                    )));
+                    ));
                 }
             }
         }
     }
-    let doc = ::gltf::Document::from_json(root)
-        .map_err(|e| err(format!("not valid glTF: {}", one_line(&e.to_string()))))?;
+    ::gltf::Document::from_json(root)
+        .map_err(|e| format!("not valid glTF: {}", one_line(&e.to_string())))
+}
+
+/// The bytes of every buffer: the GLB binary chunk or the URI's contents, each checked to
+/// hold at least its declared length.
+fn load_buffers(
+    path: &Path,
+    doc: &::gltf::Document,
+    blob: Option<&[u8]>,
+) -> std::result::Result<Vec<Vec<u8>>, String> {
     let mut buffers = Vec::new();
     for b in doc.buffers() {
         let i = b.index();
         let bytes = match b.source() {
             ::gltf::buffer::Source::Bin => blob.map(|b| b.to_vec()).ok_or_else(|| {
-                err(format!(
-                    "buffer {i} refers to a GLB binary chunk the file does not have"
-                ))
+                format!("buffer {i} refers to a GLB binary chunk the file does not have")
             })?,
             ::gltf::buffer::Source::Uri(uri) => {
-                load_uri(path, uri).map_err(|m| err(format!("buffer {i}: {m}")))?
+                load_uri(path, uri).map_err(|m| format!("buffer {i}: {m}"))?
             }
         };
         if bytes.len() < b.length() {
-            return Err(err(format!(
+            return Err(format!(
                 "buffer {i}: {} bytes declared, {} present (truncated)",
                 b.length(),
                 bytes.len()
-            )));
+            ));
         }
         buffers.push(bytes);
     }
-    let scene = doc
-        .default_scene()
-        .or_else(|| doc.scenes().next())
-        .ok_or_else(|| err("no scene to read".into()))?;
-    let mut soup = Soup::default();
-    let mut uvs: Vec<[f32; 2]> = Vec::new();
-    let mut colors: Vec<[f32; 4]> = Vec::new();
-    let mut normals_v: Vec<Option<DVec3>> = Vec::new();
-    let (mut any_uv, mut any_color, mut any_alpha) = (false, false, false);
-    let mut lacking = [0usize; 3];
+    Ok(buffers)
+}
+
+/// Visits the scene's nodes depth first, children in order, each with its world matrix.
+/// glTF nodes form a forest: a node reached twice (a cycle, or two parents) is refused,
+/// which also bounds the walk by the number of nodes (`node_count`).
+fn walk_nodes(
+    scene: &::gltf::Scene,
+    node_count: usize,
+    mut visit: impl FnMut(&::gltf::Node, DMat4) -> std::result::Result<(), String>,
+) -> std::result::Result<(), String> {
     let mut stack: Vec<(::gltf::Node, DMat4, usize)> =
         scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     stack.reverse();
-    // glTF nodes form a forest: a node reached twice (a cycle, or two parents) is refused,
-    // which also bounds the walk by the number of nodes.
-    let mut seen = vec![false; doc.nodes().count()];
+    let mut seen = vec![false; node_count];
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > MAX_DEPTH {
-            return Err(err(format!(
+            return Err(format!(
                 "node {}: nested more than {MAX_DEPTH} deep",
                 node.index()
-            )));
+            ));
         }
         if std::mem::replace(&mut seen[node.index()], true) {
-            return Err(err(format!(
+            return Err(format!(
                 "node {} is reached twice in the scene (nodes must form a tree)",
                 node.index()
-            )));
+            ));
         }
         let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
         let world = parent * local;
         if !world.is_finite() {
-            return Err(err(format!("node {}: non-finite transform", node.index())));
+            return Err(format!("node {}: non-finite transform", node.index()));
         }
         for c in node.children().collect::<Vec<_>>().into_iter().rev() {
             stack.push((c, world, depth + 1));
         }
-        let Some(mesh) = node.mesh() else { continue };
+        visit(&node, world)?;
+    }
+    Ok(())
+}
+
+/// A node's world transform as its primitives use it.
+struct Placement {
+    world: DMat4,
+    /// Inverse transpose of the linear part, for normals.
+    normal_m: DMat3,
+    /// The transform mirrors (negative determinant): the winding is reversed.
+    mirror: bool,
+    /// The transform is the identity (the points and normals are kept as read).
+    identity: bool,
+}
+
+impl Placement {
+    fn new(world: DMat4) -> Self {
         let lin = DMat3::from_mat4(world);
-        let normal_m = lin.inverse().transpose();
-        let mirror = lin.determinant() < 0.0;
-        let identity = world == DMat4::IDENTITY;
-        for prim in mesh.primitives() {
-            let what = format!("mesh {} primitive {}", mesh.index(), prim.index());
-            let perr = |m: String| err(format!("{what}: {m}"));
-            let mode = prim.mode();
-            if !matches!(
-                mode,
-                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-            ) {
-                soup.report.notes.push(format!(
-                    "{what}: {mode:?} primitive ignored (not triangles)"
+        Placement {
+            world,
+            normal_m: lin.inverse().transpose(),
+            mirror: lin.determinant() < 0.0,
+            identity: world == DMat4::IDENTITY,
+        }
+    }
+}
+
+/// The primitives read so far, joined: the soup and the optional per-vertex attributes.
+#[derive(Default)]
+struct Gathered {
+    soup: Soup,
+    uvs: Vec<[f32; 2]>,
+    colors: Vec<[f32; 4]>,
+    normals: Vec<Option<DVec3>>,
+    any_uv: bool,
+    any_color: bool,
+    any_alpha: bool,
+    /// Vertices without NORMAL, TEXCOORD_0 and COLOR_0.
+    lacking: [usize; 3],
+}
+
+impl Gathered {
+    /// Adds one primitive (`what` names it in the note for a skipped one); an error is the
+    /// message without that name.
+    fn primitive(
+        &mut self,
+        buffers: &[Vec<u8>],
+        prim: &::gltf::Primitive,
+        place: &Placement,
+        what: &str,
+    ) -> std::result::Result<(), String> {
+        let mode = prim.mode();
+        if !matches!(
+            mode,
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
+            self.soup.report.notes.push(format!(
+                "{what}: {mode:?} primitive ignored (not triangles)"
+            ));
+            return Ok(());
+        }
+        let pos_acc = prim
+            .get(&Semantic::Positions)
+            .ok_or_else(|| "no POSITION attribute".to_string())?;
+        let pos = read(buffers, &pos_acc, &[Dimensions::Vec3], false)?;
+        let n = pos.len();
+        let base = self.soup.positions.len();
+        for (i, p) in pos.iter().enumerate() {
+            let p = DVec3::new(p[0], p[1], p[2]);
+            let q = if place.identity {
+                p
+            } else {
+                place.world.transform_point3(p)
+            };
+            if !q.is_finite() || q.abs().max_element() > normals::MAX_COORD {
+                return Err(format!(
+                    "vertex {i}: non-finite coordinate or one above {:e} in magnitude",
+                    normals::MAX_COORD
                 ));
-                continue;
             }
-            let pos_acc = prim
-                .get(&Semantic::Positions)
-                .ok_or_else(|| perr("no POSITION attribute".into()))?;
-            let pos = read(&buffers, &pos_acc, &[Dimensions::Vec3], false).map_err(&perr)?;
-            let n = pos.len();
-            let base = soup.positions.len();
-            for (i, p) in pos.iter().enumerate() {
-                let p = DVec3::new(p[0], p[1], p[2]);
-                let q = if identity {
-                    p
-                } else {
-                    world.transform_point3(p)
-                };
-                if !q.is_finite() || q.abs().max_element() > normals::MAX_COORD {
-                    return Err(perr(format!(
-                        "vertex {i}: non-finite coordinate or one above {:e} in magnitude",
-                        normals::MAX_COORD
-                    )));
-                }
-                soup.positions.push(q);
-            }
-            let same = |acc: &::gltf::Accessor, name: &str| -> Result<()> {
-                if acc.count() != n {
-                    return Err(perr(format!(
-                        "{name} has {} entries for {n} positions",
-                        acc.count()
-                    )));
-                }
-                Ok(())
-            };
-            match prim.get(&Semantic::Normals) {
-                Some(acc) => {
-                    same(&acc, "NORMAL")?;
-                    let v = read(&buffers, &acc, &[Dimensions::Vec3], false).map_err(&perr)?;
-                    for (i, x) in v.iter().enumerate() {
-                        let m = DVec3::new(x[0], x[1], x[2]);
-                        let m = if identity { m } else { normal_m * m };
-                        let u = normals::unit(m).ok_or_else(|| {
-                            perr(format!("vertex {i}: zero or non-finite normal"))
-                        })?;
-                        normals_v.push(Some(u));
-                    }
-                }
-                None => {
-                    lacking[0] += n;
-                    normals_v.extend(std::iter::repeat_n(None, n));
-                }
-            }
-            match prim.get(&Semantic::TexCoords(0)) {
-                Some(acc) => {
-                    same(&acc, "TEXCOORD_0")?;
-                    any_uv = true;
-                    let v = read(&buffers, &acc, &[Dimensions::Vec2], true).map_err(&perr)?;
-                    uvs.resize(base, [0.0; 2]);
-                    uvs.extend(v.iter().map(|x| [x[0] as f32, x[1] as f32]));
-                }
-                None => lacking[1] += n,
-            }
-            match prim.get(&Semantic::Colors(0)) {
-                Some(acc) => {
-                    same(&acc, "COLOR_0")?;
-                    any_color = true;
-                    any_alpha |= acc.dimensions() == Dimensions::Vec4;
-                    let v = read(&buffers, &acc, &[Dimensions::Vec3, Dimensions::Vec4], true)
-                        .map_err(&perr)?;
-                    colors.resize(base, [1.0; 4]);
-                    colors.extend(
-                        v.iter()
-                            .map(|x| [x[0] as f32, x[1] as f32, x[2] as f32, x[3] as f32]),
-                    );
-                }
-                None => lacking[2] += n,
-            }
-            // Corner lists: the indices, or the vertices in order.
-            let idx: Vec<u32> = match prim.indices() {
-                Some(acc) => {
-                    let v = read(&buffers, &acc, &[Dimensions::Scalar], false).map_err(&perr)?;
-                    let mut out = Vec::with_capacity(v.len());
-                    for (k, x) in v.iter().enumerate() {
-                        if x[0] >= n as f64 {
-                            return Err(perr(format!(
-                                "index {k} is {}, out of range ({n} vertices)",
-                                x[0]
-                            )));
-                        }
-                        out.push(x[0] as u32);
-                    }
-                    out
-                }
-                None => (0..n as u32).collect(),
-            };
-            let mut tri = |a: u32, b: u32, c: u32| {
-                let t = [a, b, c].map(|v| v + base as u32);
-                soup.triangles
-                    .push(if mirror { [t[0], t[2], t[1]] } else { t });
-            };
-            match mode {
-                Mode::Triangles => idx.chunks_exact(3).for_each(|t| tri(t[0], t[1], t[2])),
-                Mode::TriangleStrip => {
-                    for k in 2..idx.len() {
-                        if k % 2 == 0 {
-                            tri(idx[k - 2], idx[k - 1], idx[k]);
-                        } else {
-                            tri(idx[k - 1], idx[k - 2], idx[k]);
-                        }
-                    }
-                }
-                _ => {
-                    for k in 2..idx.len() {
-                        tri(idx[0], idx[k - 1], idx[k]);
-                    }
-                }
-            }
-            if u32::try_from(soup.positions.len()).is_err() {
-                return Err(perr("more vertices than a mesh can index (u32)".into()));
-            }
+            self.soup.positions.push(q);
         }
-    }
-    if soup.triangles.is_empty() {
-        return Err(err("empty mesh: no triangles in the scene".into()));
-    }
-    let total = soup.positions.len();
-    if lacking[0] < total {
-        // Zero marks the vertices of primitives without NORMAL: estimated after the weld.
-        soup.normals = Some(
-            normals_v
-                .into_iter()
-                .map(|n| n.unwrap_or(DVec3::ZERO))
-                .collect(),
+        self.attributes(buffers, prim, place, base, n)?;
+        let idx = corners(buffers, prim, n)?;
+        push_triangles(
+            &mut self.soup.triangles,
+            mode,
+            &idx,
+            base as u32,
+            place.mirror,
         );
-    }
-    if any_uv {
-        uvs.resize(total, [0.0; 2]);
-        if lacking[1] > 0 {
-            soup.report.notes.push(format!(
-                "{} of {total} vertices have no TEXCOORD_0: (0, 0) given",
-                lacking[1]
-            ));
+        if u32::try_from(self.soup.positions.len()).is_err() {
+            return Err("more vertices than a mesh can index (u32)".into());
         }
-        soup.uvs = Some(uvs);
+        Ok(())
     }
-    if any_color {
-        colors.resize(total, [1.0; 4]);
-        if lacking[2] > 0 {
-            soup.report.notes.push(format!(
-                "{} of {total} vertices have no COLOR_0: white given",
-                lacking[2]
-            ));
+
+    /// Reads the `n` vertices' NORMAL, TEXCOORD_0 and COLOR_0 (those present), the
+    /// primitive's vertices starting at `base`.
+    fn attributes(
+        &mut self,
+        buffers: &[Vec<u8>],
+        prim: &::gltf::Primitive,
+        place: &Placement,
+        base: usize,
+        n: usize,
+    ) -> std::result::Result<(), String> {
+        let same = |acc: &::gltf::Accessor, name: &str| -> std::result::Result<(), String> {
+            if acc.count() != n {
+                return Err(format!(
+                    "{name} has {} entries for {n} positions",
+                    acc.count()
+                ));
+            }
+            Ok(())
+        };
+        match prim.get(&Semantic::Normals) {
+            Some(acc) => {
+                same(&acc, "NORMAL")?;
+                let v = read(buffers, &acc, &[Dimensions::Vec3], false)?;
+                for (i, x) in v.iter().enumerate() {
+                    let m = DVec3::new(x[0], x[1], x[2]);
+                    let m = if place.identity {
+                        m
+                    } else {
+                        place.normal_m * m
+                    };
+                    let u = normals::unit(m)
+                        .ok_or_else(|| format!("vertex {i}: zero or non-finite normal"))?;
+                    self.normals.push(Some(u));
+                }
+            }
+            None => {
+                self.lacking[0] += n;
+                self.normals.extend(std::iter::repeat_n(None, n));
+            }
         }
-        soup.colors = Some(colors);
-        soup.alpha = any_alpha;
+        match prim.get(&Semantic::TexCoords(0)) {
+            Some(acc) => {
+                same(&acc, "TEXCOORD_0")?;
+                self.any_uv = true;
+                let v = read(buffers, &acc, &[Dimensions::Vec2], true)?;
+                self.uvs.resize(base, [0.0; 2]);
+                self.uvs
+                    .extend(v.iter().map(|x| [x[0] as f32, x[1] as f32]));
+            }
+            None => self.lacking[1] += n,
+        }
+        match prim.get(&Semantic::Colors(0)) {
+            Some(acc) => {
+                same(&acc, "COLOR_0")?;
+                self.any_color = true;
+                self.any_alpha |= acc.dimensions() == Dimensions::Vec4;
+                let v = read(buffers, &acc, &[Dimensions::Vec3, Dimensions::Vec4], true)?;
+                self.colors.resize(base, [1.0; 4]);
+                self.colors.extend(
+                    v.iter()
+                        .map(|x| [x[0] as f32, x[1] as f32, x[2] as f32, x[3] as f32]),
+                );
+            }
+            None => self.lacking[2] += n,
+        }
+        Ok(())
     }
-    soup.report = LoadReport {
-        notes: std::mem::take(&mut soup.report.notes),
-        ..LoadReport::default()
+
+    /// The joined soup, with the attributes some primitives lack filled in (and a note
+    /// saying how many).
+    fn into_soup(self) -> std::result::Result<Soup, String> {
+        let Gathered {
+            mut soup,
+            mut uvs,
+            mut colors,
+            normals,
+            any_uv,
+            any_color,
+            any_alpha,
+            lacking,
+        } = self;
+        if soup.triangles.is_empty() {
+            return Err("empty mesh: no triangles in the scene".into());
+        }
+        let total = soup.positions.len();
+        if lacking[0] < total {
+            // Zero marks the vertices of primitives without NORMAL: estimated after the weld.
+            soup.normals = Some(
+                normals
+                    .into_iter()
+                    .map(|n| n.unwrap_or(DVec3::ZERO))
+                    .collect(),
+            );
+        }
+        if any_uv {
+            uvs.resize(total, [0.0; 2]);
+            if lacking[1] > 0 {
+                soup.report.notes.push(format!(
+                    "{} of {total} vertices have no TEXCOORD_0: (0, 0) given",
+                    lacking[1]
+                ));
+            }
+            soup.uvs = Some(uvs);
+        }
+        if any_color {
+            colors.resize(total, [1.0; 4]);
+            if lacking[2] > 0 {
+                soup.report.notes.push(format!(
+                    "{} of {total} vertices have no COLOR_0: white given",
+                    lacking[2]
+                ));
+            }
+            soup.colors = Some(colors);
+            soup.alpha = any_alpha;
+        }
+        soup.report = LoadReport {
+            notes: std::mem::take(&mut soup.report.notes),
+            ..LoadReport::default()
+        };
+        Ok(soup)
+    }
+}
+
+/// A primitive's corner list: its indices (checked against its `n` vertices), or the
+/// vertices in order.
+fn corners(
+    buffers: &[Vec<u8>],
+    prim: &::gltf::Primitive,
+    n: usize,
+) -> std::result::Result<Vec<u32>, String> {
+    let Some(acc) = prim.indices() else {
+        return Ok((0..n as u32).collect());
     };
-    soup.build(super::display_name(path), opts)
+    let v = read(buffers, &acc, &[Dimensions::Scalar], false)?;
+    let mut out = Vec::with_capacity(v.len());
+    for (k, x) in v.iter().enumerate() {
+        if x[0] >= n as f64 {
+            return Err(format!(
+                "index {k} is {}, out of range ({n} vertices)",
+                x[0]
+            ));
+        }
+        out.push(x[0] as u32);
+    }
+    Ok(out)
+}
+
+/// Appends the triangles of a triangle list, strip or fan, its corners `idx` offset by
+/// `base`, the winding reversed when the node's transform mirrors.
+fn push_triangles(triangles: &mut Vec<[u32; 3]>, mode: Mode, idx: &[u32], base: u32, mirror: bool) {
+    let mut tri = |a: u32, b: u32, c: u32| {
+        let t = [a, b, c].map(|v| v + base);
+        triangles.push(if mirror { [t[0], t[2], t[1]] } else { t });
+    };
+    match mode {
+        Mode::Triangles => idx.chunks_exact(3).for_each(|t| tri(t[0], t[1], t[2])),
+        Mode::TriangleStrip => {
+            for k in 2..idx.len() {
+                if k % 2 == 0 {
+                    tri(idx[k - 2], idx[k - 1], idx[k]);
+                } else {
+                    tri(idx[k - 1], idx[k - 2], idx[k]);
+                }
+            }
+        }
+        _ => {
+            for k in 2..idx.len() {
+                tri(idx[0], idx[k - 1], idx[k]);
+            }
+        }
+    }
 }
 
 /// What loading a glTF file's default scene will hold, counted from its JSON alone (node

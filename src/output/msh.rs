@@ -135,62 +135,170 @@ pub fn build(
         )));
     }
     let p = order;
-    let pu = p as usize;
     let adjacency = mesh.adjacency();
     let split = creases::split_ends(mesh, &adjacency);
-    let crease: Vec<bool> = split
-        .iter()
-        .zip(&adjacency.edges)
-        .map(|(s, e)| e.is_interior() && (s[0] || s[1]))
-        .collect();
-    let nv = mesh.positions.len();
-    // Blocks of edge nodes: one per edge, or one per use of a non-manifold edge whose uses
-    // disagree on an end's normal (each use's patch has its own boundary curve there). A
-    // block is (edge, the use that evaluates it).
-    let mut blocks: Vec<(usize, EdgeUse)> = Vec::with_capacity(adjacency.edges.len());
-    // Block of each half-edge (3t + k).
-    let mut use_block = vec![0u32; 3 * nt];
-    for (e, edge) in adjacency.edges.iter().enumerate() {
-        let own = edge.uses.len() > 2 && (split[e][0] || split[e][1]);
-        for (i, u) in edge.uses.iter().enumerate() {
-            if own || i == 0 {
-                blocks.push((e, *u));
-            }
-            use_block[u.half_edge() as usize] = (blocks.len() - 1) as u32;
-        }
-    }
-    let ne = blocks.len();
-    let per_edge = pu - 1;
-    let lattice = triangle_nodes(p);
-    let interior: Vec<[u32; 2]> = lattice[3 + 3 * per_edge..].to_vec();
-    let per_tri = interior.len();
-    let total = nv + ne * per_edge + nt * per_tri;
+    let layout = NodeLayout::new(mesh, &adjacency, &split, p);
+    let total = layout.total();
     if total > u32::MAX as usize {
         return Err(Error::mesh(
             &mesh.name,
             format!("{total} nodes at order {p} are too many for 32-bit node indices"),
         ));
     }
-    let non_finite = |t: usize| {
-        Error::mesh(
-            &mesh.name,
-            format!("patch {t} evaluates to a non-finite position"),
-        )
-    };
-    // A node on patch t: its position, finite or an error naming the patch.
-    let position = |t: usize, b: [f64; 3]| {
-        let x = table.eval(t, b).p;
-        if x.is_finite() {
-            Ok(x)
-        } else {
-            Err(non_finite(t))
-        }
-    };
     progress.start("placing nodes", nt as u64);
-    let mut nodes = Vec::with_capacity(total);
+    let nodes = place_nodes(mesh, table, &adjacency, &layout, progress)?;
+    let triangles = layout.connectivity();
+    let (crease_lines, boundary) = edge_lines(mesh, &adjacency, &split, &layout);
+    progress.start("measuring elements", nt as u64);
+    let quality = measure(mesh, table, p, &nodes, &triangles, progress)?;
+    Ok(HighOrderMesh {
+        order,
+        nodes,
+        triangles,
+        creases: crease_lines,
+        boundary,
+        quality,
+    })
+}
+
+/// The error for a patch that evaluates to a non-finite point.
+fn non_finite(mesh: &Mesh, t: usize) -> Error {
+    Error::mesh(
+        &mesh.name,
+        format!("patch {t} evaluates to a non-finite position"),
+    )
+}
+
+/// A node on patch t: its position, finite or an error naming the patch.
+fn position(mesh: &Mesh, table: &PatchTable, t: usize, b: [f64; 3]) -> Result<DVec3> {
+    let x = table.eval(t, b).p;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(non_finite(mesh, t))
+    }
+}
+
+/// The numbering of an order-P mesh's nodes: the input vertices, then the blocks of edge
+/// nodes, then the interior nodes of each triangle.
+struct NodeLayout<'a> {
+    mesh: &'a Mesh,
+    p: u32,
+    /// Blocks of edge nodes: one per edge, or one per use of a non-manifold edge whose uses
+    /// disagree on an end's normal (each use's patch has its own boundary curve there). A
+    /// block is (edge, the use that evaluates it).
+    blocks: Vec<(usize, EdgeUse)>,
+    /// Block of each half-edge (3t + k).
+    use_block: Vec<u32>,
+    /// Reference points (a, b) of a triangle's interior nodes, in Gmsh's order.
+    interior: Vec<[u32; 2]>,
+}
+
+impl<'a> NodeLayout<'a> {
+    fn new(
+        mesh: &'a Mesh,
+        adjacency: &crate::mesh::Adjacency,
+        split: &[[bool; 2]],
+        p: u32,
+    ) -> Self {
+        let mut blocks: Vec<(usize, EdgeUse)> = Vec::with_capacity(adjacency.edges.len());
+        let mut use_block = vec![0u32; 3 * mesh.triangles.len()];
+        for (e, edge) in adjacency.edges.iter().enumerate() {
+            let own = edge.uses.len() > 2 && (split[e][0] || split[e][1]);
+            for (i, u) in edge.uses.iter().enumerate() {
+                if own || i == 0 {
+                    blocks.push((e, *u));
+                }
+                use_block[u.half_edge() as usize] = (blocks.len() - 1) as u32;
+            }
+        }
+        let per_edge = p as usize - 1;
+        let interior = triangle_nodes(p)[3 + 3 * per_edge..].to_vec();
+        NodeLayout {
+            mesh,
+            p,
+            blocks,
+            use_block,
+            interior,
+        }
+    }
+
+    /// Inner nodes of an edge: P − 1.
+    fn per_edge(&self) -> usize {
+        self.p as usize - 1
+    }
+
+    /// Index of the first edge node.
+    fn edge_start(&self) -> usize {
+        self.mesh.positions.len()
+    }
+
+    /// Index of the first interior node.
+    fn interior_start(&self) -> usize {
+        self.edge_start() + self.blocks.len() * self.per_edge()
+    }
+
+    fn total(&self) -> usize {
+        self.interior_start() + self.mesh.triangles.len() * self.interior.len()
+    }
+
+    /// Node i (1..p) of the way along element edge k of triangle t.
+    fn edge_node(&self, t: usize, k: usize, i: usize) -> u32 {
+        let tri = self.mesh.triangles[t];
+        let e = self.use_block[3 * t + k];
+        let forward = tri[k] < tri[(k + 1) % 3];
+        let j = if forward { i - 1 } else { self.per_edge() - i };
+        (self.edge_start() + e as usize * self.per_edge()) as u32 + j as u32
+    }
+
+    /// The node indices of every element, in Gmsh's order.
+    fn connectivity(&self) -> Vec<u32> {
+        let per_tri = self.interior.len();
+        let mut triangles =
+            Vec::with_capacity(self.mesh.triangles.len() * triangle_node_count(self.p));
+        for (t, tri) in self.mesh.triangles.iter().enumerate() {
+            triangles.extend_from_slice(tri);
+            for k in 0..3 {
+                for i in 1..self.p as usize {
+                    triangles.push(self.edge_node(t, k, i));
+                }
+            }
+            let base = (self.interior_start() + t * per_tri) as u32;
+            triangles.extend(base..base + per_tri as u32);
+        }
+        triangles
+    }
+
+    /// The line element along edge k of triangle t: its ends, then its inner nodes, all
+    /// reversed when `reverse`.
+    fn line(&self, t: usize, k: usize, reverse: bool) -> Vec<u32> {
+        let tri = self.mesh.triangles[t];
+        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+        let mut l = vec![a, b];
+        l.extend((1..self.p as usize).map(|i| self.edge_node(t, k, i)));
+        if reverse {
+            l.swap(0, 1);
+            l[2..].reverse();
+        }
+        l
+    }
+}
+
+/// Every node's position: the input vertices, the edge nodes (evaluated by each block's
+/// use) and the interior nodes, in the layout's order.
+fn place_nodes(
+    mesh: &Mesh,
+    table: &PatchTable,
+    adjacency: &crate::mesh::Adjacency,
+    layout: &NodeLayout,
+    progress: &dyn Progress,
+) -> Result<Vec<DVec3>> {
+    let p = layout.p;
+    let mut nodes = Vec::with_capacity(layout.total());
     nodes.extend_from_slice(&mesh.positions);
     let pf = p as f64;
-    let edge_nodes: Vec<Vec<DVec3>> = blocks
+    let edge_nodes: Vec<Vec<DVec3>> = layout
+        .blocks
         .par_iter()
         .map(|&(e, u)| {
             let edge = &adjacency.edges[e];
@@ -205,7 +313,7 @@ pub fn build(
                     let mut b = [0.0; 3];
                     b[k] = 1.0 - g;
                     b[(k + 1) % 3] = g;
-                    position(t, b)
+                    position(mesh, table, t, b)
                 })
                 .collect()
         })
@@ -213,73 +321,68 @@ pub fn build(
     for e in edge_nodes {
         nodes.extend(e);
     }
-    let interior_b: Vec<[f64; 3]> = interior
+    let interior_b: Vec<[f64; 3]> = layout
+        .interior
         .iter()
         .map(|&[a, b]| {
             let (u, v) = (a as f64 / pf, b as f64 / pf);
             [1.0 - u - v, u, v]
         })
         .collect();
-    for chunk in chunks(nt) {
+    for chunk in chunks(mesh.triangles.len()) {
         let interior_nodes: Vec<Vec<DVec3>> = chunk
             .clone()
             .into_par_iter()
-            .map(|t| interior_b.iter().map(|&b| position(t, b)).collect())
+            .map(|t| {
+                interior_b
+                    .iter()
+                    .map(|&b| position(mesh, table, t, b))
+                    .collect()
+            })
             .collect::<Result<_>>()?;
         for n in interior_nodes {
             nodes.extend(n);
         }
         progress.inc(chunk.len() as u64);
     }
+    Ok(nodes)
+}
 
-    // Connectivity.
-    let npt = triangle_node_count(p);
-    let edge_base = |e: u32| (nv + e as usize * per_edge) as u32;
-    // Node i (1..p) of the way along element edge k of triangle t.
-    let edge_node = |t: usize, k: usize, i: usize| -> u32 {
-        let tri = mesh.triangles[t];
-        let e = use_block[3 * t + k];
-        let forward = tri[k] < tri[(k + 1) % 3];
-        let j = if forward { i - 1 } else { pu - 1 - i };
-        edge_base(e) + j as u32
-    };
-    let mut triangles = Vec::with_capacity(nt * npt);
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        triangles.extend_from_slice(tri);
-        for k in 0..3 {
-            for i in 1..pu {
-                triangles.push(edge_node(t, k, i));
-            }
-        }
-        let base = (nv + ne * per_edge + t * per_tri) as u32;
-        triangles.extend(base..base + per_tri as u32);
-    }
-    let line = |t: usize, k: usize, reverse: bool| -> Vec<u32> {
-        let tri = mesh.triangles[t];
-        let (a, b) = (tri[k], tri[(k + 1) % 3]);
-        let mut l = vec![a, b];
-        l.extend((1..pu).map(|i| edge_node(t, k, i)));
-        if reverse {
-            l.swap(0, 1);
-            l[2..].reverse();
-        }
-        l
-    };
+/// The line elements of the crease edges (interior edges with a split end, from the lower
+/// vertex id) and of the boundary edges (in their triangle's direction).
+fn edge_lines(
+    mesh: &Mesh,
+    adjacency: &crate::mesh::Adjacency,
+    split: &[[bool; 2]],
+    layout: &NodeLayout,
+) -> (Vec<u32>, Vec<u32>) {
     let mut crease_lines = Vec::new();
     let mut boundary_lines = Vec::new();
     for (e, edge) in adjacency.edges.iter().enumerate() {
         let u = edge.uses[0];
         let (t, k) = (u.triangle as usize, u.local as usize);
-        if crease[e] {
+        let crease = edge.is_interior() && (split[e][0] || split[e][1]);
+        if crease {
             let tri = mesh.triangles[t];
-            crease_lines.extend(line(t, k, tri[k] != edge.v[0]));
+            crease_lines.extend(layout.line(t, k, tri[k] != edge.v[0]));
         } else if edge.uses.len() == 1 {
-            boundary_lines.extend(line(t, k, false));
+            boundary_lines.extend(layout.line(t, k, false));
         }
     }
+    (crease_lines, boundary_lines)
+}
 
-    // Quality.
-    progress.start("measuring elements", nt as u64);
+/// The quality of every element (module documentation), its nodes `nodes[triangles[..]]`.
+fn measure(
+    mesh: &Mesh,
+    table: &PatchTable,
+    p: u32,
+    nodes: &[DVec3],
+    triangles: &[u32],
+    progress: &dyn Progress,
+) -> Result<Vec<ElementQuality>> {
+    let nt = mesh.triangles.len();
+    let npt = triangle_node_count(p);
     let bound = JacobianBound::new(p);
     let dist_points = grid(4 * p);
     let dist_shapes: Vec<Shapes> = dist_points
@@ -306,7 +409,7 @@ pub fn build(
                     max_distance = max_distance.max(xe.distance(s));
                 }
                 if !max_distance.is_finite() {
-                    return Err(non_finite(t));
+                    return Err(non_finite(mesh, t));
                 }
                 Ok(ElementQuality {
                     min_scaled_jacobian,
@@ -317,14 +420,7 @@ pub fn build(
         quality.extend(part);
         progress.inc(len);
     }
-    Ok(HighOrderMesh {
-        order,
-        nodes,
-        triangles,
-        creases: crease_lines,
-        boundary: boundary_lines,
-        quality,
-    })
+    Ok(quality)
 }
 
 /// What [`export_msh`] wrote and measured.

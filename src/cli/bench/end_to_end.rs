@@ -1,0 +1,549 @@
+//! `g1tess bench --end-to-end`: the commands a user runs, timed in one process, each
+//! beside a same-run baseline (see [`run_end_to_end`]).
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::{cpu_model, load_mesh, BenchArgs, DEFAULT_MESH};
+use crate::cli::common::tessellation_need;
+use crate::eval::cpu::{CpuEvaluator, F32Kernel};
+use crate::eval::grid_len;
+use crate::mesh::{LoadOptions, Mesh};
+use crate::output::stats::stats_report;
+use crate::output::writers::{ply_file_bytes, write_stitched, MeshFormat};
+use crate::patch::{PatchTable, Scheme, SchemeOptions};
+use crate::progress::NoProgress;
+use crate::tess::stitch::{stitch_into, CountingSink, StitchPlan};
+
+/// One end-to-end measurement.
+#[derive(Clone, Debug, Serialize)]
+pub struct EndToEndRow {
+    /// What was timed: "tessellate_memory", "tessellate_ply_file", "plain_write",
+    /// "piped_write", "load_obj", "count_words", "wc_w", "stats".
+    pub step: String,
+    /// How, in words.
+    pub what: String,
+    pub seconds: f64,
+    /// CPU seconds of this process during the step (all threads; none for `wc_w`, another
+    /// process).
+    pub cpu_seconds: Option<f64>,
+    /// Samples produced or consumed (tessellation grid samples, stats edge samples).
+    pub samples: Option<u64>,
+    pub samples_per_s: Option<f64>,
+    /// Bytes written or read.
+    pub bytes: Option<u64>,
+    /// bytes / seconds / 10^6.
+    pub mb_per_s: Option<f64>,
+    /// seconds / the baseline's seconds (tessellate_ply_file and piped_write: plain_write;
+    /// load_obj: count_words).
+    pub ratio_to_baseline: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct EndToEndMachine {
+    pub cpu: String,
+    /// CPUs the process may use.
+    pub cpus: usize,
+    pub threads: usize,
+    pub os: String,
+    pub cpu_kernel: String,
+    /// Folder of the temporary files.
+    pub dir: String,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct EndToEndReport {
+    pub machine: EndToEndMachine,
+    pub mesh: String,
+    pub triangles: usize,
+    pub scheme: String,
+    pub tess_level: u32,
+    pub stats_level: u32,
+    /// Triangles of the mesh given to stats and loaded from OBJ.
+    pub stats_triangles: usize,
+    pub rows: Vec<EndToEndRow>,
+}
+
+/// Removes a file when dropped (temporary files of the end-to-end run).
+struct TempFile(std::path::PathBuf);
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+/// A plain sequential write of `bytes` bytes (1 MiB blocks through one buffer, then
+/// fsync, as the writers do): the baseline of writing a file of that size here.
+fn plain_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
+    use std::io::Write;
+    let block = vec![0x5au8; 1 << 20];
+    let mut f = std::fs::File::create(path)?;
+    let mut left = bytes;
+    while left > 0 {
+        let n = left.min(block.len() as u64) as usize;
+        f.write_all(&block[..n])?;
+        left -= n as u64;
+    }
+    f.sync_all()?;
+    Ok(())
+}
+
+/// `bytes` bytes written as the mesh writers write them ([`write_atomic_piped`]: a writer
+/// thread, direct I/O where the file system suits it, temporary file, fsync, rename), in
+/// 1 MiB pieces of one buffer: what `tessellate_ply_file` would take if computing and
+/// encoding cost nothing.
+fn piped_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
+    use std::io::Write;
+    let block = vec![0x5au8; 1 << 20];
+    crate::output::atomic::write_atomic_piped(path, |w| {
+        let mut left = bytes;
+        while left > 0 {
+            let n = left.min(block.len() as u64) as usize;
+            w.write_all(&block[..n])
+                .map_err(|e| crate::Error::io(path, e))?;
+            left -= n as u64;
+        }
+        Ok(())
+    })?;
+    Ok(())
+}
+
+/// Whitespace-separated words of a file, read through a 1 MiB buffer (what `wc -w` does).
+fn count_words(path: &std::path::Path) -> anyhow::Result<u64> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path)?;
+    let mut buf = vec![0u8; 1 << 20];
+    let (mut words, mut in_word) = (0u64, false);
+    loop {
+        let n = f.read(&mut buf)?;
+        if n == 0 {
+            return Ok(words);
+        }
+        for &b in &buf[..n] {
+            let space = matches!(b, b' ' | b'\n' | b'\t' | b'\r' | 0x0b | 0x0c);
+            words += (!space && !in_word) as u64;
+            in_word = !space;
+        }
+    }
+}
+
+/// Runs the real `wc -w` on `path`: (seconds, words), or None where there is no `wc`.
+fn real_wc(path: &std::path::Path) -> Option<(f64, u64)> {
+    let t = Instant::now();
+    let out = std::process::Command::new("wc")
+        .arg("-w")
+        .arg(path)
+        .output()
+        .ok()?;
+    let s = t.elapsed().as_secs_f64();
+    let words = String::from_utf8_lossy(&out.stdout)
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    out.status.success().then_some((s, words))
+}
+
+fn available_cpus() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// CPU time of this process so far (all threads, user + system), from `/proc/self/stat`
+/// in clock ticks of 1/100 s; None where there is no such file.
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which is in parentheses and may hold spaces).
+    let rest = stat.get(stat.rfind(')')? + 2..)?;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?;
+    Some(ticks as f64 / 100.0)
+}
+
+/// Wall and CPU seconds of one run of `f`.
+fn timed(f: impl FnOnce() -> anyhow::Result<()>) -> anyhow::Result<(f64, Option<f64>)> {
+    let c0 = process_cpu_seconds();
+    let t = Instant::now();
+    f()?;
+    let wall = t.elapsed().as_secs_f64();
+    let cpu = process_cpu_seconds().zip(c0).map(|(b, a)| b - a);
+    Ok((wall, cpu))
+}
+
+/// The faster of `runs` runs of `f` (wall time), with its CPU time.
+fn best_of(
+    runs: usize,
+    mut f: impl FnMut() -> anyhow::Result<()>,
+) -> anyhow::Result<(f64, Option<f64>)> {
+    let mut best = (f64::INFINITY, None);
+    for _ in 0..runs.max(1) {
+        let r = timed(&mut f)?;
+        if r.0 < best.0 {
+            best = r;
+        }
+    }
+    Ok(best)
+}
+
+/// `bench --end-to-end`: the commands a user runs, timed in one process on the first mesh
+/// (default the bunny) with the first scheme (default G1), CPU backend:
+/// - `tessellate_memory`: f32 grid kernel → stitcher in f32 → a sink that keeps nothing
+///   (best of 2);
+/// - `tessellate_ply_file`: the same into a binary PLY file (atomic write, fsync), beside
+///   `plain_write` of the same byte count and `piped_write` (the same bytes through the
+///   writers' own output path, nothing computed); the three alternate, plain first, best of
+///   2 each;
+/// - `load_obj`: `Mesh::load` of the mesh tessellated at `--stats-level` and written as
+///   OBJ (f32 values), beside `count_words` (a buffered `wc -w` in Rust) and the real
+///   `wc -w` where present (best of 2 each, the file in the page cache for all);
+/// - `stats`: adjacency, patch table and the continuity statistics of that mesh, after
+///   loading.
+///
+/// Each row also gives the CPU seconds of the process during the step, which tell a
+/// loaded machine's figures from an idle one's.
+pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        a.tess_level >= 1 && a.stats_level >= 1,
+        "--tess-level and --stats-level must be at least 1"
+    );
+    let spec = a.meshes.first().map_or(DEFAULT_MESH, |m| m.as_str());
+    let scheme = a.schemes.first().copied().unwrap_or(Scheme::G1);
+    let temp = TempNames {
+        dir: a.dir.clone().unwrap_or_else(std::env::temp_dir),
+        stamp: format!("g1tess-bench-{}", std::process::id()),
+    };
+    let say = |what: &str| {
+        if !a.quiet {
+            eprintln!("bench: {what}");
+        }
+    };
+    let cpu = CpuEvaluator::with_chunk_samples(a.cpu_chunk_samples.max(1));
+    let mut rows = EndToEndRows::default();
+
+    let budget = a.memory.budget();
+    let mesh = load_mesh(spec)?;
+    let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default())?;
+    let adjacency = mesh.adjacency();
+    let level = a.tess_level;
+    let (need, _, _) = tessellation_need(
+        &mesh,
+        adjacency.edges.len(),
+        table.stride,
+        level,
+        MeshFormat::Ply.needs(),
+        MeshFormat::Ply.buffer_bytes(level, mesh.triangles.len()),
+    );
+    budget.check("bench", &format!("--tess-level {level}"), need, "")?;
+    let plan = StitchPlan::new(&mesh, &adjacency, level)?;
+    let samples = (grid_len(level) * table.len()) as u64;
+
+    say(&format!(
+        "tessellate {} level {level} into memory",
+        mesh.name
+    ));
+    let memory = best_of(2, || {
+        let mut sink = CountingSink::default();
+        stitch_into::<[f32; 3]>(&plan, &table, &cpu, &mut sink, &NoProgress)?;
+        anyhow::ensure!(sink.records == plan.records, "stitching lost records");
+        Ok(())
+    })?;
+    rows.push(
+        "tessellate_memory",
+        format!(
+            "f32 kernel -> stitcher (f32) -> sink keeping nothing; {} positions, {} records",
+            plan.positions, plan.records
+        ),
+        memory,
+        Some(samples),
+        None,
+        None,
+    );
+
+    say("plain writes alternating with tessellations into a binary PLY file");
+    let bytes = ply_file_bytes(&plan, "bench");
+    let writes = time_file_writes(&plan, &table, &cpu, &temp, bytes)?;
+    rows.push(
+        "tessellate_ply_file",
+        "tessellate into binary PLY on disk (atomic: temporary file, fsync, rename); best of 2, alternating with plain_write and piped_write (plain, piped, PLY, plain, piped, PLY)".into(),
+        writes.file,
+        Some(samples),
+        Some(bytes),
+        Some(writes.plain.0),
+    );
+    rows.push(
+        "plain_write",
+        "the same byte count in 1 MiB blocks, fsync; best of 2, alternating with the others".into(),
+        writes.plain,
+        None,
+        Some(bytes),
+        None,
+    );
+    rows.push(
+        "piped_write",
+        "the same byte count through the writers' own output path (PipedWriter: direct I/O where the file system suits it, atomic), nothing computed: the floor of tessellate_ply_file; best of 2, alternating with the others".into(),
+        writes.piped,
+        None,
+        Some(bytes),
+        Some(writes.plain.0),
+    );
+
+    say(&format!("OBJ of {} at level {}", mesh.name, a.stats_level));
+    let obj_plan = StitchPlan::new(&mesh, &adjacency, a.stats_level)?;
+    let big = time_obj_loading(&obj_plan, &table, &cpu, &temp, &say, &mut rows)?;
+
+    say(&format!("stats on {} triangles", big.triangles.len()));
+    let mut pairs = 0;
+    let stats = timed(|| {
+        // Exactly what `g1tess stats --backend cpu` runs after loading.
+        let r = stats_report(&big, scheme, &SchemeOptions::default(), &cpu)?;
+        pairs = (r.samples + r.crease_samples) as u64;
+        Ok(())
+    })?;
+    rows.push(
+        "stats",
+        "`stats` after loading: edge index, patches built per chunk of edges, continuity (f64 CPU reference); samples are edge sample pairs".into(),
+        stats,
+        Some(pairs),
+        None,
+        None,
+    );
+
+    let report = EndToEndReport {
+        machine: EndToEndMachine {
+            cpu: cpu_model(),
+            cpus: available_cpus(),
+            threads: rayon::current_num_threads(),
+            os: format!("{} {}", std::env::consts::OS, std::env::consts::ARCH),
+            cpu_kernel: F32Kernel::Auto.name().to_string(),
+            dir: temp.dir.display().to_string(),
+        },
+        mesh: mesh.name.clone(),
+        triangles: mesh.triangles.len(),
+        scheme: scheme.to_string(),
+        tess_level: level,
+        stats_level: a.stats_level,
+        stats_triangles: big.triangles.len(),
+        rows: rows.0,
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!("{}", end_to_end_text(&report));
+    }
+    Ok(())
+}
+
+/// Wall and CPU seconds of a step (see [`timed`]).
+type WallCpu = (f64, Option<f64>);
+
+/// The rows of the end-to-end report, in the order measured.
+#[derive(Default)]
+struct EndToEndRows(Vec<EndToEndRow>);
+
+impl EndToEndRows {
+    /// Adds the row of `step`, its rates and its ratio to the `baseline`'s seconds.
+    fn push(
+        &mut self,
+        step: &str,
+        what: String,
+        (seconds, cpu_seconds): WallCpu,
+        samples: Option<u64>,
+        bytes: Option<u64>,
+        baseline: Option<f64>,
+    ) {
+        self.0.push(EndToEndRow {
+            step: step.into(),
+            what,
+            seconds,
+            cpu_seconds,
+            samples,
+            samples_per_s: samples.map(|n| n as f64 / seconds),
+            bytes,
+            mb_per_s: bytes.map(|b| b as f64 / seconds / 1e6),
+            ratio_to_baseline: baseline.map(|b| seconds / b),
+        });
+    }
+}
+
+/// Names of the end-to-end run's temporary files: `dir/stamp.extension`.
+struct TempNames {
+    dir: std::path::PathBuf,
+    stamp: String,
+}
+
+impl TempNames {
+    /// The temporary file of `extension`, removed when dropped.
+    fn file(&self, extension: &str) -> TempFile {
+        TempFile(self.dir.join(format!("{}.{extension}", self.stamp)))
+    }
+}
+
+/// The best times of the three file writes of the end-to-end run.
+struct FileWrites {
+    /// The tessellation into a binary PLY file.
+    file: WallCpu,
+    /// [`plain_write`] of the PLY's byte count.
+    plain: WallCpu,
+    /// [`piped_write`] of the PLY's byte count.
+    piped: WallCpu,
+}
+
+/// The plain write, the piped write and the PLY file of `plan` alternate (plain, piped,
+/// PLY, plain, piped, PLY), best of 2 each: the first large write after other work pays
+/// the page cache's reclaim, which a single ordered pair would charge to whichever went
+/// first. Each file is removed after its timing. The plain write has the PLY's size,
+/// `bytes`, known from the plan.
+fn time_file_writes(
+    plan: &StitchPlan,
+    table: &PatchTable,
+    cpu: &CpuEvaluator,
+    temp: &TempNames,
+    bytes: u64,
+) -> anyhow::Result<FileWrites> {
+    let (mut file, mut plain) = ((f64::INFINITY, None), (f64::INFINITY, None));
+    let mut piped = (f64::INFINITY, None);
+    for _ in 0..2 {
+        let plain_file = temp.file("plain");
+        let t = timed(|| plain_write(&plain_file.0, bytes))?;
+        drop(plain_file);
+        if t.0 < plain.0 {
+            plain = t;
+        }
+        let piped_file = temp.file("piped");
+        let t = timed(|| piped_write(&piped_file.0, bytes))?;
+        drop(piped_file);
+        if t.0 < piped.0 {
+            piped = t;
+        }
+        let ply = temp.file("ply");
+        let t = timed(|| {
+            write_stitched::<[f32; 3]>(
+                &ply.0,
+                MeshFormat::Ply,
+                plan,
+                "bench",
+                &NoProgress,
+                &mut |sink| stitch_into(plan, table, cpu, sink, &NoProgress).map(|_| ()),
+            )?;
+            Ok(())
+        })?;
+        let len = std::fs::metadata(&ply.0)?.len();
+        drop(ply);
+        anyhow::ensure!(
+            len == bytes,
+            "the PLY file has {len} bytes, the plan says {bytes}"
+        );
+        if t.0 < file.0 {
+            file = t;
+        }
+    }
+    Ok(FileWrites { file, plain, piped })
+}
+
+/// Writes the tessellation of `obj_plan` as an OBJ file and times loading it beside
+/// counting its words (in Rust, and with the system's `wc -w` where present), adding the
+/// rows `load_obj`, `count_words` and `wc_w`. Returns the loaded mesh.
+fn time_obj_loading(
+    obj_plan: &StitchPlan,
+    table: &PatchTable,
+    cpu: &CpuEvaluator,
+    temp: &TempNames,
+    say: &dyn Fn(&str),
+    rows: &mut EndToEndRows,
+) -> anyhow::Result<Mesh> {
+    let obj = temp.file("obj");
+    write_stitched::<[f32; 3]>(
+        &obj.0,
+        MeshFormat::Obj,
+        obj_plan,
+        "bench",
+        &NoProgress,
+        &mut |sink| stitch_into(obj_plan, table, cpu, sink, &NoProgress).map(|_| ()),
+    )?;
+    let obj_bytes = std::fs::metadata(&obj.0)?.len();
+    let mut words = 0;
+    let count = best_of(2, || {
+        words = count_words(&obj.0)?;
+        Ok(())
+    })?;
+    // Best of 2, as the others.
+    let wc = match (real_wc(&obj.0), real_wc(&obj.0)) {
+        (Some(x), Some(y)) => Some((x.0.min(y.0), x.1)),
+        (x, _) => x,
+    };
+    say("load the OBJ");
+    let obj_spec = obj.0.display().to_string();
+    let mut loaded = None;
+    let load = best_of(2, || {
+        loaded = Some(Mesh::load(&obj_spec, &LoadOptions::default())?);
+        Ok(())
+    })?;
+    let big = loaded.expect("loaded at least once");
+    drop(obj);
+    rows.push(
+        "load_obj",
+        format!("Mesh::load of the OBJ ({} triangles)", big.triangles.len()),
+        load,
+        None,
+        Some(obj_bytes),
+        Some(count.0),
+    );
+    rows.push(
+        "count_words",
+        format!("whitespace-separated words, 1 MiB buffer ({words} words)"),
+        count,
+        None,
+        Some(obj_bytes),
+        None,
+    );
+    if let Some((s, w)) = wc {
+        rows.push(
+            "wc_w",
+            format!("the system's wc -w ({w} words)"),
+            (s, None),
+            None,
+            Some(obj_bytes),
+            None,
+        );
+    }
+    Ok(big)
+}
+
+/// The end-to-end report as a Markdown table (what BENCHMARKS.md records).
+pub fn end_to_end_text(r: &EndToEndReport) -> String {
+    let m = &r.machine;
+    let mut s = format!(
+        "machine: {} · {} CPUs, {} threads · {} · CPU kernel {} · files in {}\n\
+         mesh: {} ({} triangles), scheme {}, tessellation level {}; stats and OBJ: level {} ({} triangles)\n\n\
+         | step | seconds | CPU s | M samples/s | MB/s | × baseline | what |\n|---|---|---|---|---|---|---|\n",
+        m.cpu,
+        m.cpus,
+        m.threads,
+        m.os,
+        m.cpu_kernel,
+        m.dir,
+        r.mesh,
+        r.triangles,
+        r.scheme,
+        r.tess_level,
+        r.stats_level,
+        r.stats_triangles
+    );
+    let opt = |x: Option<f64>, scale: f64, digits: usize| {
+        x.map_or("–".to_string(), |v| format!("{:.*}", digits, v / scale))
+    };
+    for row in &r.rows {
+        s += &format!(
+            "| {} | {:.3} | {} | {} | {} | {} | {} |\n",
+            row.step,
+            row.seconds,
+            opt(row.cpu_seconds, 1.0, 2),
+            opt(row.samples_per_s, 1e6, 1),
+            opt(row.mb_per_s, 1.0, 0),
+            opt(row.ratio_to_baseline, 1.0, 2),
+            row.what
+        );
+    }
+    s
+}
