@@ -38,7 +38,9 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 pub enum Command {
-    /// Evaluate every patch on a barycentric grid and write the surface (positions + normals).
+    /// Evaluate every patch on a barycentric grid (one level, or levels chosen for a
+    /// tolerance) and write the surface: positions, normals, and the input's texture
+    /// coordinates and colours.
     Tessellate(tessellate::TessellateArgs),
     /// Continuity statistics across shared edges (Table 1 protocol).
     Stats(stats::StatsArgs),
