@@ -468,3 +468,183 @@ fn a_closed_standard_output_ends_quietly_without_a_panic() {
     use std::os::unix::process::ExitStatusExt;
     assert_eq!(result.status.signal(), Some(13), "SIGPIPE: {err}");
 }
+
+/// clap's tip survives the one-line usage error: a misspelt option names the one meant.
+#[test]
+fn a_misspelt_option_gets_clap_s_suggestion_on_its_one_line() {
+    let (code, err) = run_code(&["tessellate", "m.obj", "--tolerence", "1e-3"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    for w in [
+        "error: unexpected argument '--tolerence' found",
+        "tip: a similar argument exists: '--tolerance'",
+        "(see 'g1tess tessellate --help')",
+    ] {
+        assert!(err.contains(w), "{w:?} in {err}");
+    }
+}
+
+/// Every numeric option takes a negative number as its value (not as an unknown option)
+/// and refuses it with its range: the command's own check (exit 1) for real numbers and
+/// sizes read as text, the value parser's (exit 2, a usage error) for whole numbers.
+#[test]
+fn negative_values_of_numeric_options_get_the_range_message() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cli_errors_negative");
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = |name: &str| dir.join(name).display().to_string();
+    let (ply, msh, png, sweep) = (out("n.ply"), out("n.msh"), out("n.png"), out("sweep"));
+    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+    let cases: Vec<(Vec<String>, i32, &str)> = vec![
+        (
+            s(&["tessellate", "sphere320", "--tolerance", "-1", "-o", &ply]),
+            1,
+            "--tolerance and --tolerance-rel take a positive distance (got -1)",
+        ),
+        (
+            s(&[
+                "tessellate",
+                "sphere320",
+                "--tolerance-rel",
+                "-1e-3",
+                "-o",
+                &ply,
+            ]),
+            1,
+            "take a positive distance (got -0.001)",
+        ),
+        (
+            s(&["tessellate", "sphere320", "--tolerance", "-inf", "-o", &ply]),
+            1,
+            "take a positive distance (got -inf)",
+        ),
+        (
+            s(&["tessellate", "sphere320", "--level", "-1", "-o", &ply]),
+            2,
+            "invalid value '-1' for '--level <LEVEL>': must be at least 1",
+        ),
+        (
+            s(&[
+                "tessellate",
+                "sphere320",
+                "--tolerance",
+                "1e-3",
+                "--max-level",
+                "-3",
+                "-o",
+                &ply,
+            ]),
+            2,
+            "invalid value '-3' for '--max-level <N>': must be 1 to 4096",
+        ),
+        (
+            s(&["stats", "sphere320", "--crease-angle", "-5"]),
+            1,
+            "the crease angle must be between 0 and 180 degrees, got -5",
+        ),
+        (
+            s(&["stats", "sphere320", "--max-memory", "-1"]),
+            2,
+            "'-1' is out of range (1 byte to 16 EiB)",
+        ),
+        (
+            s(&["export-msh", "sphere320", "--order", "-1", "-o", &msh]),
+            2,
+            "invalid value '-1' for '--order <ORDER>': must be 1 to 5",
+        ),
+        (
+            s(&["render", "sphere320", "--size", "-16", "-o", &png]),
+            2,
+            "invalid value '-16' for '--size <SIZE>': must be 16 to 4096",
+        ),
+        (
+            s(&["render", "sphere320", "--level", "-2", "-o", &png]),
+            2,
+            "invalid value '-2' for '--level <LEVEL>': must be at least 1",
+        ),
+        // Negative components of a direction are values too (checked before any device).
+        (
+            s(&[
+                "render",
+                "sphere320",
+                "--view",
+                "-1,0,0",
+                "--up",
+                "-2,0,0",
+                "-o",
+                &png,
+            ]),
+            1,
+            "--view -1,0,0 is parallel to --up -2,0,0",
+        ),
+        (
+            s(&["sweep", "--level", "-1", "-o", &sweep]),
+            2,
+            "invalid value '-1' for '--level <LEVEL>': must be at least 1",
+        ),
+        // What was refused before stays refused in the same words.
+        (
+            s(&["tessellate", "sphere320", "--level", "0", "-o", &ply]),
+            1,
+            "--level must be at least 1",
+        ),
+    ];
+    for (args, code, wanted) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (got, err) = run_code(&args);
+        let err: String = err
+            .lines()
+            .filter(|l| !l.starts_with("gpu: ") && !l.starts_with("note: "))
+            .collect();
+        assert_eq!(got, Some(code), "{args:?}: {err}");
+        assert!(!err.contains("unexpected argument"), "{args:?}: {err}");
+        assert!(
+            err.starts_with("error: ") && err.contains(wanted),
+            "{args:?}: {err}"
+        );
+    }
+    // Phong's shape factor is any finite number: a negative one is used, not refused.
+    let (got, err) = run_code(&[
+        "stats",
+        "icosphere:0",
+        "--scheme",
+        "phong",
+        "--phong-alpha",
+        "-0.5",
+        "--backend",
+        "cpu",
+    ]);
+    assert_eq!(got, Some(0), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Every command's help names the formats the readers read, and says what the CPU backend
+/// evaluates in (f64, except tessellate's f32 grid kernel), not that it is always f64.
+#[test]
+fn help_lists_the_formats_read_and_the_cpu_precision() {
+    for cmd in [
+        "tessellate",
+        "stats",
+        "export-net",
+        "export-msh",
+        "render",
+        "compare",
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+            .args([cmd, "--help"])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{cmd}");
+        let help = String::from_utf8_lossy(&out.stdout);
+        assert!(help.contains("OBJ, PLY, STL, glTF"), "{cmd}: {help}");
+        assert!(help.contains(".pn"), "{cmd}: {help}");
+        assert!(!help.contains(".obj, or .pn"), "{cmd}: {help}");
+        if cmd != "export-net" && cmd != "export-msh" {
+            assert!(!help.contains("the CPU is always f64"), "{cmd}: {help}");
+            assert!(
+                !help.contains("The f64 CPU reference (rayon"),
+                "{cmd}: {help}"
+            );
+            assert!(help.contains("f32 SIMD kernel"), "{cmd}: {help}");
+        }
+    }
+}

@@ -465,3 +465,181 @@ fn quiet_commands_print_nothing_on_stderr() {
     }
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// `stats` and `compare` take `-q`/`--quiet` as the other commands do: nothing on stderr
+/// (no adapter line, no CPU fallback note), the results still on stdout.
+#[test]
+fn stats_and_compare_take_quiet() {
+    for args in [
+        vec!["stats", "sphere320", "-q"],
+        vec!["stats", "sphere320", "--quiet", "--json"],
+        vec!["compare", "sphere320", "--schemes", "g1", "-q"],
+        vec![
+            "compare",
+            "sphere320",
+            "--schemes",
+            "g1",
+            "--quiet",
+            "--json",
+        ],
+    ] {
+        let out = run(&args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            out.stderr.is_empty(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(stdout.contains("sphere320"), "{args:?}: {stdout}");
+    }
+}
+
+/// The unit cube as OBJ with each face's own square of texture coordinates (face i at
+/// u in [i, i + 1]), so that the faces disagree on the UVs along all 12 cube edges; with
+/// `flat`, one normal per face as well.
+fn uv_cube(flat: bool) -> String {
+    let mut s = String::new();
+    for p in common::cube_corners() {
+        s += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    for n in common::CUBE_FACE_NORMALS {
+        s += &format!("vn {} {} {}\n", n[0], n[1], n[2]);
+    }
+    for i in 0..6 {
+        for (u, v) in [(0, 0), (1, 0), (1, 1), (0, 1)] {
+            s += &format!("vt {} {v}\n", i + u);
+        }
+    }
+    for (i, q) in common::CUBE_QUADS.iter().enumerate() {
+        let c: Vec<String> = q
+            .iter()
+            .enumerate()
+            .map(|(j, v)| match flat {
+                true => format!("{}/{}/{}", v + 1, 4 * i + j + 1, i + 1),
+                false => format!("{}/{}", v + 1, 4 * i + j + 1),
+            })
+            .collect();
+        s += &format!("f {}\n", c.join(" "));
+    }
+    s
+}
+
+/// `tessellate --json`'s counts of the edges the output is cut along, and `stats --json`'s
+/// crease count.
+fn edge_counts(mesh: &str, extra: &[&str], out: &Path) -> (u64, u64, u64, u64) {
+    let mut args = vec![
+        "tessellate",
+        mesh,
+        "--level",
+        "1",
+        "--backend",
+        "cpu",
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["-o", out.to_str().unwrap()]);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let mut args = vec!["stats", mesh, "--backend", "cpu", "--json"];
+    args.extend_from_slice(extra);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let n = |v: &serde_json::Value| v.as_u64().unwrap();
+    (
+        n(&t["crease_edges"]),
+        n(&t["seam_edges"]),
+        n(&t["split_edges"]),
+        n(&s["crease_edges"]),
+    )
+}
+
+/// Texture seams are counted apart from creases: `tessellate`'s crease count is the one
+/// `stats` gives, the seams have a field and a name of their own, and `split_edges` is
+/// every edge the output is cut along.
+#[test]
+fn tessellate_counts_uv_seams_apart_from_creases() {
+    let d = dir("seams");
+    let ply = d.join("s.ply");
+    // (crease, seam, split, stats' crease): the smooth cube's 12 edges are all UV seams
+    // (estimated normals are shared), the flat cube's all creases, which also split UVs.
+    for (flat, want) in [(false, (0, 12, 12, 0)), (true, (12, 0, 12, 12))] {
+        let obj = d.join(format!("cube-{flat}.obj"));
+        std::fs::write(&obj, uv_cube(flat)).unwrap();
+        assert_eq!(
+            edge_counts(obj.to_str().unwrap(), &[], &ply),
+            want,
+            "flat {flat}"
+        );
+    }
+    // The newcomer's case: spot has UV seams and no creases.
+    let spot = common::shared_spec("spot.obj");
+    assert_eq!(edge_counts(&spot, &[], &ply), (0, 288, 288, 0));
+    // fandisk's creases from the angle, no UVs: all three counts agree with stats.
+    let fandisk = common::shared_spec("fandisk.obj");
+    let (crease, seam, split, stats) = edge_counts(&fandisk, &["--crease-angle", "30"], &ply);
+    assert_eq!((crease, seam, split), (stats, 0, stats));
+    assert_eq!(
+        stats, 722,
+        "the README's crease count of fandisk at 30 degrees"
+    );
+    // The summary line names both.
+    let o = bin()
+        .args([
+            "tessellate",
+            &spot,
+            "--level",
+            "1",
+            "--backend",
+            "cpu",
+            "-o",
+        ])
+        .arg(&ply)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("0 crease edges, 288 UV seam edges"), "{err}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// `tessellate --json`'s "precision" is what the samples were evaluated in: on the CPU the
+/// f32 kernel for a uniform grid (a tolerance whose levels all agree gives one), f64
+/// (rounded once) for the point lists of differing per-edge levels.
+#[test]
+fn tessellate_json_precision_is_the_evaluation_s() {
+    let d = dir("precision");
+    let ply = d.join("p.ply");
+    let spot = common::shared_spec("spot.obj");
+    for (mesh, extra, want, levels) in [
+        ("sphere320", &["--level", "2"][..], "f32", None),
+        (
+            "sphere320",
+            &["--tolerance-rel", "1e-2"][..],
+            "f32",
+            Some([1, 1]),
+        ),
+        (&spot, &["--tolerance-rel", "1e-3"][..], "f64", Some([1, 3])),
+    ] {
+        let mut args = vec!["tessellate", mesh, "--backend", "cpu", "--json", "-q"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-o", ply.to_str().unwrap()]);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(j["precision"], want, "{extra:?}");
+        if let Some(l) = levels {
+            assert_eq!(
+                j["adaptive"]["edge_levels"],
+                serde_json::json!(l),
+                "{extra:?}"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}

@@ -341,6 +341,143 @@ fn ply_errors_name_the_line_or_element() {
     assert!(load_err(&p).contains("no 'end_header'"));
 }
 
+/// A PLY of triangle strips as Stanford's strip files hold them (`element tristrips 1`,
+/// `property list int int vertex_indices`, strips separated by -1): vertices `xyz` as
+/// floats, then the one strip list.
+fn strip_ply(format: &str, xyz: &[[f32; 3]], list: &[i32]) -> Vec<u8> {
+    let mut out = format!(
+        "ply\nformat {format} 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\nelement tristrips 1\nproperty list int int vertex_indices\n\
+         end_header\n",
+        xyz.len()
+    )
+    .into_bytes();
+    let big = format == "binary_big_endian";
+    let bytes = |b: [u8; 4]| {
+        if big {
+            b.into_iter().rev().collect()
+        } else {
+            b.to_vec()
+        }
+    };
+    if format == "ascii" {
+        for p in xyz {
+            out.extend(format!("{} {} {}\n", p[0], p[1], p[2]).bytes());
+        }
+        let items: Vec<String> = list.iter().map(|i| i.to_string()).collect();
+        out.extend(format!("{} {}\n", list.len(), items.join(" ")).bytes());
+    } else {
+        for p in xyz {
+            for x in p {
+                out.extend(bytes(x.to_le_bytes()));
+            }
+        }
+        out.extend(bytes((list.len() as i32).to_le_bytes()));
+        for i in list {
+            out.extend(bytes(i.to_le_bytes()));
+        }
+    }
+    out
+}
+
+/// A 4 × 4 grid of vertices in the plane z = 0, vertex 4j + i at (i, j).
+fn grid_xyz() -> Vec<[f32; 3]> {
+    (0..16)
+        .map(|v| [(v % 4) as f32, (v / 4) as f32, 0.0])
+        .collect()
+}
+
+/// Strips over [`grid_xyz`], each starting counter-clockwise seen from +z: the rows
+/// y 0..1 (6 triangles) joined to the rows y 1..2 (6) by the repeated 3 and 8 (4
+/// triangles with a repeated corner), then after -1 a strip of 2 triangles (rows 2..3,
+/// starting at an odd position of the list), a strip of 2 vertices (no triangle) and an
+/// empty one.
+const STRIPS: [i32; 28] = [
+    4, 0, 5, 1, 6, 2, 7, 3, 3, 8, 8, 4, 9, 5, 10, 6, 11, 7, -1, 12, 8, 13, 9, -1, 14, 15, -1, -1,
+];
+
+/// The triangles of [`STRIPS`], worked out by hand: (k, k+1, k+2) at even positions k of
+/// each strip, (k+1, k, k+2) at odd ones, the 4 with a repeated corner left out.
+const STRIP_TRIANGLES: [[u32; 3]; 14] = [
+    [4, 0, 5],
+    [5, 0, 1],
+    [5, 1, 6],
+    [6, 1, 2],
+    [6, 2, 7],
+    [7, 2, 3],
+    [8, 4, 9],
+    [9, 4, 5],
+    [9, 5, 10],
+    [10, 5, 6],
+    [10, 6, 11],
+    [11, 6, 7],
+    [12, 8, 13],
+    [13, 8, 9],
+];
+
+#[test]
+fn ply_triangle_strips_in_every_encoding() {
+    for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
+        let p = put(
+            &format!("strips-{format}.ply"),
+            strip_ply(format, &grid_xyz(), &STRIPS),
+        );
+        let m = load(&p);
+        // Vertex ids are kept: 14 and 15 (only in the 2-vertex strip) are unused, last.
+        assert_eq!(m.triangles, STRIP_TRIANGLES.to_vec(), "{format}");
+        assert_eq!(m.positions.len(), 14, "{format}");
+        assert_eq!(m.load_report.unused_vertices_dropped, 2, "{format}");
+        assert_eq!(m.load_report.degenerate_triangles_dropped, 0, "{format}");
+        assert!(m.load_report.notes.is_empty(), "{:?}", m.load_report.notes);
+        // One orientation: every face normal is +z, and the areas add up to the
+        // 3 + 3 + 1 unit squares the strips cover.
+        let mut area = 0.0;
+        for [a, b, c] in corners(&m) {
+            let n = (b - a).cross(c - a);
+            assert!(n.x == 0.0 && n.y == 0.0 && n.z > 0.0, "{format}: {n}");
+            area += 0.5 * n.z;
+        }
+        assert_eq!(area, 7.0, "{format}");
+    }
+    // The command line reads them too.
+    let p = dir().join("strips-binary_little_endian.ply");
+    let o = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+        .args(["stats", p.to_str().unwrap(), "--backend", "cpu", "--json"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["triangles"], 14);
+}
+
+#[test]
+fn ply_strip_errors_name_the_element() {
+    for (bad, what) in [
+        (16, "vertex index 16 out of range"),
+        (-2, "vertex index -2"),
+    ] {
+        let mut list = STRIPS;
+        list[5] = bad;
+        let p = put(
+            "badstrip.ply",
+            strip_ply("binary_little_endian", &grid_xyz(), &list),
+        );
+        let e = load_err(&p);
+        assert!(
+            e.contains("badstrip.ply: tristrips 0: ") && e.contains(what),
+            "{e}"
+        );
+    }
+    // Strips without their index list, and no faces: nothing to read.
+    let file = strip_ply("ascii", &grid_xyz(), &STRIPS);
+    let p = put(
+        "nolist.ply",
+        in_header(&file, "vertex_indices", "vertex_colours"),
+    );
+    let e = load_err(&p);
+    assert!(e.contains("nolist.ply:1: no 'face' element"), "{e}");
+}
+
 // ---------------------------------------------------------------------------------------
 // STL
 

@@ -7,8 +7,8 @@ use crate::patch::{PatchTable, Scheme, SchemeOptions};
 
 #[derive(Args, Clone, Debug)]
 pub struct InputArgs {
-    /// Mesh file (.obj, or .pn point-normal) or built-in mesh: sphere320, torus200, icosphere:L,
-    /// torus:NxM[:analytic|:averaged].
+    /// Mesh file (OBJ, PLY, STL, glTF .gltf/.glb, or .pn point-normal) or built-in mesh:
+    /// sphere320, torus200, icosphere:L, torus:NxM[:analytic|:averaged].
     pub mesh: String,
     /// Surface scheme.
     #[arg(long, value_enum, default_value = "g1")]
@@ -20,11 +20,11 @@ pub struct InputArgs {
     #[arg(long)]
     pub recompute_normals: bool,
     /// Mark edges whose dihedral angle exceeds DEG degrees as creases and estimate normals
-    /// per smoothing group (replaces any normals the file gives).
-    #[arg(long, value_name = "DEG")]
+    /// per smoothing group (replaces any normals the file gives). DEG is 0 to 180.
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     pub crease_angle: Option<f64>,
-    /// Phong tessellation's shape factor α.
-    #[arg(long, default_value_t = 0.75)]
+    /// Phong tessellation's shape factor α (--scheme phong; any finite number).
+    #[arg(long, default_value_t = 0.75, allow_hyphen_values = true)]
     pub phong_alpha: f64,
     /// Change vertex normals as little as needed so that no patch folds (every patch
     /// certified valid); prints what changed.
@@ -94,7 +94,8 @@ impl InputArgs {
 /// Which evaluator runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Backend {
-    /// The f64 CPU reference (rayon, all threads).
+    /// The CPU (rayon, all threads): the f64 reference, except tessellate's uniform grids,
+    /// which an f32 SIMD kernel evaluates.
     Cpu,
     /// WGSL compute shaders on a Vulkan adapter; fails when there is none.
     Gpu,
@@ -110,9 +111,9 @@ pub struct BackendArgs {
     /// Evaluation backend.
     #[arg(long, value_enum, default_value = "auto")]
     pub backend: Backend,
-    /// GPU working precision (f64 needs an adapter with SHADER_F64; the CPU is always
-    /// f64). Default: f64 for statistics (stats, compare, the default run), f32 for
-    /// geometry (tessellate).
+    /// GPU working precision (f64 needs an adapter with SHADER_F64). Default: f64 for
+    /// statistics and distances (stats, compare, sweep, the default run), f32 for geometry
+    /// (tessellate, render). The CPU backend does not read it.
     #[arg(long, value_enum)]
     pub precision: Option<crate::gpu::Precision>,
     /// Say nothing on stderr about the adapter or the fallback (set by `--quiet`).
@@ -182,8 +183,8 @@ impl LazyGpu {
                 let names: Vec<&str> = adapters.iter().map(|a| a.name.as_str()).collect();
                 self.note(&format!(
                     "the only Vulkan adapter is a software one ({}), slower than the CPU \
-                     backend on the same cores: using the CPU backend (f64); --backend gpu \
-                     runs on it",
+                     backend on the same cores: using the CPU backend; --backend gpu runs \
+                     on it",
                     names.join(", ")
                 ));
                 return Ok(Box::new(CpuEvaluator::default()));
@@ -192,7 +193,7 @@ impl LazyGpu {
         Ok(match (self.backend, gpu()) {
             (_, Ok(ev)) => Box::new(ev),
             (Backend::Auto, Err(e)) => {
-                self.note(&format!("{e}; falling back to the CPU backend (f64)"));
+                self.note(&format!("{e}; falling back to the CPU backend"));
                 Box::new(CpuEvaluator::default())
             }
             (_, Err(e)) => return Err(e),
@@ -275,7 +276,7 @@ pub struct MemoryArgs {
     /// Memory budget: a run that would hold more is refused before it allocates. SIZE in
     /// bytes, or with a suffix K, M, G or T (powers of 1024; "KiB", "GB"… are read the same
     /// way). Default: half the machine's memory.
-    #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+    #[arg(long, value_name = "SIZE", value_parser = parse_size, allow_hyphen_values = true)]
     pub max_memory: Option<u64>,
 }
 
@@ -315,6 +316,20 @@ pub fn parse_size(s: &str) -> Result<u64, String> {
             s.escape_default()
         )
     };
+    let out_of_range = || {
+        format!(
+            "'{}' is out of range (1 byte to 16 EiB)",
+            s.escape_default()
+        )
+    };
+    if let Some(rest) = t.strip_prefix('-') {
+        // A negative number is a size out of range, not a malformed one.
+        return Err(if parse_size(rest).is_ok() {
+            out_of_range()
+        } else {
+            bad()
+        });
+    }
     let x: f64 = num.parse().map_err(|_| bad())?;
     let unit = unit.trim().to_ascii_uppercase();
     let unit = unit.trim_end_matches('B').trim_end_matches('I');
@@ -328,12 +343,38 @@ pub fn parse_size(s: &str) -> Result<u64, String> {
     };
     let bytes = x * scale as f64;
     if !bytes.is_finite() || bytes < 1.0 || bytes >= u64::MAX as f64 {
-        return Err(format!(
-            "'{}' is out of range (1 byte to 16 EiB)",
-            s.escape_default()
-        ));
+        return Err(out_of_range());
     }
     Ok(bytes as u64)
+}
+
+/// The value parser of a whole-number option whose range starts at `lo` and ends at `hi`
+/// (`u32::MAX`: no end). A negative number is read as a number (give the option
+/// `allow_negative_numbers`, or clap takes `-1` for an option) and refused with the range;
+/// 0 and values up to `u32::MAX` parse, and the command refuses them where they are out
+/// of range with its own message.
+pub fn whole_number(
+    lo: u32,
+    hi: u32,
+) -> impl Fn(&str) -> Result<u32, String> + Clone + Send + Sync + 'static {
+    move |s: &str| {
+        let range = if hi == u32::MAX {
+            format!("must be at least {lo}")
+        } else {
+            format!("must be {lo} to {hi}")
+        };
+        match s.trim().parse::<i64>() {
+            Ok(v) if v < 0 => Err(range),
+            Ok(v) => u32::try_from(v).map_err(|_| {
+                if hi == u32::MAX {
+                    format!("must be at most {}", u32::MAX)
+                } else {
+                    range
+                }
+            }),
+            Err(e) => Err(e.to_string()),
+        }
+    }
 }
 
 /// A size in bytes for people: "512 B", "3.2 MiB", "7.7 GiB".

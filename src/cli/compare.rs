@@ -9,7 +9,9 @@ use crate::patch::{Scheme, SchemeOptions};
 
 #[derive(Args, Clone, Debug)]
 pub struct CompareArgs {
-    /// Meshes (files or built-ins); default: the paper's sphere320 and torus200.
+    /// Meshes: files (OBJ, PLY, STL, glTF .gltf/.glb, .pn) or built-ins (sphere320,
+    /// torus200, icosphere:L, torus:NxM[:analytic|:averaged]); default: the paper's
+    /// sphere320 and torus200.
     #[arg(default_values_t = ["sphere320".to_string(), "torus200".to_string()])]
     pub meshes: Vec<String>,
     /// Print a JSON array, one object per mesh and scheme (the fields of `stats --json`),
@@ -25,13 +27,17 @@ pub struct CompareArgs {
     /// Estimate normals even where the file gives them.
     #[arg(long)]
     pub recompute_normals: bool,
-    /// Phong tessellation's shape factor α.
-    #[arg(long, default_value_t = 0.75)]
+    /// Phong tessellation's shape factor α (any finite number).
+    #[arg(long, default_value_t = 0.75, allow_hyphen_values = true)]
     pub phong_alpha: f64,
     #[command(flatten)]
     pub backend: BackendArgs,
     #[command(flatten)]
     pub memory: super::common::MemoryArgs,
+    /// Nothing on stderr about the adapter or the CPU fallback (the table is still
+    /// printed).
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 impl CompareArgs {
@@ -46,6 +52,7 @@ impl CompareArgs {
             phong_alpha: 0.75,
             backend: BackendArgs::default(),
             memory: Default::default(),
+            quiet: false,
         }
     }
 
@@ -76,7 +83,12 @@ impl CompareArgs {
                 phong_alpha: self.phong_alpha,
                 ..Default::default()
             },
-            self.backend.evaluator(crate::gpu::Precision::F64)?.as_ref(),
+            BackendArgs {
+                quiet: self.backend.quiet || self.quiet,
+                ..self.backend.clone()
+            }
+            .evaluator(crate::gpu::Precision::F64)?
+            .as_ref(),
         )?)
     }
 }

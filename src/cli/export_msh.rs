@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::common::MemoryArgs;
+use super::common::{whole_number, MemoryArgs};
 use super::progress;
 use super::InputArgs;
 use crate::output::atomic;
@@ -17,7 +17,12 @@ pub struct ExportMshArgs {
     pub input: InputArgs,
     /// Element order P (1 to 5): triangles of Gmsh types 2, 9, 21, 23, 25, every node on
     /// the scheme's surface.
-    #[arg(long, default_value_t = 3)]
+    #[arg(
+        long,
+        default_value_t = 3,
+        allow_negative_numbers = true,
+        value_parser = whole_number(1, MAX_ORDER)
+    )]
     pub order: u32,
     /// Write binary MSH 4.1 instead of ASCII.
     #[arg(long)]

@@ -38,7 +38,9 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 pub enum Command {
-    /// Evaluate every patch on a barycentric grid and write the surface (positions + normals).
+    /// Evaluate every patch on a barycentric grid (one level, or levels chosen for a
+    /// tolerance) and write the surface: positions, normals, and the input's texture
+    /// coordinates and colours.
     Tessellate(tessellate::TessellateArgs),
     /// Continuity statistics across shared edges (Table 1 protocol).
     Stats(stats::StatsArgs),
@@ -189,8 +191,8 @@ fn quote_quoted(s: &str) -> String {
 }
 
 /// Help and version go to stdout as clap writes them; a usage error is one line on stderr
-/// (clap's first line, which names the argument and what is wrong, and where to find help),
-/// with exit code 2.
+/// (clap's first line, which names the argument and what is wrong, then clap's tips, such as
+/// "a similar argument exists: '--tolerance'", and where to find help), with exit code 2.
 fn usage_error(e: clap::Error) -> ExitCode {
     use clap::error::ErrorKind;
     if matches!(
@@ -207,7 +209,8 @@ fn usage_error(e: clap::Error) -> ExitCode {
         };
     }
     // clap's first paragraph: the message and what it lists (missing arguments, possible
-    // values), joined on one line; its tips and usage are left to --help.
+    // values), joined on one line, then its tips ("a similar argument exists: '--level'");
+    // its usage is left to --help.
     let text = e.render().to_string();
     let first = text
         .lines()
@@ -221,9 +224,15 @@ fn usage_error(e: clap::Error) -> ExitCode {
     } else {
         first
     };
+    let tips: String = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| l.starts_with("tip:"))
+        .map(|l| format!("; {l}"))
+        .collect();
     // clap quotes the argument as given: escape control characters (an argument must not
     // drive the terminal) and cut what it echoes (a 5 MB argument gives a short line).
-    let first = quote_quoted(first);
+    let first = quote_quoted(&format!("{first}{tips}"));
     let sub = std::env::args()
         .skip(1)
         .find(|a| !a.starts_with('-'))

@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use clap::Args;
 use glam::DVec3;
 
+use super::common::whole_number;
 use super::{BackendArgs, Budget, InputArgs, MemoryArgs};
 use crate::eval::Evaluator;
 use crate::gpu::tessellator::GpuTessellator;
@@ -36,24 +37,33 @@ pub struct RenderArgs {
     pub also: Vec<Scheme>,
     /// Grid level of the evaluated surface (default: 16, lowered so that the surface has at
     /// most about two million triangles).
-    #[arg(long)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_parser = whole_number(1, u32::MAX)
+    )]
     pub level: Option<u32>,
     /// Side of one panel in pixels (at least 16; at most 4096 and the device's texture
     /// limit / 3).
-    #[arg(long, default_value_t = 512)]
+    #[arg(
+        long,
+        default_value_t = 512,
+        allow_negative_numbers = true,
+        value_parser = whole_number(MIN_PANEL, crate::render::MAX_PANEL)
+    )]
     pub size: u32,
     /// Direction from the surface towards the camera, "x,y,z".
-    #[arg(long, default_value = "0,0,1", value_parser = parse_vec)]
+    #[arg(long, default_value = "0,0,1", value_parser = parse_vec, allow_hyphen_values = true)]
     pub view: DVec3,
     /// Direction that points up in the picture, "x,y,z".
-    #[arg(long, default_value = "0,1,0", value_parser = parse_vec)]
+    #[arg(long, default_value = "0,1,0", value_parser = parse_vec, allow_hyphen_values = true)]
     pub up: DVec3,
     /// Evaluation backend and precision (help text set on the struct).
     #[command(flatten)]
     pub backend: BackendArgs,
     #[command(flatten)]
     pub memory: MemoryArgs,
-    /// No summary line on stderr.
+    /// No summary line and nothing about the adapter or the CPU fallback on stderr.
     #[arg(long, short)]
     pub quiet: bool,
 }

@@ -17,6 +17,10 @@ pub struct StatsArgs {
     pub json: bool,
     #[command(flatten)]
     pub memory: super::MemoryArgs,
+    /// Nothing on stderr about the adapter or the CPU fallback (the statistics are still
+    /// printed).
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
@@ -28,7 +32,9 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
     if a.backend.backend == super::common::Backend::Gpu {
         return run_gpu(a, &mesh);
     }
-    let evaluator = a.backend.evaluator(crate::gpu::Precision::F64)?;
+    let mut backend = a.backend.clone();
+    backend.quiet |= a.quiet;
+    let evaluator = backend.evaluator(crate::gpu::Precision::F64)?;
     let report = stats_report(
         &mesh,
         a.input.scheme,
@@ -53,7 +59,7 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
     let precision = a.backend.precision.unwrap_or(crate::gpu::Precision::F64);
     let ctx = GpuContext::shared()?;
     let gpu = GpuEvaluator::new(ctx.clone(), precision)?;
-    if !a.backend.quiet {
+    if !(a.backend.quiet || a.quiet) {
         eprintln!("gpu: {} ({precision})", ctx.describe());
     }
     let stride = a.input.scheme.kind().layout().stride as u64;

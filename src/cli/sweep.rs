@@ -34,11 +34,16 @@ pub struct SweepArgs {
     /// told otherwise).
     #[command(flatten)]
     pub backend: BackendArgs,
-    /// Segments per patch edge of the sampling grid.
-    #[arg(long, default_value_t = distance::STUDY_LEVEL)]
+    /// Segments per patch edge of the sampling grid (at least 1).
+    #[arg(
+        long,
+        default_value_t = distance::STUDY_LEVEL,
+        allow_negative_numbers = true,
+        value_parser = super::common::whole_number(1, u32::MAX)
+    )]
     pub level: u32,
-    /// Phong tessellation's shape factor α.
-    #[arg(long, default_value_t = 0.75)]
+    /// Phong tessellation's shape factor α (any finite number).
+    #[arg(long, default_value_t = 0.75, allow_hyphen_values = true)]
     pub phong_alpha: f64,
     #[command(flatten)]
     pub memory: super::common::MemoryArgs,

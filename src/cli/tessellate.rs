@@ -1,16 +1,20 @@
 //! `g1tess tessellate`: evaluate every patch on a grid in f32 and write the stitched
 //! surface: the evaluator's f32 path (the CPU's SIMD kernel, the GPU's f32 shaders) feeds
-//! the stitcher and the writer in f32, with no f64 round trip.
+//! the stitcher and the writer in f32, with no f64 round trip. Per-edge levels
+//! (`--tolerance`) are point lists, which the CPU evaluates in f64 and rounds once.
 
 use std::path::PathBuf;
 
 use clap::Args;
 
-use super::common::{human_bytes, human_count, tessellation_need, MemoryArgs};
+use super::common::{human_bytes, human_count, tessellation_need, whole_number, MemoryArgs};
 use super::progress;
 use super::{BackendArgs, InputArgs};
+use crate::mesh::creases::split_ends;
+use crate::mesh::{Adjacency, Mesh};
 use crate::output::atomic;
 use crate::output::writers::{write_stitched, MeshFormat};
+use crate::patch::PatchTable;
 use crate::tess::adaptive::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
 use crate::tess::stitch::{stitch_into, StitchPlan};
 
@@ -46,19 +50,36 @@ pub struct TessellateArgs {
     pub input: InputArgs,
     #[command(flatten)]
     pub backend: BackendArgs,
-    /// Grid level: n segments per edge, (n+1)(n+2)/2 points per patch.
-    #[arg(long, default_value_t = 8, conflicts_with_all = ["tolerance", "tolerance_rel"])]
+    /// Grid level: n segments per edge, (n+1)(n+2)/2 points per patch (at least 1).
+    #[arg(
+        long,
+        default_value_t = 8,
+        conflicts_with_all = ["tolerance", "tolerance_rel"],
+        allow_negative_numbers = true,
+        value_parser = whole_number(1, u32::MAX)
+    )]
     pub level: u32,
     /// Instead of --level: choose a level per edge and per patch so that the flat output
     /// triangles deviate from the curved surface by at most EPS (absolute, the mesh's
-    /// units), measured at 10 points inside every output triangle.
-    #[arg(long, value_name = "EPS", conflicts_with = "tolerance_rel")]
+    /// units; positive), measured at 10 points inside every output triangle.
+    #[arg(
+        long,
+        value_name = "EPS",
+        conflicts_with = "tolerance_rel",
+        allow_hyphen_values = true
+    )]
     pub tolerance: Option<f64>,
     /// Like --tolerance, with EPS = R × the diagonal of the mesh's bounding box.
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_hyphen_values = true)]
     pub tolerance_rel: Option<f64>,
-    /// Cap on the levels --tolerance may choose.
-    #[arg(long, value_name = "N")]
+    /// Cap on the levels --tolerance or --tolerance-rel may choose (default 64, at most
+    /// 4096).
+    #[arg(
+        long,
+        value_name = "N",
+        allow_negative_numbers = true,
+        value_parser = whole_number(1, crate::tess::layout::MAX_LEVEL)
+    )]
     pub max_level: Option<u32>,
     /// Output file; the format follows the extension: .obj, .ply (binary), .stl (binary),
     /// .glb (glTF 2.0 binary). `-` writes to standard output (OBJ, PLY, STL; needs
@@ -72,7 +93,8 @@ pub struct TessellateArgs {
     #[command(flatten)]
     pub memory: MemoryArgs,
     /// Print a JSON summary on stdout: {"output", "mesh", "scheme", "level", "backend",
-    /// "vertices", "triangles", ...} (see the README).
+    /// "precision" (what the samples were evaluated in; the file holds f32),
+    /// "vertices", "triangles", "crease_edges", "seam_edges", ...} (see the README).
     #[arg(long)]
     pub json: bool,
     /// No progress bars and no summary line on stderr.
@@ -81,6 +103,105 @@ pub struct TessellateArgs {
 }
 
 pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
+    let format = output_format(a)?;
+    let cap = check_levels(a)?;
+    let (mesh, table, folds) = a.input.load()?;
+    if let Some(line) = folds {
+        eprintln!("{line}");
+    }
+    let adjacency = mesh.adjacency();
+    let eps = match (a.tolerance, a.tolerance_rel) {
+        (Some(t), _) => Some(t),
+        (None, Some(r)) => Some(r * mesh.diagonal()),
+        (None, None) => None,
+    };
+    let chosen: Option<(ToleranceLevels, f64)> = match eps {
+        Some(eps) => Some((
+            choose_levels(a, &mesh, &adjacency, &table, format, eps, cap)?,
+            eps,
+        )),
+        None => None,
+    };
+    // The memory estimate of the largest level (an upper bound for per-edge levels), made
+    // before the plan is built.
+    let level = match &chosen {
+        Some((t, _)) => t
+            .levels
+            .edges
+            .iter()
+            .chain(&t.levels.inner)
+            .copied()
+            .max()
+            .unwrap_or(1),
+        None => a.level,
+    };
+    check_memory(
+        a,
+        &mesh,
+        &adjacency,
+        &table,
+        format,
+        level,
+        chosen.is_some(),
+    )?;
+    let plan = match &chosen {
+        Some((t, _)) => StitchPlan::with_levels(&mesh, &adjacency, &t.levels)?,
+        None => StitchPlan::new(&mesh, &adjacency, a.level)?,
+    };
+    let backend = BackendArgs {
+        quiet: a.quiet,
+        ..a.backend.clone()
+    };
+    let evaluator = backend.evaluator(crate::gpu::Precision::F32)?;
+    let title = match &chosen {
+        Some((_, eps)) => format!(
+            "g1tess: {}, scheme {}, tolerance {eps:e}",
+            mesh.name, table.scheme
+        ),
+        None => format!(
+            "g1tess: {}, scheme {}, level {}",
+            mesh.name, table.scheme, a.level
+        ),
+    };
+    let bar = progress::bar(plan.patches() as u64, "evaluating", "patches", a.quiet);
+    let mut snap = 0.0;
+    write_stitched::<[f32; 3]>(&a.output, format, &plan, &title, &bar, &mut |sink| {
+        snap = stitch_into(&plan, &table, evaluator.as_ref(), sink, &bar)?;
+        Ok(())
+    })?;
+    bar.finish();
+    let done = Tessellated {
+        mesh: &mesh,
+        scheme: table.scheme.to_string(),
+        plan: &plan,
+        format,
+        level,
+        backend: evaluator.describe(),
+        precision: match evaluator.gpu_precision() {
+            Some(p) => p.name(),
+            // The CPU: the f32 SIMD kernel on a uniform grid; per-edge levels are point
+            // lists, evaluated in f64 and rounded once.
+            None if plan.is_uniform() => "f32",
+            None => "f64",
+        },
+        edges: EdgeKinds::new(&mesh, &adjacency, &plan),
+        seam_kind: match (
+            mesh.attributes.uvs.is_some(),
+            mesh.attributes.colors.is_some(),
+        ) {
+            (false, true) => "colour seam",
+            (true, true) => "UV/colour seam",
+            _ => "UV seam",
+        },
+        snap,
+    };
+    report(a, &done, chosen.as_ref(), cap)
+}
+
+/// The output format, and the refusals that need no work: a format that cannot stream to
+/// standard output, `--json` with `-o -`, and an output that is a directory, a device, a
+/// FIFO or the input itself.
+fn output_format(a: &TessellateArgs) -> anyhow::Result<MeshFormat> {
     anyhow::ensure!(a.level >= 1, "--level must be at least 1");
     let stdout = atomic::is_stdout(&a.output);
     let format = match (a.format, stdout) {
@@ -103,6 +224,11 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         atomic::resolve_output(&a.output)?;
         atomic::refuse_same_file(&a.output, std::path::Path::new(&a.input.mesh))?;
     }
+    Ok(format)
+}
+
+/// Checks --tolerance, --tolerance-rel and --max-level; returns the level cap.
+fn check_levels(a: &TessellateArgs) -> anyhow::Result<u32> {
     if let Some(t) = a.tolerance.or(a.tolerance_rel) {
         anyhow::ensure!(
             t.is_finite() && t > 0.0,
@@ -119,67 +245,65 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         "--max-level must be in 1..={}",
         crate::tess::layout::MAX_LEVEL
     );
-    let (mesh, table, folds) = a.input.load()?;
-    if let Some(line) = folds {
-        eprintln!("{line}");
-    }
-    let adjacency = mesh.adjacency();
-    let eps = match (a.tolerance, a.tolerance_rel) {
-        (Some(t), _) => Some(t),
-        (None, Some(r)) => Some(r * mesh.diagonal()),
-        (None, None) => None,
-    };
-    let chosen: Option<ToleranceLevels> = match eps {
-        Some(eps) => {
-            // The levels are not known before they are measured: refuse up front what the
-            // cap could need (the measurements hold the same stitch store, in f64).
-            let (need, _, _) = tessellation_need(
-                &mesh,
-                adjacency.edges.len(),
-                table.stride,
-                cap,
-                format.needs(),
-                format.buffer_bytes(cap, mesh.triangles.len()),
-            );
-            a.memory.budget().check(
-                "tessellate",
-                &format!("levels up to the cap {cap}"),
-                need.saturating_mul(2),
-                "the f64 measurements at the level cap; lower --max-level",
-            )?;
-            let bar = progress::bar(mesh.triangles.len() as u64, "measuring", "patches", a.quiet);
-            let t = levels_for_tolerance(
-                &mesh,
-                &adjacency,
-                &table,
-                &crate::eval::cpu::CpuEvaluator::default(),
-                &ToleranceOptions {
-                    tolerance: eps,
-                    max_level: cap,
-                    rounds: TOLERANCE_ROUNDS,
-                },
-                &bar,
-            )?;
-            bar.finish();
-            Some(t)
-        }
-        None => None,
-    };
-    // The memory estimate of the largest level (an upper bound for per-edge levels), made
-    // before the plan is built.
-    let level = match &chosen {
-        Some(t) => t
-            .levels
-            .edges
-            .iter()
-            .chain(&t.levels.inner)
-            .copied()
-            .max()
-            .unwrap_or(1),
-        None => a.level,
-    };
+    Ok(cap)
+}
+
+/// The levels that meet the tolerance `eps` (up to `cap`), measured on the f64 reference.
+fn choose_levels(
+    a: &TessellateArgs,
+    mesh: &Mesh,
+    adjacency: &Adjacency,
+    table: &PatchTable,
+    format: MeshFormat,
+    eps: f64,
+    cap: u32,
+) -> anyhow::Result<ToleranceLevels> {
+    // The levels are not known before they are measured: refuse up front what the cap
+    // could need (the measurements hold the same stitch store, in f64).
+    let (need, _, _) = tessellation_need(
+        mesh,
+        adjacency.edges.len(),
+        table.stride,
+        cap,
+        format.needs(),
+        format.buffer_bytes(cap, mesh.triangles.len()),
+    );
+    a.memory.budget().check(
+        "tessellate",
+        &format!("levels up to the cap {cap}"),
+        need.saturating_mul(2),
+        "the f64 measurements at the level cap; lower --max-level",
+    )?;
+    let bar = progress::bar(mesh.triangles.len() as u64, "measuring", "patches", a.quiet);
+    let t = levels_for_tolerance(
+        mesh,
+        adjacency,
+        table,
+        &crate::eval::cpu::CpuEvaluator::default(),
+        &ToleranceOptions {
+            tolerance: eps,
+            max_level: cap,
+            rounds: TOLERANCE_ROUNDS,
+        },
+        &bar,
+    )?;
+    bar.finish();
+    Ok(t)
+}
+
+/// Refuses a tessellation at `level` (the largest of per-edge levels when `adaptive`)
+/// that would exceed the memory budget.
+fn check_memory(
+    a: &TessellateArgs,
+    mesh: &Mesh,
+    adjacency: &Adjacency,
+    table: &PatchTable,
+    format: MeshFormat,
+    level: u32,
+    adaptive: bool,
+) -> anyhow::Result<()> {
     let (need, estimate, weights) = tessellation_need(
-        &mesh,
+        mesh,
         adjacency.edges.len(),
         table.stride,
         level,
@@ -189,10 +313,10 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     let per_patch = (level as u64 + 1) * (level as u64 + 2) / 2;
     a.memory.budget().check(
         "tessellate",
-        &if chosen.is_none() {
-            format!("level {level}")
-        } else {
+        &if adaptive {
             format!("levels up to {level}")
+        } else {
+            format!("level {level}")
         },
         need,
         &format!(
@@ -203,52 +327,87 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
             human_count(estimate.store_points),
             human_bytes(estimate.batch_bytes)
         ),
-    )?;
-    let plan = match &chosen {
-        Some(t) => StitchPlan::with_levels(&mesh, &adjacency, &t.levels)?,
-        None => StitchPlan::new(&mesh, &adjacency, a.level)?,
-    };
-    let backend = BackendArgs {
-        quiet: a.quiet,
-        ..a.backend.clone()
-    };
-    let evaluator = backend.evaluator(crate::gpu::Precision::F32)?;
-    let title = match (&chosen, eps) {
-        (Some(_), Some(eps)) => format!(
-            "g1tess: {}, scheme {}, tolerance {eps:e}",
-            mesh.name, table.scheme
-        ),
-        _ => format!(
-            "g1tess: {}, scheme {}, level {}",
-            mesh.name, table.scheme, a.level
-        ),
-    };
-    let bar = progress::bar(plan.patches() as u64, "evaluating", "patches", a.quiet);
-    let mut snap = 0.0;
-    write_stitched::<[f32; 3]>(&a.output, format, &plan, &title, &bar, &mut |sink| {
-        snap = stitch_into(&plan, &table, evaluator.as_ref(), sink, &bar)?;
-        Ok(())
-    })?;
-    bar.finish();
+    )
+}
+
+/// The input edges the output is cut along, by kind.
+struct EdgeKinds {
+    /// Interior edges whose two triangles give an end different normals: the creases, as
+    /// `stats` counts them.
+    creases: usize,
+    /// Edges whose triangles agree on the normals but not on the texture coordinates or
+    /// colours at an end (UV seams).
+    seams: usize,
+    /// Every edge whose samples get one record per triangle: creases, seams, and
+    /// non-manifold edges whose triangles disagree on a normal.
+    split: usize,
+}
+
+impl EdgeKinds {
+    fn new(mesh: &Mesh, adjacency: &Adjacency, plan: &StitchPlan) -> EdgeKinds {
+        let ends = split_ends(mesh, adjacency);
+        let by_normal = ends.iter().filter(|s| s[0] || s[1]).count();
+        let creases = ends
+            .iter()
+            .zip(&adjacency.edges)
+            .filter(|(s, e)| e.is_interior() && (s[0] || s[1]))
+            .count();
+        let split = plan.report.split_edges;
+        EdgeKinds {
+            creases,
+            // The plan splits an edge where the normals or the attributes disagree.
+            seams: split.saturating_sub(by_normal),
+            split,
+        }
+    }
+}
+
+/// What was written, for the summary.
+struct Tessellated<'a> {
+    mesh: &'a Mesh,
+    scheme: String,
+    plan: &'a StitchPlan,
+    format: MeshFormat,
+    level: u32,
+    backend: String,
+    /// The precision the samples were evaluated in.
+    precision: &'static str,
+    edges: EdgeKinds,
+    /// What the seams split: "UV seam", "colour seam" or "UV/colour seam".
+    seam_kind: &'static str,
+    snap: f64,
+}
+
+/// The JSON summary on stdout, or the summary lines on stderr (unless quiet); then the
+/// refusal of an unmet tolerance (the file is written with the levels reached).
+fn report(
+    a: &TessellateArgs,
+    d: &Tessellated<'_>,
+    chosen: Option<&(ToleranceLevels, f64)>,
+    cap: u32,
+) -> anyhow::Result<()> {
+    let plan = d.plan;
     if a.json {
         let mut summary = serde_json::json!({
             "output": a.output.display().to_string(),
-            "mesh": mesh.name,
-            "scheme": table.scheme.to_string(),
-            "level": level,
-            "backend": evaluator.describe(),
-            "precision": "f32",
+            "mesh": d.mesh.name,
+            "scheme": d.scheme,
+            "level": d.level,
+            "backend": d.backend,
+            "precision": d.precision,
             "vertices": plan.positions,
             "triangles": plan.triangles,
-            "format": format,
+            "format": d.format,
             "vertex_records": plan.records,
-            "file_vertices": format.file_vertices(&plan),
-            "crease_edges": plan.report.split_edges,
+            "file_vertices": d.format.file_vertices(plan),
+            "crease_edges": d.edges.creases,
+            "seam_edges": d.edges.seams,
+            "split_edges": d.edges.split,
             "boundary_edges": plan.report.boundary_edges,
             "nonmanifold_edges": plan.report.nonmanifold_edges,
-            "max_weld_snap": snap,
+            "max_weld_snap": d.snap,
         });
-        if let (Some(t), Some(eps)) = (&chosen, eps) {
+        if let Some((t, eps)) = chosen {
             let range = |v: &[u32]| {
                 serde_json::json!([
                     v.iter().copied().min().unwrap_or(1),
@@ -273,18 +432,20 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         println!("{summary}");
     } else if !a.quiet {
         eprintln!(
-            "wrote {}: {} vertices ({} with split normals), {} triangles; \
-             {} boundary, {} non-manifold, {} crease edges; max stitch snap {:.3e}",
+            "wrote {}: {} vertices ({} vertex records), {} triangles; {} boundary, {} \
+             non-manifold, {} crease edges, {} {} edges; max stitch snap {:.3e}",
             a.output.display(),
             plan.positions,
             plan.records,
             plan.triangles,
             plan.report.boundary_edges,
             plan.report.nonmanifold_edges,
-            plan.report.split_edges,
-            snap
+            d.edges.creases,
+            d.edges.seams,
+            d.seam_kind,
+            d.snap
         );
-        if let (Some(t), Some(eps)) = (&chosen, eps) {
+        if let Some((t, eps)) = chosen {
             eprintln!(
                 "tolerance {eps:.3e}: measured deviation {:.3e} at {} points of {} triangles, \
                  edge levels {}..{}, {} measurement(s)",
@@ -297,7 +458,7 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
             );
         }
     }
-    if let (Some(t), Some(eps)) = (&chosen, eps) {
+    if let Some((t, eps)) = chosen {
         anyhow::ensure!(
             t.met,
             "tolerance {eps:e} not met: the measured deviation is {:e} ({} patches at the level \

@@ -6,8 +6,13 @@
 //! optionally `alpha`: integers scaled by their type's maximum, e.g. bytes by 255, floats
 //! as they are). From the `face` element: the list `vertex_indices` (or `vertex_index`);
 //! polygons are triangulated as fans, like OBJ faces; a `texcoord` list of 2 numbers per
-//! corner (per-corner UVs, as MeshLab writes them) is read too. Every other property and
-//! element is skipped and listed in [`super::LoadReport::notes`].
+//! corner (per-corner UVs, as MeshLab writes them) is read too. Triangle strips are read
+//! from a `tristrips` element's `vertex_indices` list (as Stanford's strip files, e.g.
+//! `igea.ply`, hold them), with or without a `face` element: strips are separated by -1,
+//! every other triangle of a strip is flipped to keep the strip's orientation (the
+//! OpenGL order), and triangles with a repeated corner (a strip's joins and turns) are
+//! skipped. Every other property and element is skipped and listed in
+//! [`super::LoadReport::notes`].
 //!
 //! Counts in the header are checked against the file size before anything is allocated
 //! for them; errors name the header line (ASCII body: the line) or the element and its
@@ -276,10 +281,11 @@ fn header(path: &Path, data: &[u8], report: &mut LoadReport) -> Result<Header> {
                 }
                 let role = match (el.name.as_str(), list, name.as_str()) {
                     ("vertex", None, n) => vertex_slot(n).map_or(Role::Ignored, Role::Vertex),
-                    ("face", Some(_), "vertex_indices" | "vertex_index") => {
+                    ("face" | "tristrips", Some(_), "vertex_indices" | "vertex_index") => {
                         if !ty.is_int() {
                             return Err(err(format!(
-                                "face {name}: index type '{ty_s}' is not an integer type"
+                                "{} {name}: index type '{ty_s}' is not an integer type",
+                                el.name
                             )));
                         }
                         Role::Indices
@@ -324,8 +330,20 @@ fn header(path: &Path, data: &[u8], report: &mut LoadReport) -> Result<Header> {
             }
         }
     }
+    let has_indices = |e: &&Element| e.props.iter().any(|p| p.role == Role::Indices);
+    let strips = elements
+        .iter()
+        .find(|e| e.name == "tristrips")
+        .filter(has_indices);
     match elements.iter().find(|e| e.name == "face") {
-        None => return Err(Error::parse(path, 1, "no 'face' element in the header")),
+        None if strips.is_some() => {}
+        None => {
+            return Err(Error::parse(
+                path,
+                1,
+                "no 'face' element in the header (nor 'tristrips' with 'vertex_indices')",
+            ))
+        }
         Some(f) if !f.props.iter().any(|p| p.role == Role::Indices) => {
             return Err(Error::parse(
                 path,
@@ -343,7 +361,8 @@ fn header(path: &Path, data: &[u8], report: &mut LoadReport) -> Result<Header> {
             .filter(|p| p.role == Role::Ignored)
             .map(|p| p.name.as_str())
             .collect();
-        if e.name != "vertex" && e.name != "face" {
+        let strips_read = strips.is_some_and(|s| std::ptr::eq(s, e));
+        if e.name != "vertex" && e.name != "face" && !strips_read {
             if e.count > 0 {
                 report.notes.push(format!(
                     "element '{}' ({} records) ignored",
@@ -601,6 +620,36 @@ fn push_face(
     Ok(())
 }
 
+/// Takes a `tristrips` record's index list into the body: strips separated by -1, the
+/// triangle at position k of a strip (counted from the strip's start) is (k, k+1, k+2) for
+/// even k and (k+1, k, k+2) for odd k, so that all keep the first one's orientation;
+/// triangles with a repeated corner are skipped.
+fn push_strips(
+    idx: &[f64],
+    nv: usize,
+    body: &mut Body,
+    err: &dyn Fn(String) -> Error,
+) -> Result<()> {
+    for &i in idx {
+        if i != -1.0 && (i < 0.0 || i >= nv as f64) {
+            return Err(err(format!(
+                "vertex index {i} out of range (the file has {nv} vertices; -1 ends a strip)"
+            )));
+        }
+    }
+    for strip in idx.split(|&i| i == -1.0) {
+        for (k, w) in strip.windows(3).enumerate() {
+            let [a, b, c] = [w[0], w[1], w[2]].map(|x| x as u32);
+            if a == b || b == c || a == c {
+                continue;
+            }
+            body.triangles
+                .push(if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
+        }
+    }
+    Ok(())
+}
+
 /// One record's values, as the binary and the ASCII reader collect them.
 struct Record {
     slots: [f64; VERTEX_SLOTS],
@@ -648,6 +697,7 @@ impl Record {
                 body,
                 err,
             ),
+            "tristrips" => push_strips(&self.list, want.nv, body, err),
             _ => Ok(()),
         }
     }
