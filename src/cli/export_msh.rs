@@ -35,7 +35,7 @@ pub struct ExportMshArgs {
     #[command(flatten)]
     pub memory: MemoryArgs,
     /// Print a JSON summary on stdout: {"output", "mesh", "scheme", "order", "nodes",
-    /// "triangles", "min_scaled_jacobian", "max_distance", ...} (see the README).
+    /// "triangles", "min_scaled_jacobian", "max_distance", ...} (docs/cli.md).
     #[arg(long)]
     pub json: bool,
     /// No progress bars and no summary line on stderr.

@@ -13,7 +13,7 @@ use crate::output::nets::write_nets;
 pub struct ExportNetArgs {
     #[command(flatten)]
     pub input: InputArgs,
-    /// Output JSON file (format in the README, "Control nets"); `-` writes to standard
+    /// Output JSON file (format in docs/formats.md, "Control nets"); `-` writes to standard
     /// output. A symbolic link is written through to its target; a directory, device or
     /// FIFO is refused, and so is the input mesh itself.
     #[arg(short, long)]

@@ -25,7 +25,7 @@ pub use common::{Backend, BackendArgs, Budget, InputArgs, MemoryArgs};
     version,
     about = "Smooth G1 curved surfaces from triangle meshes with vertex normals",
     long_about = "Smooth G1 curved surfaces from triangle meshes with vertex normals.\n\n\
-                  With no command, runs the default job (see the README).",
+                  With no command, runs the default job (docs/cli.md).",
     args_conflicts_with_subcommands = true
 )]
 pub struct Cli {

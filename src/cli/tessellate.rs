@@ -94,7 +94,7 @@ pub struct TessellateArgs {
     pub memory: MemoryArgs,
     /// Print a JSON summary on stdout: {"output", "mesh", "scheme", "level", "backend",
     /// "precision" (what the samples were evaluated in; the file holds f32),
-    /// "vertices", "triangles", "crease_edges", "seam_edges", ...} (see the README).
+    /// "vertices", "triangles", "crease_edges", "seam_edges", ...} (docs/cli.md).
     #[arg(long)]
     pub json: bool,
     /// No progress bars and no summary line on stderr.

@@ -21,7 +21,7 @@ pub const NETS_VERSION: u32 = 1;
 pub struct Slot {
     pub name: String,
     /// "bezier": a Bernstein control point with these powers on (b0, b1, b2);
-    /// "gregory": one of the two values of a rational interior point (see README);
+    /// "gregory": one of the two values of a rational interior point (docs/formats.md, "Control nets");
     /// "normal-field": a coefficient of PN triangles' quadratic normal field.
     pub role: &'static str,
     pub powers: [u32; 3],
