@@ -30,6 +30,7 @@ use crate::mesh::{LoadOptions, Mesh};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 
 mod end_to_end;
+use super::common::whole_number;
 use end_to_end::run_end_to_end;
 
 /// Bytes one sample writes: f32 position + f32 normal.
@@ -40,10 +41,17 @@ const DEFAULT_MESH: &str = "tests/data/stanford-bunny.obj";
 
 #[derive(Args, Clone, Debug)]
 pub struct BenchArgs {
-    /// Meshes (OBJ files or built-ins); default tests/data/stanford-bunny.obj.
+    /// Meshes (OBJ, PLY, STL, glTF .gltf/.glb or .pn files, or built-ins); default
+    /// tests/data/stanford-bunny.obj.
     pub meshes: Vec<String>,
     /// Grid levels.
-    #[arg(long, value_delimiter = ',', default_values_t = [8u32, 16, 32])]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_values_t = [8u32, 16, 32],
+        allow_negative_numbers = true,
+        value_parser = whole_number(1, u32::MAX)
+    )]
     pub levels: Vec<u32>,
     /// Schemes (default: all).
     #[arg(long, value_enum, value_delimiter = ',')]
@@ -53,7 +61,7 @@ pub struct BenchArgs {
     pub precision: Precision,
     /// Samples per chunk of the CPU evaluators (a chunk's output is one reused buffer: one
     /// that fits in the last-level cache is never written back to memory).
-    #[arg(long, default_value_t = 1 << 20)]
+    #[arg(long, default_value_t = 1 << 20, allow_negative_numbers = true)]
     pub cpu_chunk_samples: usize,
     /// Skip the GPU even when an adapter is present.
     #[arg(long)]
@@ -63,7 +71,7 @@ pub struct BenchArgs {
     pub no_reference: bool,
     /// Size of the buffer the write bandwidth is measured on, MiB (well above the last-level
     /// cache for a memory figure).
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
     pub bandwidth_mib: usize,
     /// Keep wgpu's runtime checks (bounds checks, loop bounding) in the GPU shaders, to
     /// measure what they cost (by default the crate's own shaders are created trusted).
@@ -93,11 +101,21 @@ pub struct BenchArgs {
     #[arg(long)]
     pub gpu_check: bool,
     /// End to end: grid level of the tessellation.
-    #[arg(long, default_value_t = 32)]
+    #[arg(
+        long,
+        default_value_t = 32,
+        allow_negative_numbers = true,
+        value_parser = whole_number(1, u32::MAX)
+    )]
     pub tess_level: u32,
     /// End to end: level at which the mesh is tessellated into the OBJ that is loaded and
     /// given to stats (4: the bunny becomes a 1.1 M-triangle mesh).
-    #[arg(long, default_value_t = 4)]
+    #[arg(
+        long,
+        default_value_t = 4,
+        allow_negative_numbers = true,
+        value_parser = whole_number(1, u32::MAX)
+    )]
     pub stats_level: u32,
     /// End to end: folder for the temporary files (default: the system's temporary folder);
     /// they are removed afterwards.
