@@ -22,9 +22,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::TEMP_FILES;
 use crate::eval::cpu::{CpuEvaluator, F32Kernel, GridWeightsF32};
-use crate::eval::gpu::{CeilingShape, GpuEvaluator};
 use crate::eval::{grid_len, Evaluator, Pattern};
+use crate::gpu::eval::{CeilingShape, GpuEvaluator};
 use crate::gpu::{GpuContext, Precision};
 use crate::mesh::{LoadOptions, Mesh};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
@@ -716,7 +717,7 @@ fn plain_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
 fn piped_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
     use std::io::Write;
     let block = vec![0x5au8; 1 << 20];
-    crate::output::atomic::write_atomic_piped(path, |w| {
+    crate::io::atomic::write_atomic_piped(path, &TEMP_FILES, |w| {
         let mut left = bytes;
         while left > 0 {
             let n = left.min(block.len() as u64) as usize;
@@ -822,8 +823,8 @@ fn best_of(
 /// Each row also gives the CPU seconds of the process during the step, which tell a
 /// loaded machine's figures from an idle one's.
 pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
-    use crate::output::stats::stats_report;
-    use crate::output::writers::{ply_file_bytes, write_stitched, MeshFormat};
+    use crate::analysis::stats::stats_report;
+    use crate::io::writers::{ply_file_bytes, write_stitched, MeshFormat};
     use crate::progress::NoProgress;
     use crate::tess::stitch::{stitch_into, CountingSink, StitchPlan};
 
@@ -926,6 +927,7 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
         let t = timed(|| {
             write_stitched::<[f32; 3]>(
                 &ply.0,
+                &TEMP_FILES,
                 MeshFormat::Ply,
                 &plan,
                 "bench",
@@ -974,6 +976,7 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
     let obj_plan = StitchPlan::new(&mesh, &adjacency, a.stats_level)?;
     write_stitched::<[f32; 3]>(
         &obj.0,
+        &TEMP_FILES,
         MeshFormat::Obj,
         &obj_plan,
         "bench",

@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use clap::Args;
 use glam::DVec3;
 
+use super::TEMP_FILES;
 use super::{BackendArgs, Budget, InputArgs, MemoryArgs};
 use crate::eval::Evaluator;
 use crate::gpu::tessellator::GpuTessellator;
@@ -203,7 +204,7 @@ pub fn render_schemes(
         "{}, level {level}: unit normal components, view {:.2},{:.2},{:.2}",
         mesh.name, opts.view.x, opts.view.y, opts.view.z
     );
-    write_png(output, &caption, &rows)?;
+    write_png(output, &TEMP_FILES, &caption, &rows)?;
     Ok(())
 }
 

@@ -35,7 +35,7 @@
 //!
 //! **Per-edge levels.** [`GpuTessellator::tessellate_levels`] tessellates with a level per
 //! edge and an inner level per patch ([`crate::tess::layout`]'s pattern, after OpenSubdiv
-//! Bfr) from a device buffer of edge levels (as [`crate::tess::screen_gpu::LevelPass`]
+//! Bfr) from a device buffer of edge levels (as [`crate::gpu::screen::LevelPass`]
 //! writes them from the camera, inner levels by an [`InnerRule`]) or from host
 //! [`Levels`], with nothing read back: the same table serves, `b (n − 1)` and
 //! `c (n − 1)(n − 2)/2` becoming the exclusive prefix sums, over edge blocks and over
@@ -94,8 +94,8 @@
 
 use std::collections::HashMap;
 
-use crate::eval::gpu::{basis_table, push_patch_data, Params, Real};
 use crate::eval::{grid_barycentrics, grid_len};
+use crate::gpu::eval::{basis_table, push_patch_data, Params, Real};
 use crate::mesh::creases::{normal_key, split_ends};
 use crate::mesh::{Adjacency, Mesh};
 use crate::patch::{PatchKind, PatchTable};
@@ -457,7 +457,7 @@ pub fn tess_levels_module_source(kind: PatchKind, precision: Precision) -> Resul
 #[derive(Clone, Copy, Debug)]
 pub enum LevelSource<'a> {
     /// A device buffer (`STORAGE`) of one u32 level per edge of the mesh's adjacency, as
-    /// [`crate::tess::screen_gpu::LevelPass`] writes it; inner levels by `rule`. Levels are
+    /// [`crate::gpu::screen::LevelPass`] writes it; inner levels by `rule`. Levels are
     /// clamped to 1..=max_level on the device.
     Device {
         levels: &'a wgpu::Buffer,
@@ -1310,7 +1310,7 @@ impl GpuTessellator {
     /// use g1tess::gpu::tessellator::LevelSource;
     /// use g1tess::tess::adaptive::InnerRule;
     /// use g1tess::tess::screen::ScreenView;
-    /// use g1tess::tess::screen_gpu::{LevelParams, LevelPass};
+    /// use g1tess::gpu::screen::{LevelParams, LevelPass};
     ///
     /// let pass = LevelPass::new(device)?; // once
     /// let max_level = 16;
