@@ -33,6 +33,7 @@ mod render;
 mod render_shader;
 mod schemes;
 mod shaders;
+mod source_rules;
 mod stats_certified;
 mod stitch;
 mod tessellator;
