@@ -8,8 +8,8 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
 use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::gpu::GpuEvaluator;
 use g1tess::eval::{grid_len, Evaluator, Pattern};
+use g1tess::gpu::eval::GpuEvaluator;
 use g1tess::gpu::{GpuContext, Precision};
 use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme};

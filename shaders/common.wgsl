@@ -12,7 +12,7 @@
 //   const STRIDE, GEOMETRY, DEGREE;    the kind's layout (GEOMETRY < STRIDE: PN's normal
 //                                      field follows the geometry)
 //   const MAX_POINTS;                  slots of Weights (the most control points of a kind)
-//   const WORKGROUP;                   threads per workgroup (eval::gpu::WORKGROUP)
+//   const WORKGROUP;                   threads per workgroup (gpu::eval::WORKGROUP)
 //   const MIN_NORMAL_LEN, MAX_REAL;    a usable vector length is > MIN_NORMAL_LEN and
 //                                      <= MAX_REAL (finite), else the fallback normal
 //   const PATCH_VECS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO, SLOT_CORNERS: the patch upload

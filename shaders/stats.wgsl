@@ -1,7 +1,7 @@
 // Table 1's continuity statistics on the device (appended to an evaluation module, after
 // common.wgsl; src/eval/gpu_stats.rs). Only the aggregates leave the device.
 //
-// mirrors output::stats::edge_pairs, output::stats::continuity
+// mirrors analysis::stats::edge_pairs, analysis::stats::continuity
 //
 // Thread t is edge sample t of the dispatch: points[2t] on the edge's first patch,
 // points[2t + 1] the same point on the second, each evaluated as points_main does (corners

@@ -8,7 +8,7 @@
 // grid_barycentric, row_start and the group-0 bindings params (per), patch_data, grid_w.
 //
 // mirrors tess::layout::effective_inner, tess::layout::points, tess::layout::triangles
-// mirrors tess::adaptive::InnerRule::inner, gpu::tessellator::Topology::new
+// mirrors tess::levels::InnerRule::inner, gpu::tessellator::Topology::new
 // mirrors gpu::tessellator::level_grid_base
 //
 // Numbering: every item of the stitched order (a corner record, the record block of an
@@ -30,7 +30,7 @@ struct Lv {
     blocks: u32,
     edges: u32,
     max_level: u32,
-    // 0 max, 1 mean, 2 min (tess::adaptive::InnerRule); 3: inner levels given in
+    // 0 max, 1 mean, 2 min (tess::levels::InnerRule); 3: inner levels given in
     // levels[edges + p].
     rule: u32,
     patch_groups_x: u32,

@@ -1,13 +1,13 @@
 //! g1tess: smooth curved surfaces from flat triangle meshes with vertex normals.
 //!
-//! Each triangle becomes one curved patch built from its corners and their normals (the
-//! Bézier G1 patch of Walton & Meek, and the schemes it is compared with), evaluated on the
-//! CPU or on the GPU. The modules form layers, each using only the layers before it (see
-//! `ARCHITECTURE.md`): `mesh` (readers, the weld, adjacency) → `patch` (one file per
-//! scheme, the fold certificate and repair) → `tess` (sample patterns, stitching) → `eval`
-//! (evaluators) → `analysis` (statistics, the distance study, Table 1) → `io` (writers,
-//! atomic files) → `gpu` (wgpu; feature `gpu`) → `cli` (the `g1tess` binary; feature
-//! `cli`).
+//! The modules are layers, each using only those before it (see `ARCHITECTURE.md`; a test
+//! reads the `use` lines and checks it): [`error`] → [`mesh`] (load, weld, adjacency,
+//! normals, generators) → [`patch`] (one file per scheme, backend-agnostic f64
+//! control-point tables) → [`eval`] (the evaluator interface, the CPU backend, sample
+//! patterns) → [`tess`] (per-edge levels, stitching) → [`analysis`] (continuity
+//! statistics, the distance study, Table 1) → [`io`] (mesh writers, MSH, control nets,
+//! atomic files) → [`gpu`] (device, the GPU evaluator, statistics and tessellator) →
+//! [`render`] (the normal field drawn by a GPU render pass) → `cli`.
 //!
 //! Every patch of a built-in icosphere on the grid of level 8, on the CPU:
 //!
@@ -51,13 +51,14 @@ macro_rules! cpu_has {
     }};
 }
 
+pub mod analysis;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod error;
 pub mod eval;
 pub mod gpu;
+pub mod io;
 pub mod mesh;
-pub mod output;
 pub mod patch;
 mod pipelined;
 pub mod progress;
@@ -68,12 +69,12 @@ pub mod tess;
 /// unit-test build would compile the crate a second time). May change without notice.
 #[doc(hidden)]
 pub mod internals {
+    pub use crate::analysis::stats::{Part, BLOCK_PAIRS};
     #[cfg(feature = "cli")]
     pub use crate::cli::common::LazyGpu;
     pub use crate::eval::cpu::edges::min_len2;
+    pub use crate::io::atomic::DIRECT_ALIGN;
     pub use crate::mesh::text::{echo, parse_f64, parse_i64, split, statements};
-    pub use crate::output::atomic::DIRECT_ALIGN;
-    pub use crate::output::stats::{Part, BLOCK_PAIRS};
     pub use crate::patch::validity::{
         interior_powers, quick_flat, quick_quartic, tables, Tables, QUARTIC_BOUNDARY,
         QUARTIC_INTERIOR, QUARTIC_UP,

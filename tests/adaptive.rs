@@ -12,8 +12,9 @@ use std::sync::Arc;
 use glam::{DMat4, DVec3};
 
 use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::gpu::GpuEvaluator;
 use g1tess::eval::{Evaluator, Vector};
+use g1tess::gpu::eval::GpuEvaluator;
+use g1tess::gpu::screen::{gpu_screen_levels, LEVELS_WGSL};
 use g1tess::gpu::{GpuContext, Precision};
 use g1tess::mesh::{Adjacency, LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
@@ -23,7 +24,6 @@ use g1tess::tess::adaptive::{
 };
 use g1tess::tess::layout;
 use g1tess::tess::screen::{edge_level, screen_levels, ScreenView};
-use g1tess::tess::screen_gpu::{gpu_screen_levels, LEVELS_WGSL};
 use g1tess::tess::stitch::{stitch, stitch_plan, StitchPlan, StitchedMesh};
 
 fn table(mesh: &Mesh) -> PatchTable {

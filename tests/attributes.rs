@@ -8,8 +8,9 @@ use std::collections::HashMap;
 
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::eval::Vector;
+use g1tess::io::writers::{write_stitched, MeshFormat};
+use g1tess::io::TempFiles;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::writers::{write_stitched, MeshFormat};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::progress::NoProgress;
 use g1tess::tess::adaptive::{InnerRule, Levels};
@@ -232,10 +233,18 @@ fn write(mesh: &Mesh, level: u32, path: &std::path::Path) -> (StitchPlan, Stitch
     let plan = StitchPlan::new(mesh, &mesh.adjacency(), level).unwrap();
     let t = table(mesh);
     let format = MeshFormat::from_path(path).unwrap();
-    write_stitched::<[f32; 3]>(path, format, &plan, "test", &NoProgress, &mut |sink| {
-        stitch_into(&plan, &t, &CpuEvaluator::default(), sink, &NoProgress)?;
-        Ok(())
-    })
+    write_stitched::<[f32; 3]>(
+        path,
+        &TempFiles::default(),
+        format,
+        &plan,
+        "test",
+        &NoProgress,
+        &mut |sink| {
+            stitch_into(&plan, &t, &CpuEvaluator::default(), sink, &NoProgress)?;
+            Ok(())
+        },
+    )
     .unwrap();
     let (out, _) = stitch_plan::<[f32; 3]>(&plan, &t, &CpuEvaluator::default()).unwrap();
     (plan, out)

@@ -19,12 +19,12 @@ use eval_cases::{
 use glam::DVec3;
 use rayon::prelude::*;
 
+use g1tess::analysis::stats::{edge_pairs, SAMPLES_PER_EDGE};
 use g1tess::eval::cpu::{grid_weights, CpuEvaluator, EdgeKernel, F32Kernel, GridWeightsF32};
 use g1tess::eval::{
     grid_corners, grid_len, to_f32, Chunk, EdgePairs, EdgeSide, Evaluator, PairProducts,
     PatchPoint, Pattern, PAIR_COS_TOLERANCE,
 };
-use g1tess::output::stats::{edge_pairs, SAMPLES_PER_EDGE};
 use g1tess::patch::PatchTable;
 
 /// Normals are held to 1 − dot ≤ this (an angle of 4.5e-3 rad) where they are defined to

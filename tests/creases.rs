@@ -8,10 +8,10 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 
+use g1tess::analysis::stats::{continuity, Continuity};
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::creases::crease_edges;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::stats::{continuity, Continuity};
 use g1tess::patch::g1::{crease_curve, patch_points, walton_meek};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::tess::stitch::stitch;

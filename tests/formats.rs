@@ -10,8 +10,9 @@ use glam::DVec3;
 
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::eval::Vector;
+use g1tess::io::writers::{ply_file_bytes, write_stitched, MeshFormat};
+use g1tess::io::TempFiles;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::writers::{ply_file_bytes, write_stitched, MeshFormat};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::progress::NoProgress;
 use g1tess::tess::stitch::{
@@ -43,9 +44,17 @@ fn write_in<V: Vector>(mesh: &Mesh, level: u32, path: &Path) -> (StitchedMesh<V>
     let table = PatchTable::build(mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
     let (w, plan, _) = stitch_in::<V>(mesh, &table, &CpuEvaluator::default(), level).unwrap();
     let format = MeshFormat::from_path(path).unwrap();
-    write_stitched::<V>(path, format, &plan, "test", &NoProgress, &mut |sink| {
-        stitch_into(&plan, &table, &CpuEvaluator::default(), sink, &NoProgress).map(|_| ())
-    })
+    write_stitched::<V>(
+        path,
+        &TempFiles::default(),
+        format,
+        &plan,
+        "test",
+        &NoProgress,
+        &mut |sink| {
+            stitch_into(&plan, &table, &CpuEvaluator::default(), sink, &NoProgress).map(|_| ())
+        },
+    )
     .unwrap();
     (w, plan)
 }
@@ -377,27 +386,35 @@ fn failed_write_leaves_target_untouched() {
         let path = d.join(format!("keep.{ext}"));
         std::fs::write(&path, b"previous").unwrap();
         let format = MeshFormat::from_path(&path).unwrap();
-        let err = write_stitched::<[f32; 3]>(&path, format, &plan, "t", &NoProgress, &mut |sink| {
-            struct Failing<'a>(&'a mut dyn StitchSink<[f32; 3]>, usize);
-            impl StitchSink<[f32; 3]> for Failing<'_> {
-                fn patch(&mut self, out: &PatchOut<'_, [f32; 3]>) -> g1tess::Result<()> {
-                    self.1 += 1;
-                    if self.1 > 100 {
-                        return Err(g1tess::Error::Invalid("stopped".into()));
+        let err = write_stitched::<[f32; 3]>(
+            &path,
+            &TempFiles::default(),
+            format,
+            &plan,
+            "t",
+            &NoProgress,
+            &mut |sink| {
+                struct Failing<'a>(&'a mut dyn StitchSink<[f32; 3]>, usize);
+                impl StitchSink<[f32; 3]> for Failing<'_> {
+                    fn patch(&mut self, out: &PatchOut<'_, [f32; 3]>) -> g1tess::Result<()> {
+                        self.1 += 1;
+                        if self.1 > 100 {
+                            return Err(g1tess::Error::Invalid("stopped".into()));
+                        }
+                        self.0.patch(out)
                     }
-                    self.0.patch(out)
                 }
-            }
-            let mut f = Failing(sink, 0);
-            stitch_into(
-                &plan,
-                &table,
-                &CpuEvaluator::with_chunk_samples(50),
-                &mut f,
-                &NoProgress,
-            )
-            .map(|_| ())
-        })
+                let mut f = Failing(sink, 0);
+                stitch_into(
+                    &plan,
+                    &table,
+                    &CpuEvaluator::with_chunk_samples(50),
+                    &mut f,
+                    &NoProgress,
+                )
+                .map(|_| ())
+            },
+        )
         .unwrap_err();
         assert_eq!(err.to_string(), "stopped");
         assert_eq!(std::fs::read(&path).unwrap(), b"previous");

@@ -6,10 +6,10 @@
 use crate::common;
 
 use common::{load, Rng};
+use g1tess::analysis::stats::continuity;
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::eval::{Evaluator, Pattern};
 use g1tess::mesh::Mesh;
-use g1tess::output::stats::continuity;
 use g1tess::patch::g1::{walton_meek, walton_meek_offsets};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use glam::DVec3;

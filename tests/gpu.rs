@@ -10,12 +10,12 @@ use std::sync::{Arc, OnceLock};
 use glam::DVec3;
 use rayon::prelude::*;
 
+use g1tess::analysis::stats::{continuity, edge_points};
 use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::gpu::GpuEvaluator;
 use g1tess::eval::{grid_barycentrics, grid_len, Chunk, Evaluator, PatchPoint, Pattern};
+use g1tess::gpu::eval::GpuEvaluator;
 use g1tess::gpu::{GpuContext, Precision};
 use g1tess::mesh::Mesh;
-use g1tess::output::stats::{continuity, edge_points};
 use g1tess::patch::basis::Weights;
 use g1tess::patch::{PatchKind, PatchTable, Scheme};
 
@@ -571,7 +571,7 @@ fn patch_loop_and_double_buffering_give_identical_results() {
 /// it on these meshes, min cos > bound).
 #[test]
 fn gpu_statistics_agree_with_the_cpu_f64_statistics() {
-    use g1tess::output::stats::stats_report;
+    use g1tess::analysis::stats::stats_report;
     for precision in [Precision::F32, Precision::F64] {
         let Some(gpu) = evaluator(precision) else {
             continue;

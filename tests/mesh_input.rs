@@ -247,7 +247,7 @@ fn non_unit_normals_are_renormalised() {
     let table =
         g1tess::patch::PatchTable::build(&m, g1tess::patch::Scheme::G1, &Default::default())
             .unwrap();
-    let c = g1tess::output::stats::continuity(
+    let c = g1tess::analysis::stats::continuity(
         &m,
         &m.adjacency(),
         &table,

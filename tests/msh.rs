@@ -1,4 +1,4 @@
-//! `g1tess export-msh` and `output::msh`: Gmsh MSH 4.1 of order 1 to 5, read back here by an
+//! `g1tess export-msh` and `io::msh`: Gmsh MSH 4.1 of order 1 to 5, read back here by an
 //! independent parser (ASCII and binary); node order against Gmsh's own reference nodes;
 //! order-3 G1 edges equal to the boundary cubics; the error falling with the order; the
 //! Jacobian bound against dense sampling; physical groups on a mesh with a boundary.
@@ -11,10 +11,10 @@ use std::process::Command;
 
 use glam::DVec3;
 
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::msh::{
+use g1tess::io::msh::{
     build, lagrange_triangle, triangle_node_count, triangle_nodes, write_msh, HighOrderMesh,
 };
+use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::progress::NoProgress;
 

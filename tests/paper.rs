@@ -4,11 +4,11 @@
 use std::path::Path;
 use std::process::Command;
 
+use g1tess::analysis::distance::{sweep, Series, SweepPlan, SweepRow};
+use g1tess::analysis::stats::StatsReport;
+use g1tess::analysis::table1::compare_mesh;
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::distance::{sweep, Series, SweepPlan, SweepRow};
-use g1tess::output::stats::StatsReport;
-use g1tess::output::table1::compare_mesh;
 use g1tess::patch::{Scheme, SchemeOptions};
 
 /// Table 1 as printed in the paper (min, max, mean, std), copied from

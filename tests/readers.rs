@@ -11,10 +11,11 @@ use std::process::Command;
 use glam::DVec3;
 use serde_json::json;
 
+use g1tess::analysis::stats::stats_report;
 use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::io::writers::{write_stitched, MeshFormat};
+use g1tess::io::TempFiles;
 use g1tess::mesh::{InputFormat, LoadOptions, Mesh};
-use g1tess::output::stats::stats_report;
-use g1tess::output::writers::{write_stitched, MeshFormat};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::progress::NoProgress;
 use g1tess::tess::stitch::{stitch_in, stitch_into, StitchedMesh};
@@ -934,9 +935,17 @@ fn write(mesh: &Mesh, scheme: Scheme, level: u32, path: &Path) -> StitchedMesh<[
     let (w, plan, _) =
         stitch_in::<[f32; 3]>(mesh, &table, &CpuEvaluator::default(), level).unwrap();
     let format = MeshFormat::from_path(path).unwrap();
-    write_stitched::<[f32; 3]>(path, format, &plan, "test", &NoProgress, &mut |sink| {
-        stitch_into(&plan, &table, &CpuEvaluator::default(), sink, &NoProgress).map(|_| ())
-    })
+    write_stitched::<[f32; 3]>(
+        path,
+        &TempFiles::default(),
+        format,
+        &plan,
+        "test",
+        &NoProgress,
+        &mut |sink| {
+            stitch_into(&plan, &table, &CpuEvaluator::default(), sink, &NoProgress).map(|_| ())
+        },
+    )
     .unwrap();
     w
 }

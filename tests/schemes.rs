@@ -6,11 +6,11 @@
 use crate::common;
 
 use common::Rng;
+use g1tess::analysis::distance::{distance, Surface};
+use g1tess::analysis::stats::{continuity, Continuity, EdgeStats, CHUNK_EDGES, SAMPLES_PER_EDGE};
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::eval::{Evaluator, PatchPoint, Pattern, PAIR_COS_TOLERANCE};
 use g1tess::mesh::{generators, LoadOptions, Mesh};
-use g1tess::output::distance::{distance, Surface};
-use g1tess::output::stats::{continuity, Continuity, EdgeStats, CHUNK_EDGES, SAMPLES_PER_EDGE};
 use g1tess::patch::{PatchBuilder, PatchKind, PatchTable, Scheme, SchemeOptions, SCHEMES};
 use glam::DVec3;
 

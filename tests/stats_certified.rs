@@ -5,9 +5,9 @@
 
 use crate::common;
 
+use g1tess::analysis::stats::{stats_report, EdgeStats, CHUNK_EDGES};
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::stats::{stats_report, EdgeStats, CHUNK_EDGES};
 use g1tess::patch::validity::count_builder;
 use g1tess::patch::{PatchBuilder, Scheme, SchemeOptions};
 

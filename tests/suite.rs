@@ -34,6 +34,7 @@ mod render;
 mod render_shader;
 mod schemes;
 mod shaders;
+mod source_rules;
 mod stats_certified;
 mod stitch;
 mod tessellator;

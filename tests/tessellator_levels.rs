@@ -14,6 +14,7 @@ use glam::{DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
 use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::gpu::screen::{LevelParams, LevelPass};
 use g1tess::gpu::shaders::validate;
 use g1tess::gpu::tessellator::{
     level_grid_base, tess_levels_module_source, GpuTessellator, LevelSource, LV_STATE_RECORDS,
@@ -24,7 +25,6 @@ use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
 use g1tess::tess::adaptive::{InnerRule, Levels};
 use g1tess::tess::screen::ScreenView;
-use g1tess::tess::screen_gpu::{LevelParams, LevelPass};
 use g1tess::tess::stitch::{stitch_plan, StitchPlan, StitchedMesh};
 
 use crate::common;

@@ -59,7 +59,7 @@ mod cli_common {
         )
         .unwrap();
         let adjacency = mesh.adjacency();
-        let edges = g1tess::output::stats::edge_pairs(&mesh, &adjacency);
+        let edges = g1tess::analysis::stats::edge_pairs(&mesh, &adjacency);
         let called = |r: g1tess::Result<()>| r.unwrap_err().to_string();
         assert_eq!(
             called(lazy.evaluate_edges(&table, &edges, &mut |_| Ok(()))),

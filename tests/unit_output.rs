@@ -1,4 +1,5 @@
-//! The unit tests of `src/output/`: the blocked statistics, plot ticks and split file writes.
+//! The unit tests of `src/analysis/` and `src/io/`: the blocked statistics, plot ticks,
+//! split file writes and the list of temporary files.
 //! (Moved from the library's own unit tests: the integration suite is built once.)
 
 mod stats {
@@ -130,7 +131,7 @@ mod stats {
 
 #[cfg(feature = "cli")]
 mod plot {
-    use g1tess::output::plot::log_ticks;
+    use g1tess::io::plot::log_ticks;
 
     /// The sphere's x range (20 to 5120 triangles with the 1.6 margin): 1, 2, 5 × 10^k,
     /// eight labels; minor lines at the other mantissas, never on a label.
@@ -167,8 +168,48 @@ mod atomic {
     use std::fs::File;
     use std::io::Write;
 
+    use std::path::Path;
+
     use g1tess::internals::DIRECT_ALIGN;
-    use g1tess::output::atomic::PipedWriter;
+    use g1tess::io::atomic::{write_atomic, PipedWriter};
+    use g1tess::io::TempFiles;
+
+    /// A write lists its temporary file in the `TempFiles` it is given (shared by clones,
+    /// not by another list) while it runs; removing the live files deletes it, the write
+    /// then fails without creating the target, and later writes through that list are
+    /// refused while another list still writes.
+    #[test]
+    fn temp_files_list_live_writes_and_remove_them() {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("unit_output_temp_files");
+        std::fs::create_dir_all(&dir).unwrap();
+        let target = dir.join("out.txt");
+        let _ = std::fs::remove_file(&target);
+        let tmp = dir.join(format!(".out.txt.tmp-{}", std::process::id()));
+        let (temp, other) = (TempFiles::default(), TempFiles::default());
+        let handle = temp.clone();
+        let result = write_atomic(&target, &temp, |w| {
+            w.write_all(b"partial")?;
+            w.flush()?;
+            assert_eq!(handle.live_temp_files(), vec![tmp.clone()]);
+            assert!(other.live_temp_files().is_empty());
+            assert!(tmp.is_file());
+            assert_eq!(handle.remove_live_temp_files(), vec![tmp.clone()]);
+            Ok(())
+        });
+        assert!(result.is_err(), "the rename of a removed file must fail");
+        assert!(!tmp.exists() && !target.exists());
+        assert!(temp.live_temp_files().is_empty());
+        let refused = write_atomic(&target, &temp, |w| w.write_all(b"late")).unwrap_err();
+        assert!(
+            refused.to_string().contains("the process is exiting"),
+            "{refused}"
+        );
+        assert!(!target.exists());
+        write_atomic(&target, &other, |w| w.write_all(b"whole")).unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"whole");
+        assert!(other.live_temp_files().is_empty());
+        std::fs::remove_file(&target).unwrap();
+    }
 
     /// A stream (with or without an unaligned flush half way, which turns direct I/O off),
     /// a second writer from a page boundary on, and the second's rest written at the end

@@ -2,10 +2,10 @@
 
 use crate::common;
 
+use g1tess::analysis::stats::{continuity, stats_report, Continuity};
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::generators::icosphere;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::output::stats::{continuity, stats_report, Continuity};
 use g1tess::patch::repair::repair;
 use g1tess::patch::validity::{
     check_patch, count, jacobian, PatchCounts, Verdict, QUICK_BLEND_BOUND,

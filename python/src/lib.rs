@@ -12,11 +12,12 @@
 use std::io::ErrorKind;
 use std::path::{Path, PathBuf};
 
+use g1tess::analysis::stats::stats_report;
 use g1tess::eval::cpu::CpuEvaluator;
+use g1tess::io::msh::export_msh;
+use g1tess::io::writers::{write_stitched, MeshFormat};
+use g1tess::io::TempFiles;
 use g1tess::mesh::{generators, LoadOptions, Mesh, NormalWeighting};
-use g1tess::output::msh::export_msh;
-use g1tess::output::stats::stats_report;
-use g1tess::output::writers::{write_stitched, MeshFormat};
 use g1tess::patch::repair::RepairReport;
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::progress::NoProgress;
@@ -445,6 +446,7 @@ impl PyMesh {
             let plan = &planned.plan;
             write_stitched::<[f32; 3]>(
                 &path,
+                &TempFiles::default(),
                 format,
                 plan,
                 &planned.title,
@@ -483,7 +485,15 @@ impl PyMesh {
         let scheme = self::scheme(scheme)?;
         py.detach(|| -> g1tess::Result<String> {
             let table = PatchTable::build(&self.mesh, scheme, &self.options)?;
-            let s = export_msh(&self.mesh, &table, order, binary, &path, &NoProgress)?;
+            let s = export_msh(
+                &self.mesh,
+                &table,
+                order,
+                binary,
+                &path,
+                &TempFiles::default(),
+                &NoProgress,
+            )?;
             serde_json::to_string(&s).map_err(|e| invalid(e.to_string()))
         })
         .map_err(py_err)

@@ -23,8 +23,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::eval::cpu::{CpuEvaluator, F32Kernel, GridWeightsF32};
-use crate::eval::gpu::{CeilingShape, GpuEvaluator};
 use crate::eval::{grid_len, Evaluator, Pattern};
+use crate::gpu::eval::{CeilingShape, GpuEvaluator};
 use crate::gpu::{GpuContext, Precision};
 use crate::mesh::{LoadOptions, Mesh};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};

@@ -163,7 +163,7 @@ pub struct LazyGpu {
 impl LazyGpu {
     fn open(&self) -> crate::Result<Box<dyn crate::eval::Evaluator>> {
         use crate::eval::cpu::CpuEvaluator;
-        use crate::eval::gpu::GpuEvaluator;
+        use crate::gpu::eval::GpuEvaluator;
         use crate::gpu::GpuContext;
         let gpu = || -> crate::Result<GpuEvaluator> {
             let ctx = GpuContext::shared()?;
@@ -436,7 +436,7 @@ pub const CHUNK_SAMPLES: usize = 1 << 22;
 
 /// What a stitched f32 tessellation of `mesh` (with `edges` edges, patches of `stride`
 /// control points) at `level` holds, for a sink reading `needs` whose writer holds
-/// `writer` = (while streaming, afterwards) bytes ([`crate::output::writers::MeshFormat::buffer_bytes`]):
+/// `writer` = (while streaming, afterwards) bytes ([`crate::io::writers::MeshFormat::buffer_bytes`]):
 /// (total bytes, the stitcher's estimate, the evaluator's basis weights in bytes).
 pub fn tessellation_need(
     mesh: &Mesh,
@@ -548,7 +548,7 @@ impl Budget {
     }
 
     /// Refuses continuity statistics of `mesh` that would exceed the budget: the mesh, its
-    /// edge index and one chunk of edges (see `output::stats`).
+    /// edge index and one chunk of edges (see `analysis::stats`).
     pub fn check_stats(&self, command: &str, mesh: &Mesh) -> anyhow::Result<()> {
         let t = mesh.triangles.len() as u64;
         let v = mesh.positions.len() as u64;

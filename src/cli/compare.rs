@@ -3,8 +3,8 @@
 use clap::Args;
 
 use super::BackendArgs;
+use crate::analysis::table1;
 use crate::mesh::{LoadOptions, NormalWeighting};
-use crate::output::table1;
 use crate::patch::{Scheme, SchemeOptions};
 
 #[derive(Args, Clone, Debug)]
@@ -65,7 +65,7 @@ impl CompareArgs {
     }
 
     /// Runs the comparison on the chosen backend (GPU in f64 by default, else the CPU).
-    pub fn reports(&self) -> anyhow::Result<Vec<crate::output::stats::StatsReport>> {
+    pub fn reports(&self) -> anyhow::Result<Vec<crate::analysis::stats::StatsReport>> {
         // Meshes are loaded one at a time: each must fit (its statistics stream).
         let budget = self.memory.budget();
         for mesh in &self.meshes {

@@ -1,5 +1,5 @@
 //! `g1tess export-msh`: curved Lagrange triangles of order 1 to 5 as Gmsh MSH 4.1, for
-//! solvers (see `output::msh`).
+//! solvers (see `io::msh`).
 
 use std::path::PathBuf;
 
@@ -8,8 +8,9 @@ use clap::Args;
 use super::common::{whole_number, MemoryArgs};
 use super::progress;
 use super::InputArgs;
-use crate::output::atomic;
-use crate::output::msh::{export_msh, triangle_node_count, MAX_ORDER};
+use super::TEMP_FILES;
+use crate::io::atomic;
+use crate::io::msh::{export_msh, triangle_node_count, MAX_ORDER};
 
 #[derive(Args, Clone, Debug)]
 pub struct ExportMshArgs {
@@ -85,7 +86,15 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
         eprintln!("{line}");
     }
     let bar = progress::bar(nt, "placing nodes", "triangles", a.quiet);
-    let summary = export_msh(&mesh, &table, a.order, a.binary, &a.output, &bar)?;
+    let summary = export_msh(
+        &mesh,
+        &table,
+        a.order,
+        a.binary,
+        &a.output,
+        &TEMP_FILES,
+        &bar,
+    )?;
     bar.finish();
     if summary.nonpositive_jacobian_elements > 0 {
         eprintln!(

@@ -6,8 +6,9 @@ use clap::Args;
 
 use super::common::MemoryArgs;
 use super::InputArgs;
-use crate::output::atomic;
-use crate::output::nets::write_nets;
+use super::TEMP_FILES;
+use crate::io::atomic;
+use crate::io::nets::write_nets;
 
 #[derive(Args, Clone, Debug)]
 pub struct ExportNetArgs {
@@ -42,7 +43,7 @@ pub fn run(a: &ExportNetArgs) -> anyhow::Result<()> {
         &format!("{stride} control points each"),
     )?;
     let table = crate::patch::PatchTable::build(&mesh, a.input.scheme, &a.input.scheme_options())?;
-    write_nets(&a.output, &mesh, &table)?;
+    write_nets(&a.output, &TEMP_FILES, &mesh, &table)?;
     if !a.quiet {
         eprintln!(
             "wrote {}: {} patches of {} control points ({})",

@@ -14,10 +14,15 @@ mod sweep;
 mod tessellate;
 
 use std::process::ExitCode;
+use std::sync::LazyLock;
 
 use clap::{Parser, Subcommand};
 
 pub use common::{Backend, BackendArgs, Budget, InputArgs, MemoryArgs};
+
+/// The command line's temporary files: every file it writes lists its temporary file
+/// here, and the signal handler removes those still live.
+pub(crate) static TEMP_FILES: LazyLock<crate::io::TempFiles> = LazyLock::new(Default::default);
 
 #[derive(Parser)]
 #[command(
@@ -73,8 +78,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-/// On SIGINT or SIGTERM: remove the temporary files being written
-/// ([`crate::output::atomic::remove_live_temp_files`]) and exit with 128 + the signal's
+/// On SIGINT or SIGTERM: remove the temporary files being written ([`TEMP_FILES`],
+/// [`crate::io::TempFiles::remove_live_temp_files`]) and exit with 128 + the signal's
 /// number (130, 143), as a shell reports a process the signal ended. The signal is
 /// received on a thread of its own (signal-hook), where removing files is safe.
 fn install_signal_handler() {
@@ -87,7 +92,7 @@ fn install_signal_handler() {
         .name("signals".into())
         .spawn(move || {
             if let Some(sig) = signals.forever().next() {
-                crate::output::atomic::remove_live_temp_files();
+                TEMP_FILES.remove_live_temp_files();
                 std::process::exit(128 + sig);
             }
         });

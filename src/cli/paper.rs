@@ -4,11 +4,12 @@
 
 use std::path::PathBuf;
 
+use super::TEMP_FILES;
+use crate::analysis::distance::SweepPlan;
+use crate::analysis::table1;
 use crate::eval::cpu::CpuEvaluator;
 use crate::eval::Evaluator;
-use crate::output::atomic::{ensure_dir, write_atomic};
-use crate::output::distance::SweepPlan;
-use crate::output::table1;
+use crate::io::atomic::{ensure_dir, write_atomic};
 
 use super::compare::CompareArgs;
 use super::BackendArgs;
@@ -120,10 +121,12 @@ fn table(ctx: &PaperRun) -> anyhow::Result<()> {
     let md = table1::to_markdown(&reports);
     println!("{md}");
     let md_path = ctx.out.join("table1.md");
-    write_atomic(&md_path, |w| std::io::Write::write_all(w, md.as_bytes()))?;
+    write_atomic(&md_path, &TEMP_FILES, |w| {
+        std::io::Write::write_all(w, md.as_bytes())
+    })?;
     let json = serde_json::to_string_pretty(&reports)?;
     let json_path = ctx.out.join("table1.json");
-    write_atomic(&json_path, |w| {
+    write_atomic(&json_path, &TEMP_FILES, |w| {
         std::io::Write::write_all(w, json.as_bytes())
     })?;
     if !ctx.quiet {

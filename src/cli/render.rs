@@ -10,6 +10,7 @@ use clap::Args;
 use glam::DVec3;
 
 use super::common::whole_number;
+use super::TEMP_FILES;
 use super::{BackendArgs, Budget, InputArgs, MemoryArgs};
 use crate::eval::Evaluator;
 use crate::gpu::tessellator::GpuTessellator;
@@ -213,7 +214,7 @@ pub fn render_schemes(
         "{}, level {level}: unit normal components, view {:.2},{:.2},{:.2}",
         mesh.name, opts.view.x, opts.view.y, opts.view.z
     );
-    write_png(output, &caption, &rows)?;
+    write_png(output, &TEMP_FILES, &caption, &rows)?;
     Ok(())
 }
 

@@ -3,8 +3,8 @@
 use clap::Args;
 
 use super::{BackendArgs, InputArgs};
+use crate::analysis::stats::stats_report;
 use crate::mesh::Mesh;
-use crate::output::stats::stats_report;
 
 #[derive(Args, Clone, Debug)]
 pub struct StatsArgs {
@@ -52,10 +52,10 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
 /// `stats --backend gpu`: the edge samples evaluated and reduced on the device
 /// ([`crate::gpu::stats`]), only the aggregates read back; the whole patch table is built.
 fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
-    use crate::eval::gpu::GpuEvaluator;
+    use crate::analysis::stats::{EdgeStats, StatsReport};
     use crate::eval::Evaluator;
+    use crate::gpu::eval::GpuEvaluator;
     use crate::gpu::GpuContext;
-    use crate::output::stats::{EdgeStats, StatsReport};
     let precision = a.backend.precision.unwrap_or(crate::gpu::Precision::F64);
     let ctx = GpuContext::shared()?;
     let gpu = GpuEvaluator::new(ctx.clone(), precision)?;

@@ -9,10 +9,11 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use super::BackendArgs;
+use super::TEMP_FILES;
+use crate::analysis::distance::{self, Series, SweepPlan, SweepRow};
 use crate::eval::Evaluator;
-use crate::output::atomic::{ensure_dir, write_atomic};
-use crate::output::distance::{self, Series, SweepPlan, SweepRow};
-use crate::output::plot;
+use crate::io::atomic::{ensure_dir, write_atomic};
+use crate::io::plot;
 use crate::patch::SchemeOptions;
 
 #[derive(Args, Clone, Debug)]
@@ -124,18 +125,22 @@ pub fn sweep_into(
     let csv_path = out.join("distance.csv");
     let json_path = out.join("distance.json");
     let csv = distance::to_csv(&rows);
-    write_atomic(&csv_path, |w| std::io::Write::write_all(w, csv.as_bytes()))?;
+    write_atomic(&csv_path, &TEMP_FILES, |w| {
+        std::io::Write::write_all(w, csv.as_bytes())
+    })?;
     let text = serde_json::to_string_pretty(&json)?;
-    write_atomic(&json_path, |w| {
+    write_atomic(&json_path, &TEMP_FILES, |w| {
         std::io::Write::write_all(w, text.as_bytes())
     })?;
     let mut files = vec![csv_path, json_path];
     files.extend(plot::write_figure(
         &out.join("sphere_distance"),
+        &TEMP_FILES,
         &plot::sphere_figure(&rows),
     )?);
     files.extend(plot::write_figure(
         &out.join("torus_distance"),
+        &TEMP_FILES,
         &plot::torus_figure(&rows),
     )?);
     Ok(SweepOutput { rows, json, files })

@@ -9,11 +9,12 @@ use clap::Args;
 
 use super::common::{human_bytes, human_count, tessellation_need, whole_number, MemoryArgs};
 use super::progress;
+use super::TEMP_FILES;
 use super::{BackendArgs, InputArgs};
+use crate::io::atomic;
+use crate::io::writers::{write_stitched, MeshFormat};
 use crate::mesh::creases::split_ends;
 use crate::mesh::{Adjacency, Mesh};
-use crate::output::atomic;
-use crate::output::writers::{write_stitched, MeshFormat};
 use crate::patch::PatchTable;
 use crate::tess::adaptive::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
 use crate::tess::stitch::{stitch_into, StitchPlan};
@@ -165,10 +166,18 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     };
     let bar = progress::bar(plan.patches() as u64, "evaluating", "patches", a.quiet);
     let mut snap = 0.0;
-    write_stitched::<[f32; 3]>(&a.output, format, &plan, &title, &bar, &mut |sink| {
-        snap = stitch_into(&plan, &table, evaluator.as_ref(), sink, &bar)?;
-        Ok(())
-    })?;
+    write_stitched::<[f32; 3]>(
+        &a.output,
+        &TEMP_FILES,
+        format,
+        &plan,
+        &title,
+        &bar,
+        &mut |sink| {
+            snap = stitch_into(&plan, &table, evaluator.as_ref(), sink, &bar)?;
+            Ok(())
+        },
+    )?;
     bar.finish();
     let done = Tessellated {
         mesh: &mesh,

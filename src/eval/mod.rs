@@ -1,8 +1,8 @@
-//! Evaluation of patch tables: one interface, a CPU backend (f64 reference, rayon) and a
-//! GPU backend (wgpu compute). Results stream to the consumer chunk by chunk.
+//! Evaluation of patch tables: one interface, [`Evaluator`], and the CPU backend (f64
+//! reference, rayon); the GPU backend (wgpu compute) is [`crate::gpu::eval`], a layer up.
+//! Results stream to the consumer chunk by chunk.
 
 pub mod cpu;
-pub mod gpu;
 pub mod pattern;
 
 use glam::DVec3;
@@ -14,6 +14,40 @@ pub use pattern::{
 
 use crate::patch::PatchTable;
 use crate::Result;
+
+/// Working precision of the GPU shaders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum Precision {
+    /// 32-bit floats: every adapter.
+    F32,
+    /// 64-bit floats: adapters with `SHADER_F64` (lavapipe has it).
+    F64,
+}
+
+impl Precision {
+    /// Bytes of one real.
+    pub fn bytes(self) -> usize {
+        match self {
+            Precision::F32 => 4,
+            Precision::F64 => 8,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        }
+    }
+}
+
+impl std::fmt::Display for Precision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
 
 /// A contiguous run of evaluated samples, in the precision the consumer asked for: `DVec3`
 /// (the f64 reference, [`Evaluator::evaluate`]) or `[f32; 3]` ([`ChunkF32`],
@@ -283,7 +317,7 @@ pub trait Evaluator {
     /// The working precision when this evaluator runs on a GPU (its device can then
     /// tessellate in place, see [`crate::gpu::tessellator`]); `None` for the CPU, or a GPU
     /// backend that could not open (its evaluation then reports why).
-    fn gpu_precision(&self) -> Option<crate::gpu::Precision> {
+    fn gpu_precision(&self) -> Option<Precision> {
         None
     }
 

@@ -3,7 +3,7 @@
 //! [`GpuContext`] opens a **Vulkan** adapter (never another backend, never silently GL),
 //! requests its full limits and [`wgpu::Features::SHADER_F64`] where offered, and records
 //! the adapter's name and driver for reports. Work is done by free functions taking
-//! `(&Device, &Queue, ...)` (see [`crate::eval::gpu`]), so tests and other modules (picture
+//! `(&Device, &Queue, ...)` (see [`crate::gpu::eval`]), so tests and other modules (picture
 //! rendering) can reuse one context:
 //!
 //! ```no_run
@@ -18,51 +18,20 @@
 //! wgpu's default panic) and turned into [`Error::Gpu`] by [`GpuContext::check`]; results
 //! come back through [`read_buffer`] (map, wait, copy out, unmap, errors as `Result`s).
 
+pub mod eval;
 pub mod readback;
+pub mod screen;
 pub mod shaders;
 pub mod stats;
 pub mod tessellator;
 
+pub use crate::eval::Precision;
 pub use readback::read_buffer;
 pub use tessellator::GpuTessellator;
 
 use std::sync::{Arc, Mutex, OnceLock};
 
 use crate::{Error, Result};
-
-/// Working precision of the GPU shaders.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
-#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
-#[serde(rename_all = "kebab-case")]
-pub enum Precision {
-    /// 32-bit floats: every adapter.
-    F32,
-    /// 64-bit floats: adapters with `SHADER_F64` (lavapipe has it).
-    F64,
-}
-
-impl Precision {
-    /// Bytes of one real.
-    pub fn bytes(self) -> usize {
-        match self {
-            Precision::F32 => 4,
-            Precision::F64 => 8,
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Precision::F32 => "f32",
-            Precision::F64 => "f64",
-        }
-    }
-}
-
-impl std::fmt::Display for Precision {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
 
 /// An open Vulkan device with its queue, the adapter's description and limits.
 pub struct GpuContext {

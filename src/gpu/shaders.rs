@@ -6,7 +6,7 @@
 //!
 //! Shaders are chosen by [`PatchKind`] alone, never by scheme: every scheme whose table has
 //! a given kind (phong, nagata and nlsa all build `Bezier(2)`) runs the same module and, in
-//! [`crate::eval::gpu::GpuEvaluator`], the same pipelines.
+//! [`crate::gpu::eval::GpuEvaluator`], the same pipelines.
 
 use crate::patch::basis::MAX_POINTS;
 use crate::patch::{PatchKind, MIN_NORMAL_LEN_F32, MIN_NORMAL_LEN_F64};

@@ -3,24 +3,24 @@
 //! of 64 samples comes back, merged on the host in f64 as the CPU statistics merge their
 //! blocks (Chan et al.'s pairwise update of mean and M2).
 //!
-//! The result agrees with [`crate::output::stats::stats_report`] on the CPU evaluator
+//! The result agrees with [`crate::analysis::stats::stats_report`] on the CPU evaluator
 //! within the working precision (`tests/gpu.rs` derives the bounds); in f64 (adapters with
 //! `SHADER_F64`, lavapipe has it) to a few f64 ulps of each value.
 //!
 //! The patches come from a whole [`PatchTable`]; each dispatch uploads only the patches its
 //! edges use.
 
-use crate::eval::gpu::{
+use crate::analysis::stats::{edge_pairs, Continuity, CosStats, SAMPLES_PER_EDGE};
+use crate::eval::EdgePairs;
+use crate::gpu::eval::{
     bind_group_layout, dispatch, push_patch_data, shader_module, Buffers, GpuEvaluator, Params,
     Real, WORKGROUP,
 };
-use crate::eval::EdgePairs;
 use crate::gpu::readback::read_buffer;
 use crate::gpu::shaders::{self, CREASE_BIT, STATS_REALS};
 use crate::gpu::Precision;
 use crate::mesh::creases::normal_key;
 use crate::mesh::{Adjacency, Mesh};
-use crate::output::stats::{edge_pairs, Continuity, CosStats, SAMPLES_PER_EDGE};
 use crate::patch::PatchTable;
 use crate::{Error, Result};
 

@@ -1,5 +1,5 @@
 //! Lagrange triangles of order P in Gmsh's node order, and the Bernstein bound of their
-//! Jacobian: what `export-msh` writes and measures (`output::msh`), and what the fold
+//! Jacobian: what `export-msh` writes and measures (`io::msh`), and what the fold
 //! repair checks a G1 patch's cubic element with (`patch::repair`).
 
 use glam::DVec3;

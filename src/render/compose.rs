@@ -7,7 +7,8 @@ use std::path::Path;
 use plotters::prelude::*;
 
 use super::{ramp, Panels};
-use crate::output::plot::{register_font, write_png_rgb};
+use crate::io::plot::{register_font, write_png_rgb};
+use crate::io::TempFiles;
 use crate::{Error, Result};
 
 /// One row of a picture: a label (the scheme) and its panels.
@@ -21,8 +22,9 @@ const TITLE: u32 = 34;
 const LEGEND: u32 = 70;
 
 /// Composes rows of panels under `caption`, each panel titled n_x, n_y, n_z, with the
-/// colour ramp's legend below, and writes a PNG to `path` atomically.
-pub fn write_png(path: &Path, caption: &str, rows: &[Row]) -> Result<()> {
+/// colour ramp's legend below, and writes a PNG to `path` atomically (the temporary file
+/// listed in `temp`).
+pub fn write_png(path: &Path, temp: &TempFiles, caption: &str, rows: &[Row]) -> Result<()> {
     let panel = rows
         .first()
         .map(|r| r.panels.panel)
@@ -102,5 +104,5 @@ pub fn write_png(path: &Path, caption: &str, rows: &[Row]) -> Result<()> {
         root.present().map_err(|e| e.to_string())
     })();
     drawn.map_err(|e| Error::io(path, std::io::Error::other(format!("drawing failed: {e}"))))?;
-    write_png_rgb(path, width, height, &rgb)
+    write_png_rgb(path, temp, width, height, &rgb)
 }

@@ -4,14 +4,14 @@
 //! view.
 //!
 //! [`edge_level`] is the computation; `shaders/levels.wgsl` mirrors it on the GPU
-//! (`edge_level` there), and [`crate::tess::screen_gpu`] fills a per-edge level buffer on
+//! (`edge_level` there), and [`crate::gpu::screen`] fills a per-edge level buffer on
 //! the device with it.
 
 use glam::{DMat4, DVec3};
 
 use crate::mesh::{Adjacency, Mesh};
-use crate::tess::adaptive::{InnerRule, Levels};
 use crate::tess::layout::MAX_LEVEL;
+use crate::tess::levels::{InnerRule, Levels};
 use crate::{Error, Result};
 
 /// Clip-space w at or below which a point counts as behind the eye.

@@ -58,8 +58,8 @@ use crate::mesh::creases::{normal_key, split_ends};
 use crate::mesh::{Adjacency, CornerAttributes, Mesh};
 use crate::patch::PatchTable;
 use crate::progress::{NoProgress, Progress};
-use crate::tess::adaptive::Levels;
 use crate::tess::layout;
+use crate::tess::levels::Levels;
 use crate::{Error, Result};
 
 const NONE: u32 = u32::MAX;

@@ -98,7 +98,7 @@ pub fn ci() -> bool {
 /// adapter fails; otherwise the GPU entries are absent and a NOTE line says so.
 pub fn evaluators() -> Vec<(String, Box<dyn g1tess::eval::Evaluator>)> {
     use g1tess::eval::cpu::{CpuEvaluator, F32Kernel};
-    use g1tess::eval::gpu::GpuEvaluator;
+    use g1tess::gpu::eval::GpuEvaluator;
     use g1tess::gpu::{GpuContext, Precision};
     let mut out: Vec<(String, Box<dyn g1tess::eval::Evaluator>)> = Vec::new();
     for kernel in [F32Kernel::Auto, F32Kernel::Portable] {

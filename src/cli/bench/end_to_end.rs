@@ -6,12 +6,13 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::{cpu_model, load_mesh, BenchArgs, DEFAULT_MESH};
+use crate::analysis::stats::stats_report;
 use crate::cli::common::tessellation_need;
+use crate::cli::TEMP_FILES;
 use crate::eval::cpu::{CpuEvaluator, F32Kernel};
 use crate::eval::grid_len;
+use crate::io::writers::{ply_file_bytes, write_stitched, MeshFormat};
 use crate::mesh::{LoadOptions, Mesh};
-use crate::output::stats::stats_report;
-use crate::output::writers::{ply_file_bytes, write_stitched, MeshFormat};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 use crate::progress::NoProgress;
 use crate::tess::stitch::{stitch_into, CountingSink, StitchPlan};
@@ -97,7 +98,7 @@ fn plain_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
 fn piped_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
     use std::io::Write;
     let block = vec![0x5au8; 1 << 20];
-    crate::output::atomic::write_atomic_piped(path, |w| {
+    crate::io::atomic::write_atomic_piped(path, &TEMP_FILES, |w| {
         let mut left = bytes;
         while left > 0 {
             let n = left.min(block.len() as u64) as usize;
@@ -420,6 +421,7 @@ fn time_file_writes(
         let t = timed(|| {
             write_stitched::<[f32; 3]>(
                 &ply.0,
+                &TEMP_FILES,
                 MeshFormat::Ply,
                 plan,
                 "bench",
@@ -455,6 +457,7 @@ fn time_obj_loading(
     let obj = temp.file("obj");
     write_stitched::<[f32; 3]>(
         &obj.0,
+        &TEMP_FILES,
         MeshFormat::Obj,
         obj_plan,
         "bench",

@@ -1,7 +1,7 @@
 //! Construction of the tessellator (its pipelines, uploads and bind groups) and the
 //! buffers it keeps: made padded, grown when a level needs more, rebound when grown.
 
-use crate::eval::gpu::{push_patch_data, Params, Real};
+use crate::gpu::eval::{push_patch_data, Params, Real};
 use crate::gpu::{shaders, Precision};
 use crate::mesh::Mesh;
 use crate::patch::PatchTable;

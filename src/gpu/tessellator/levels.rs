@@ -1,8 +1,8 @@
 //! Per-edge tessellation: a level per edge and an inner level per patch, numbered and
 //! triangulated on the device (module documentation of the parent, "Per-edge levels").
 
-use crate::eval::gpu::{basis_table, Params, Real};
 use crate::eval::grid_barycentrics;
+use crate::gpu::eval::{basis_table, Params, Real};
 use crate::gpu::Precision;
 use crate::patch::PatchKind;
 use crate::tess::adaptive::{InnerRule, Levels};
@@ -19,7 +19,7 @@ use super::{level_grid_base, GpuTessellator, Topology, MAX_GRID_TABLE_BYTES, VER
 #[derive(Clone, Copy, Debug)]
 pub enum LevelSource<'a> {
     /// A device buffer (`STORAGE`) of one u32 level per edge of the mesh's adjacency, as
-    /// [`crate::tess::screen_gpu::LevelPass`] writes it; inner levels by `rule`. Levels are
+    /// [`crate::gpu::screen::LevelPass`] writes it; inner levels by `rule`. Levels are
     /// clamped to 1..=max_level on the device.
     Device {
         levels: &'a wgpu::Buffer,
@@ -357,7 +357,7 @@ impl GpuTessellator {
     /// use g1tess::gpu::tessellator::LevelSource;
     /// use g1tess::tess::adaptive::InnerRule;
     /// use g1tess::tess::screen::ScreenView;
-    /// use g1tess::tess::screen_gpu::{LevelParams, LevelPass};
+    /// use g1tess::gpu::screen::{LevelParams, LevelPass};
     ///
     /// let pass = LevelPass::new(device)?; // once
     /// let max_level = 16;

@@ -1,7 +1,7 @@
 //! Uniform tessellation: one grid level for every patch, and the surface's extent.
 
-use crate::eval::gpu::{basis_table, Params, Real};
 use crate::eval::{grid_barycentrics, grid_len};
+use crate::gpu::eval::{basis_table, Params, Real};
 use crate::gpu::Precision;
 use crate::patch::PatchKind;
 use crate::{Error, Result};

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::atomic::write_atomic;
+use super::atomic::{write_atomic, TempFiles};
 use crate::mesh::Mesh;
 use crate::patch::basis::{bezier_powers, g1_boundary_powers};
 use crate::patch::{PatchKind, PatchTable};
@@ -88,8 +88,8 @@ fn kind_name(kind: PatchKind) -> &'static str {
 }
 
 /// Writes the control nets of `table` (built on `mesh`) to `path`, atomically, one patch
-/// at a time.
-pub fn write_nets(path: &Path, mesh: &Mesh, table: &PatchTable) -> Result<()> {
+/// at a time (the temporary file listed in `temp`).
+pub fn write_nets(path: &Path, temp: &TempFiles, mesh: &Mesh, table: &PatchTable) -> Result<()> {
     // JSON has no infinities: serde_json would write `null`. Tables are built finite, so
     // this only guards a table assembled by hand.
     if let Some(i) = table.points.iter().position(|p| !p.is_finite()) {
@@ -115,7 +115,7 @@ pub fn write_nets(path: &Path, mesh: &Mesh, table: &PatchTable) -> Result<()> {
         "patch_count": table.len(),
     });
     let header = header.to_string();
-    write_atomic(path, |w| {
+    write_atomic(path, temp, |w| {
         // The header's fields, then the arrays, streamed.
         w.write_all(&header.as_bytes()[..header.len() - 1])?;
         w.write_all(b",\n\"vertices\":[")?;

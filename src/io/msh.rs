@@ -42,7 +42,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::atomic::write_atomic_with;
+use super::atomic::{write_atomic_with, TempFiles};
 use crate::mesh::{creases, EdgeUse, Mesh};
 use crate::patch::basis::Weights;
 use crate::patch::PatchTable;
@@ -489,18 +489,19 @@ impl MshSummary {
 }
 
 /// Builds the curved mesh of `order` ([`build`]) and writes it to `path` as MSH 4.1
-/// (binary or ASCII), atomically; returns the summary.
+/// (binary or ASCII), atomically (the temporary file listed in `temp`); returns the summary.
 pub fn export_msh(
     mesh: &Mesh,
     table: &PatchTable,
     order: u32,
     binary: bool,
     path: &Path,
+    temp: &TempFiles,
     progress: &dyn Progress,
 ) -> Result<MshSummary> {
     let ho = build(mesh, table, order, progress)?;
     let title = format!("{} ({}, order {order})", mesh.name, table.scheme);
-    write_atomic_with(path, |w| {
+    write_atomic_with(path, temp, |w| {
         write_msh(w, &ho, binary, &title).map_err(|e| Error::io(path, e))
     })?;
     Ok(MshSummary::new(mesh, table, &ho, binary))

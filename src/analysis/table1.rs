@@ -1,9 +1,9 @@
 //! Table 1 of the paper: the continuity protocol of [`super::stats`] run for every scheme
 //! on each mesh, rendered as markdown beside the values the paper printed.
 
+use crate::analysis::stats::{EdgeStats, StatsReport};
 use crate::eval::Evaluator;
 use crate::mesh::{LoadOptions, Mesh};
-use crate::output::stats::{EdgeStats, StatsReport};
 use crate::patch::{Scheme, SchemeOptions};
 use crate::Result;
 

@@ -43,7 +43,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::atomic::{write_atomic_piped, PipedWriter, PIPED_BYTES};
+use super::atomic::{write_atomic_piped, PipedWriter, TempFiles, PIPED_BYTES};
 use crate::eval::{grid_len, grid_triangles, Vector};
 use crate::progress::Progress;
 use crate::tess::stitch::{Needs, PatchOut, RecordAttributes, StitchPlan, StitchSink};
@@ -186,9 +186,11 @@ trait FormatWriter<V> {
 /// precision `V`. `produce` must run the evaluation and feed every patch, in order, to the
 /// sink it is given (see [`crate::tess::stitch::stitch_into`], which also reports the
 /// evaluation to `progress`). `title` goes into the file's comment/header. PLY and glTF
-/// report a second phase, "writing faces", over the patches.
+/// report a second phase, "writing faces", over the patches. The temporary file is listed
+/// in `temp` while it exists.
 pub fn write_stitched<V: Vector>(
     path: &Path,
+    temp: &TempFiles,
     format: MeshFormat,
     plan: &StitchPlan,
     title: &str,
@@ -227,7 +229,7 @@ pub fn write_stitched<V: Vector>(
             max: [f32::NEG_INFINITY; 3],
         }),
     };
-    write_atomic_piped(path, |w| {
+    write_atomic_piped(path, temp, |w| {
         let io = |e: io::Error| Error::io(path, e);
         writer.begin(w).map_err(io)?;
         struct Adapter<'w, 'x, V> {

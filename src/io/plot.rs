@@ -9,8 +9,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use super::atomic::{write_atomic, write_atomic_with};
-use super::distance::{Series, SweepRow};
+use super::atomic::{write_atomic, write_atomic_with, TempFiles};
+use crate::analysis::distance::{Series, SweepRow};
 use crate::patch::Scheme;
 use crate::{Error, Result};
 
@@ -27,8 +27,14 @@ pub fn register_font() {
 }
 
 /// Writes `rgb` (`width` × `height` pixels, 3 bytes each, rows top to bottom) as an 8-bit
-/// RGB PNG to `path`, atomically.
-pub fn write_png_rgb(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+/// RGB PNG to `path`, atomically (the temporary file listed in `temp`).
+pub fn write_png_rgb(
+    path: &Path,
+    temp: &TempFiles,
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+) -> Result<()> {
     if rgb.len() != width as usize * height as usize * 3 {
         return Err(Error::Invalid(format!(
             "{}: {} bytes are not a {width} x {height} RGB picture",
@@ -39,7 +45,7 @@ pub fn write_png_rgb(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result
     let err = |e: png::EncodingError| {
         Error::io(path, std::io::Error::other(format!("PNG encoding: {e}")))
     };
-    write_atomic_with(path, |w| {
+    write_atomic_with(path, temp, |w| {
         let mut enc = png::Encoder::new(w, width, height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
@@ -228,8 +234,9 @@ where
     root.present().map_err(|e| e.to_string())
 }
 
-/// Writes `fig` as `stem.png` and `stem.svg` (each atomically); returns both paths.
-pub fn write_figure(stem: &Path, fig: &Figure) -> Result<[PathBuf; 2]> {
+/// Writes `fig` as `stem.png` and `stem.svg` (each atomically, the temporary files listed
+/// in `temp`); returns both paths.
+pub fn write_figure(stem: &Path, temp: &TempFiles, fig: &Figure) -> Result<[PathBuf; 2]> {
     register_font();
     let size = (
         fig.panel_size.0 * fig.panels.len().max(1) as u32,
@@ -248,7 +255,9 @@ pub fn write_figure(stem: &Path, fig: &Figure) -> Result<[PathBuf; 2]> {
     if !text.contains("<text") {
         return Err(plot_err(&svg, "no text was drawn (font not registered)"));
     }
-    write_atomic(&svg, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+    write_atomic(&svg, temp, |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+    })?;
 
     // PNG: drawn into an RGB buffer, then encoded into the file atomically.
     let mut rgb = vec![255u8; size.0 as usize * size.1 as usize * 3];
@@ -257,7 +266,7 @@ pub fn write_figure(stem: &Path, fig: &Figure) -> Result<[PathBuf; 2]> {
         fig,
     )
     .map_err(|e| plot_err(&png, e))?;
-    write_png_rgb(&png, size.0, size.1, &rgb)?;
+    write_png_rgb(&png, temp, size.0, size.1, &rgb)?;
     Ok([png, svg])
 }
 

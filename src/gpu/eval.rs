@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{grid_barycentrics, grid_len, Chunk, ChunkF32, Evaluator, PatchPoint, Pattern};
+use crate::eval::{grid_barycentrics, grid_len, Chunk, ChunkF32, Evaluator, PatchPoint, Pattern};
 use crate::gpu::readback::read_buffer_after;
 use crate::gpu::shaders::{self, SLOT_CORNERS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO};
 use crate::gpu::{GpuContext, Precision};

@@ -2,11 +2,11 @@
 //! interrupted run never leaves a truncated file.
 //!
 //! - The temporary file is `.NAME.tmp-PID` in the target's folder (NAME the target's file
-//!   name, PID the writing process). Every live temporary file is listed in a registry
-//!   ([`live_temp_files`]); a program that handles signals removes them with
-//!   [`remove_live_temp_files`] before it exits (the command line does, on SIGINT and
-//!   SIGTERM). A process killed outright (SIGKILL, power loss) leaves its `.NAME.tmp-PID`
-//!   behind; the target is then untouched.
+//!   name, PID the writing process). Every live temporary file is listed in the
+//!   [`TempFiles`] the caller passes ([`TempFiles::live_temp_files`]); a program that
+//!   handles signals removes them with [`TempFiles::remove_live_temp_files`] before it
+//!   exits (the command line does, on SIGINT and SIGTERM). A process killed outright
+//!   (SIGKILL, power loss) leaves its `.NAME.tmp-PID` behind; the target is then untouched.
 //! - Only regular files are replaced: a target that is a directory, a device, a FIFO or a
 //!   socket is refused ([`resolve_output`]).
 //! - A symbolic link is written through: the temporary file goes beside the link's final
@@ -16,53 +16,59 @@
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use crate::{Error, Result};
 
 /// Temporary files being written, and whether new ones are still allowed.
+#[derive(Debug, Default)]
 struct Registry {
     live: Vec<PathBuf>,
     closed: bool,
 }
 
-static REGISTRY: Mutex<Registry> = Mutex::new(Registry {
-    live: Vec::new(),
-    closed: false,
-});
+/// The list of temporary files that atomic writes are writing now, owned by the caller and
+/// passed to every write ([`write_atomic`] and the writers built on it). Clones share one
+/// list: a program that handles signals keeps one handle, gives it to all its writes and
+/// calls [`TempFiles::remove_live_temp_files`] from its handler. A caller that does not
+/// handle signals passes a fresh one (`&TempFiles::default()`).
+#[derive(Clone, Debug, Default)]
+pub struct TempFiles(Arc<Mutex<Registry>>);
 
-fn registry() -> std::sync::MutexGuard<'static, Registry> {
-    REGISTRY.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-/// The temporary files this process is writing now.
-pub fn live_temp_files() -> Vec<PathBuf> {
-    registry().live.clone()
-}
-
-/// Removes every live temporary file and refuses new ones from now on (a write started
-/// afterwards fails). For a signal handler's thread, just before the process exits; returns
-/// the files removed.
-pub fn remove_live_temp_files() -> Vec<PathBuf> {
-    let mut r = registry();
-    r.closed = true;
-    let live = std::mem::take(&mut r.live);
-    live.into_iter()
-        .filter(|p| std::fs::remove_file(p).is_ok())
-        .collect()
-}
-
-fn register(tmp: &Path) -> bool {
-    let mut r = registry();
-    if r.closed {
-        return false;
+impl TempFiles {
+    fn registry(&self) -> std::sync::MutexGuard<'_, Registry> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
     }
-    r.live.push(tmp.to_path_buf());
-    true
-}
 
-fn unregister(tmp: &Path) {
-    registry().live.retain(|p| p != tmp);
+    /// The temporary files being written through this list now.
+    pub fn live_temp_files(&self) -> Vec<PathBuf> {
+        self.registry().live.clone()
+    }
+
+    /// Removes every live temporary file and refuses new ones from now on (a write started
+    /// afterwards fails). For a signal handler's thread, just before the process exits;
+    /// returns the files removed.
+    pub fn remove_live_temp_files(&self) -> Vec<PathBuf> {
+        let mut r = self.registry();
+        r.closed = true;
+        let live = std::mem::take(&mut r.live);
+        live.into_iter()
+            .filter(|p| std::fs::remove_file(p).is_ok())
+            .collect()
+    }
+
+    fn register(&self, tmp: &Path) -> bool {
+        let mut r = self.registry();
+        if r.closed {
+            return false;
+        }
+        r.live.push(tmp.to_path_buf());
+        true
+    }
+
+    fn unregister(&self, tmp: &Path) {
+        self.registry().live.retain(|p| p != tmp);
+    }
 }
 
 /// Whether `path` names standard output (`-`).
@@ -172,12 +178,13 @@ pub fn refuse_same_file(output: &Path, input: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Writes `path` atomically through `f`, which receives a buffered writer.
-pub fn write_atomic<F>(path: &Path, f: F) -> Result<()>
+/// Writes `path` atomically through `f`, which receives a buffered writer; the temporary
+/// file is listed in `temp` while it exists.
+pub fn write_atomic<F>(path: &Path, temp: &TempFiles, f: F) -> Result<()>
 where
     F: FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 {
-    write_atomic_with(path, |w| f(w).map_err(|e| Error::io(path, e)))
+    write_atomic_with(path, temp, |w| f(w).map_err(|e| Error::io(path, e)))
 }
 
 /// Standard output as a [`File`] (a duplicate of descriptor 1).
@@ -203,7 +210,7 @@ fn stdout_file(path: &Path) -> Result<File> {
 /// into the file, say): on any failure the temporary file is removed and the target is
 /// left as it was. See the module documentation for symbolic links, non-regular targets
 /// and `-`.
-pub fn write_atomic_with<F>(path: &Path, f: F) -> Result<()>
+pub fn write_atomic_with<F>(path: &Path, temp: &TempFiles, f: F) -> Result<()>
 where
     F: FnOnce(&mut BufWriter<File>) -> Result<()>,
 {
@@ -213,7 +220,7 @@ where
         f(&mut w)?;
         return w.flush().map_err(io);
     }
-    replace_atomically(path, |file| {
+    replace_atomically(path, temp, |file| {
         let mut w = BufWriter::with_capacity(1 << 20, file);
         f(&mut w)?;
         w.into_inner().map_err(|e| io(e.into_error()))
@@ -224,7 +231,7 @@ where
 /// the page cache) happen on a thread of their own, in large blocks, while `f` goes on
 /// producing. For a producer that is itself the bottleneck (a surface evaluated and
 /// encoded as it is written). The same temporary file, fsync and rename.
-pub fn write_atomic_piped<F>(path: &Path, f: F) -> Result<()>
+pub fn write_atomic_piped<F>(path: &Path, temp: &TempFiles, f: F) -> Result<()>
 where
     F: FnOnce(&mut PipedWriter) -> Result<()>,
 {
@@ -234,7 +241,7 @@ where
         f(&mut w)?;
         return w.finish().map(drop).map_err(io);
     }
-    replace_atomically(path, |file| {
+    replace_atomically(path, temp, |file| {
         let mut w = PipedWriter::spawn(file);
         f(&mut w)?;
         w.finish().map_err(io)
@@ -243,8 +250,12 @@ where
 
 /// Writes the target of `path` through a temporary file: `write` gets the new file and
 /// gives it back written; then fsync and rename. On any failure the temporary file is
-/// removed.
-fn replace_atomically(path: &Path, write: impl FnOnce(File) -> Result<File>) -> Result<()> {
+/// removed. The temporary file is listed in `temp` while it exists.
+fn replace_atomically(
+    path: &Path,
+    temp: &TempFiles,
+    write: impl FnOnce(File) -> Result<File>,
+) -> Result<()> {
     let io = |e: std::io::Error| Error::io(path, e);
     let target = resolve_output(path)?;
     let dir = match target.parent() {
@@ -259,7 +270,7 @@ fn replace_atomically(path: &Path, write: impl FnOnce(File) -> Result<File>) -> 
         name.to_string_lossy(),
         std::process::id()
     ));
-    if !register(&tmp) {
+    if !temp.register(&tmp) {
         return Err(Error::Invalid(format!(
             "{}: not written (the process is exiting)",
             path.display()
@@ -278,7 +289,7 @@ fn replace_atomically(path: &Path, write: impl FnOnce(File) -> Result<File>) -> 
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
-    unregister(&tmp);
+    temp.unregister(&tmp);
     result
 }
 
