@@ -74,7 +74,6 @@ impl CompareArgs {
             &self.schemes(),
             &SchemeOptions {
                 phong_alpha: self.phong_alpha,
-                ..Default::default()
             },
             self.backend.evaluator(crate::gpu::Precision::F64)?.as_ref(),
         )?)

@@ -12,9 +12,15 @@ use crate::mesh::Mesh;
 use crate::patch::validity::Verdict;
 use crate::Result;
 
-/// What [`Search::split_fin`] set: the groups, and the corners whose normal must stay
-/// perpendicular to a fin edge's direction (corner, direction).
-type FinSplit = (Vec<u32>, Vec<(u32, DVec3)>);
+/// Corners whose normal must stay perpendicular to a fin edge's direction (corner,
+/// direction).
+type Pins = Vec<(u32, DVec3)>;
+
+/// What [`Search::split_fin`] set: the groups, and the corners it pinned.
+type FinSplit = (Vec<u32>, Pins);
+
+/// Groups with the directions of the fin edges their normal must be perpendicular to.
+type EdgeDirections = Vec<(u32, Vec<DVec3>)>;
 
 impl Search<'_> {
     /// Each doubled triangle with a copy uncertified is split off the surface
@@ -160,8 +166,8 @@ fn fin_constraints(
     groups: &Groups,
     pair: [u32; 2],
     tri: [u32; 3],
-) -> (Vec<(u32, Vec<DVec3>)>, Vec<(u32, DVec3)>) {
-    let mut dirs: Vec<(u32, Vec<DVec3>)> = Vec::new();
+) -> (EdgeDirections, Pins) {
+    let mut dirs: EdgeDirections = Vec::new();
     let mut pins = Vec::new();
     for k in 0..3 {
         let (a, b) = (tri[k], tri[(k + 1) % 3]);

@@ -17,10 +17,11 @@ pub(super) struct Groups {
     pub(super) vertex: Vec<u32>,
     /// Groups of each vertex.
     pub(super) at_vertex: Vec<Vec<u32>>,
-    /// Groups whose normal no later step of the search changes (those of
-    /// [`isolate_sliver`]); only the last pass moves them back towards their input.
+    /// Groups whose normal no later step of the search changes (those of an isolated
+    /// triangle, `fallback.rs`, and of a split fin, `fins.rs`); only the last passes move
+    /// the isolated ones back towards their input.
     pub(super) frozen: HashSet<u32>,
-    /// Vertices of the doubled triangles split off the surface ([`split_fin`]): the passes
+    /// Vertices of the doubled triangles split off the surface (`fins.rs`): the passes
     /// that move normals back leave every group there alone, and the flattening makes
     /// every corner there flat.
     pub(super) fins: HashSet<u32>,
