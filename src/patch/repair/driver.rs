@@ -25,7 +25,7 @@ pub(super) enum Plan {
 }
 
 /// The search splitting the doubled triangles ([`Search::split_fins`]), or, where the
-/// search then breaks what keeps a fin's shared edges straight (none of the meshes here),
+/// search then breaks what keeps a fin's shared edges straight (checked at the end),
 /// without.
 pub(super) fn plan(mesh: &Mesh, scheme: Scheme, opts: &SchemeOptions) -> Result<Plan> {
     match plan_with(mesh, scheme, opts, true)? {
