@@ -335,26 +335,6 @@ fn flatten_corner(
 ) -> Result<()> {
     let v = work.triangles[c as usize / 3][c as usize % 3];
     let mut sink = Vec::new();
-    // A flat corner gets its face normal, or bitwise the normal of a flat corner at the
-    // vertex with the same face normal to 1e-9 radians (the other half of a planar quad):
-    // the crease direction between two such normals would be their rounding error, their
-    // common normal keeps the edge between them smooth, and straight.
-    let make_flat = |work: &mut Mesh, groups: &mut Groups, x: u32, sink: &mut Vec<u32>| {
-        let f = faces[x as usize / 3];
-        let twin = groups.at_vertex[v as usize]
-            .iter()
-            .map(|&h| groups.corners(h)[0])
-            .filter(|&c| c != x && flat_corner(work, groups, faces, c))
-            .map(|c| work.corner_normals[c as usize / 3][c as usize % 3])
-            .find(|&n| parallel(n, f));
-        let g = groups.of_corner[x as usize];
-        let g = if groups.corners(g).len() > 1 {
-            groups.split(g, &[x])
-        } else {
-            g
-        };
-        set_group(work, groups, g, twin.unwrap_or(f), sink);
-    };
     let all: Vec<u32> = groups.at_vertex[v as usize]
         .iter()
         .flat_map(|&g| groups.corners(g).iter().copied())
@@ -364,115 +344,181 @@ fn flatten_corner(
     let fin = groups.fins.contains(&v);
     let Some((order, closed)) = fan_order(work, &all).filter(|_| !fin) else {
         for x in all {
-            make_flat(work, groups, x, &mut sink);
+            make_flat(work, groups, faces, x, &mut sink);
         }
         return Ok(());
     };
-    make_flat(work, groups, c, &mut sink);
-    let n = order.len();
+    make_flat(work, groups, faces, c, &mut sink);
     let Some(at) = order.iter().position(|&x| x == c) else {
         return Ok(());
     };
     let mut ring: Vec<u32> = all.iter().map(|&x| x / 3).collect();
     ring.sort_unstable();
     ring.dedup();
-    // Fan positions as offsets from `at` in a closed fan; plain indices in an open one.
-    let step = |i: usize, d: isize| -> Option<usize> {
-        if closed {
+    let fan = Fan {
+        v,
+        order,
+        closed,
+        at,
+        ring,
+    };
+    for d in [-1isize, 1] {
+        flatten_run(work, groups, faces, cx, &fan, d, &mut sink)?;
+    }
+    Ok(())
+}
+
+/// Makes corner `x` flat: its face normal in a group of its own, or bitwise the normal of
+/// a flat corner at its vertex with the same face normal to 1e-9 radians (the other half
+/// of a planar quad): the crease direction between two such normals would be their
+/// rounding error, their common normal keeps the edge between them smooth, and straight.
+fn make_flat(work: &mut Mesh, groups: &mut Groups, faces: &[DVec3], x: u32, sink: &mut Vec<u32>) {
+    let v = work.triangles[x as usize / 3][x as usize % 3];
+    let f = faces[x as usize / 3];
+    let twin = groups.at_vertex[v as usize]
+        .iter()
+        .map(|&h| groups.corners(h)[0])
+        .filter(|&c| c != x && flat_corner(work, groups, faces, c))
+        .map(|c| work.corner_normals[c as usize / 3][c as usize % 3])
+        .find(|&n| parallel(n, f));
+    let g = groups.of_corner[x as usize];
+    let g = if groups.corners(g).len() > 1 {
+        groups.split(g, &[x])
+    } else {
+        g
+    };
+    set_group(work, groups, g, twin.unwrap_or(f), sink);
+}
+
+/// The corners around vertex `v` in fan order ([`fan_order`]), whether the fan closes,
+/// the position of the corner made flat, and the triangles around `v`.
+struct Fan {
+    v: u32,
+    order: Vec<u32>,
+    closed: bool,
+    at: usize,
+    ring: Vec<u32>,
+}
+
+impl Fan {
+    /// The fan position `d` steps from `i`: modulo the fan's length where it closes,
+    /// `None` past its ends where it does not.
+    fn step(&self, i: usize, d: isize) -> Option<usize> {
+        let n = self.order.len();
+        if self.closed {
             Some((i as isize + d).rem_euclid(n as isize) as usize)
         } else {
             let j = i as isize + d;
             (0..n as isize).contains(&j).then_some(j as usize)
         }
-    };
-    // The edge from `v` shared by fan positions i and i + 1.
-    let edge_dir = |work: &Mesh, i: usize| {
-        let x = order[i] as usize;
+    }
+
+    /// The direction of the edge from `v` shared by fan positions i and i + 1.
+    fn edge_dir(&self, work: &Mesh, i: usize) -> DVec3 {
+        let x = self.order[i] as usize;
         let w = work.triangles[x / 3][(x % 3 + 2) % 3];
-        (work.positions[w as usize] - work.positions[v as usize]).normalize_or_zero()
+        (work.positions[w as usize] - work.positions[self.v as usize]).normalize_or_zero()
+    }
+}
+
+/// The run of the fan next to its flat corner on side `d` (away from it while in one
+/// group and not flat) gets normals perpendicular to the edges it shares with flat
+/// corners ([`flatten_corner`]).
+fn flatten_run(
+    work: &mut Mesh,
+    groups: &mut Groups,
+    faces: &[DVec3],
+    cx: &Checker,
+    fan: &Fan,
+    d: isize,
+    sink: &mut Vec<u32>,
+) -> Result<()> {
+    let (order, n, at) = (&fan.order, fan.order.len(), fan.at);
+    let Some(start) = fan.step(at, d) else {
+        return Ok(());
     };
-    for d in [-1isize, 1] {
-        let Some(start) = step(at, d) else {
-            continue;
-        };
-        let s0 = order[start];
-        if flat_corner(work, groups, faces, s0) {
-            continue;
+    let s0 = order[start];
+    if flat_corner(work, groups, faces, s0) {
+        return Ok(());
+    }
+    let g = groups.of_corner[s0 as usize];
+    // The run: from `start` away from the flat corner while in the same group and not flat.
+    let mut run = vec![start];
+    let mut i = start;
+    while let Some(j) = fan.step(i, d) {
+        if j == at
+            || groups.of_corner[order[j] as usize] != g
+            || flat_corner(work, groups, faces, order[j])
+        {
+            break;
         }
-        let g = groups.of_corner[s0 as usize];
-        // The run: from `start` away from `c` while in the same group and not flat.
-        let mut run = vec![start];
-        let mut i = start;
-        while let Some(j) = step(i, d) {
-            if j == at
-                || groups.of_corner[order[j] as usize] != g
-                || flat_corner(work, groups, faces, order[j])
-            {
-                break;
-            }
-            run.push(j);
-            i = j;
+        run.push(j);
+        i = j;
+    }
+    let far = fan
+        .step(i, d)
+        .filter(|&j| flat_corner(work, groups, faces, order[j]));
+    // In fan order: `run` from the lower end; the edge at each flat end.
+    let (near_edge, far_edge) = if d > 0 {
+        (
+            fan.edge_dir(work, (start + n - 1) % n),
+            far.map(|_| fan.edge_dir(work, i)),
+        )
+    } else {
+        (
+            fan.edge_dir(work, start),
+            far.map(|j| fan.edge_dir(work, j)),
+        )
+    };
+    let corners: Vec<u32> = run.iter().map(|&j| order[j]).collect();
+    // `corners` runs from the flat corner outwards.
+    let h = if groups.corners(g).len() > corners.len() {
+        groups.split(g, &corners)
+    } else {
+        g
+    };
+    let old = groups.normal(work, h);
+    let m = corners.len();
+    if far_edge.is_some() && m == 1 {
+        make_flat(work, groups, faces, corners[0], sink);
+        return Ok(());
+    }
+    let perp = |n: DVec3, e: DVec3| (n - n.dot(e) * e).try_normalize().unwrap_or(n);
+    let central_of = |cs: &[u32]| {
+        let f: Vec<DVec3> = cs.iter().map(|&x| faces[x as usize / 3]).collect();
+        central(&f, old)
+    };
+    // Option j: the first j corners (from the flat corner) perpendicular to the near edge,
+    // the rest perpendicular to the far edge, or keeping their normal.
+    let js: Vec<usize> = match far_edge {
+        Some(_) => (1..m).collect(),
+        None => (1..=m).collect(),
+    };
+    let apply = |work: &mut Mesh, groups: &mut Groups, j: usize, sink: &mut Vec<u32>| {
+        let rest = (j < m).then(|| groups.split(h, &corners[j..]));
+        set_group(
+            work,
+            groups,
+            h,
+            perp(central_of(&corners[..j]), near_edge),
+            sink,
+        );
+        if let (Some(r), Some(e)) = (rest, far_edge) {
+            set_group(work, groups, r, perp(central_of(&corners[j..]), e), sink);
         }
-        let far = step(i, d).filter(|&j| flat_corner(work, groups, faces, order[j]));
-        // In fan order: `run` from the lower end; the edge at each flat end.
-        let (near_edge, far_edge) = if d > 0 {
-            (
-                edge_dir(work, (start + n - 1) % n),
-                far.map(|_| edge_dir(work, i)),
-            )
-        } else {
-            (edge_dir(work, start), far.map(|j| edge_dir(work, j)))
-        };
-        let corners: Vec<u32> = run.iter().map(|&j| order[j]).collect();
-        // `corners` runs from the flat corner `c` outwards.
-        let h = if groups.corners(g).len() > corners.len() {
-            groups.split(g, &corners)
-        } else {
-            g
-        };
-        let old = groups.normal(work, h);
-        let m = corners.len();
-        if far_edge.is_some() && m == 1 {
-            make_flat(work, groups, corners[0], &mut sink);
-            continue;
+        rest
+    };
+    let choice = fewest_uncertified(cx, js.len(), |i| {
+        let rest = apply(work, groups, js[i], sink);
+        let table = cx.ring_table(work, &fan.ring);
+        if let Some(r) = rest {
+            groups.unsplit(h, r);
         }
-        let perp = |n: DVec3, e: DVec3| (n - n.dot(e) * e).try_normalize().unwrap_or(n);
-        let central_of = |cs: &[u32]| {
-            let f: Vec<DVec3> = cs.iter().map(|&x| faces[x as usize / 3]).collect();
-            central(&f, old)
-        };
-        // Option j: the first j corners (from `c`) perpendicular to the near edge, the rest
-        // perpendicular to the far edge, or keeping their normal.
-        let js: Vec<usize> = match far_edge {
-            Some(_) => (1..m).collect(),
-            None => (1..=m).collect(),
-        };
-        let apply = |work: &mut Mesh, groups: &mut Groups, j: usize, sink: &mut Vec<u32>| {
-            let rest = (j < m).then(|| groups.split(h, &corners[j..]));
-            set_group(
-                work,
-                groups,
-                h,
-                perp(central_of(&corners[..j]), near_edge),
-                sink,
-            );
-            if let (Some(r), Some(e)) = (rest, far_edge) {
-                set_group(work, groups, r, perp(central_of(&corners[j..]), e), sink);
-            }
-            rest
-        };
-        let choice = fewest_uncertified(cx, js.len(), |i| {
-            let rest = apply(work, groups, js[i], &mut sink);
-            let table = cx.ring_table(work, &ring);
-            if let Some(r) = rest {
-                groups.unsplit(h, r);
-            }
-            set_group(work, groups, h, old, &mut sink);
-            table
-        })?;
-        if let Some(i) = choice {
-            apply(work, groups, js[i], &mut sink);
-        }
+        set_group(work, groups, h, old, sink);
+        table
+    })?;
+    if let Some(i) = choice {
+        apply(work, groups, js[i], sink);
     }
     Ok(())
 }
