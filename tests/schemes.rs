@@ -206,24 +206,10 @@ fn max_position_difference(a: &PatchTable, b: &PatchTable) -> f64 {
 #[test]
 fn nlsa_is_phong_at_one_half_and_phong_at_zero_is_flat() {
     let mesh = generators::from_spec("torus200").unwrap().unwrap();
-    let half = PatchTable::build(
-        &mesh,
-        Scheme::Phong,
-        &SchemeOptions {
-            phong_alpha: 0.5,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let zero = PatchTable::build(
-        &mesh,
-        Scheme::Phong,
-        &SchemeOptions {
-            phong_alpha: 0.0,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let half =
+        PatchTable::build(&mesh, Scheme::Phong, &SchemeOptions { phong_alpha: 0.5 }).unwrap();
+    let zero =
+        PatchTable::build(&mesh, Scheme::Phong, &SchemeOptions { phong_alpha: 0.0 }).unwrap();
     // Same control points up to the rounding of differently ordered formulas (ε times
     // coordinates below 1.5).
     assert!(max_position_difference(&table(&mesh, Scheme::Nlsa), &half) < 1e-15);
@@ -359,7 +345,6 @@ fn bad_phong_alpha_is_an_error_not_a_nan() {
         Scheme::Phong,
         &SchemeOptions {
             phong_alpha: f64::NAN,
-            ..Default::default()
         },
     );
     let msg = e.unwrap_err().to_string();

@@ -6,7 +6,7 @@ use g1tess::analysis::stats::{continuity, stats_report, Continuity};
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::mesh::generators::icosphere;
 use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::repair::repair;
+use g1tess::patch::repair::{repair, repair_line, RepairOptions, RepairReport};
 use g1tess::patch::validity::{
     check_patch, count, jacobian, PatchCounts, Verdict, QUICK_BLEND_BOUND,
 };
@@ -247,7 +247,7 @@ fn suzanne_repair_certifies_every_patch() {
     // sides), which are forced.
     let suzanne = common::load("suzanne.obj");
     let opts = SchemeOptions::default();
-    let (fixed, r) = repair(&suzanne, Scheme::G1, &opts).unwrap();
+    let (fixed, r) = repair(&suzanne, Scheme::G1, &RepairOptions::default()).unwrap();
     assert_eq!(
         (
             r.before.folded,
@@ -300,7 +300,7 @@ fn suzanne_repair_certifies_every_patch() {
     assert_eq!(largest, r.max_normal_change_deg);
     // The whole mesh's builder (not the search's one-triangle builds) certifies every
     // patch again.
-    let (table, _) = repaired_is_g1_and_watertight(&suzanne, &fixed, opts);
+    let (table, _) = repaired_is_g1_and_watertight(&suzanne, &fixed, &r, opts);
     assert_eq!(count(&table).valid, suzanne.triangles.len());
     // The fin's edge on the surface (its only edge with more than two uses) gives the
     // same points in all four of its uses (the statistics measure two-use edges only).
@@ -486,27 +486,19 @@ fn scaled_arms_are_shared(mesh: &Mesh, edges: usize, range: [f64; 2]) {
     );
 }
 
-/// The table of the repaired mesh `fixed` (of `input`), after checking that the library
-/// option gives it bit for bit (the search builds its patches one triangle at a time,
-/// crease curves included), and its continuity: on every smooth edge the tangent plane is
-/// shared to rounding and no sample's normal turns over (cos < 0); every edge, crease
-/// edges included, is watertight to rounding of the coordinates.
+/// The table of the repaired mesh `fixed` (of `input`, repaired with report `r`), after
+/// checking that the report's changed patches cover every patch that differs from the
+/// input's ([`changed_patches_are_reported`]), and its continuity: on every smooth edge
+/// the tangent plane is shared to rounding and no sample's normal turns over (cos < 0);
+/// every edge, crease edges included, is watertight to rounding of the coordinates.
 fn repaired_is_g1_and_watertight(
     input: &Mesh,
     fixed: &Mesh,
+    r: &RepairReport,
     opts: SchemeOptions,
 ) -> (PatchTable, Continuity) {
     let table = PatchTable::build(fixed, Scheme::G1, &opts).unwrap();
-    let via_option = PatchTable::build(
-        input,
-        Scheme::G1,
-        &SchemeOptions {
-            repair_folds: true,
-            ..opts
-        },
-    )
-    .unwrap();
-    assert_eq!(via_option.points, table.points);
+    changed_patches_are_reported(input, &table, r, opts);
     let c = continuity(fixed, &fixed.adjacency(), &table, &CpuEvaluator::default()).unwrap();
     assert_eq!(c.folded, 0);
     // 1e-12: the issue's bound for G1 (rounding gives about 5e-16).
@@ -521,20 +513,38 @@ fn repaired_is_g1_and_watertight(
     (table, c)
 }
 
+/// The patches of `table` (of the repaired mesh) that differ from `input`'s, bit for bit,
+/// are at most the report's `patches_changed`: the search's one-triangle builds (crease
+/// curves included) give the whole mesh's patches, and its list of changed patches, from
+/// which the report's `after` verdicts and `max_distance` come, misses none. The whole
+/// table's verdicts are the report's `after`.
+fn changed_patches_are_reported(
+    input: &Mesh,
+    table: &PatchTable,
+    r: &RepairReport,
+    opts: SchemeOptions,
+) {
+    let plain = PatchTable::build(input, table.scheme, &opts).unwrap();
+    let differ = (0..table.len())
+        .filter(|&i| plain.patch(i) != table.patch(i))
+        .count();
+    assert!(differ > 0 && differ <= r.patches_changed, "{differ} {r:?}");
+    assert_eq!(count(table), r.after);
+}
+
 #[test]
 fn repair_leaves_a_valid_mesh_bit_for_bit() {
     let mesh = common::load("torus200");
     let plain = SchemeOptions::default();
-    let with = SchemeOptions {
-        repair_folds: true,
-        ..plain
-    };
     for s in [Scheme::G1, Scheme::Pn, Scheme::Phong] {
         let a = PatchTable::build(&mesh, s, &plain).unwrap();
-        let b = PatchTable::build(&mesh, s, &with).unwrap();
+        let (m, r) = repair(&mesh, s, &RepairOptions::default()).unwrap();
+        let b = PatchTable::build(&m, s, &plain).unwrap();
         assert_eq!(a.points, b.points, "{s}");
-        let (m, r) = repair(&mesh, s, &plain).unwrap();
         assert_eq!(m.corner_normals, mesh.corner_normals);
+        assert!(m.attributes.arm_scales.is_none());
+        assert_eq!(r.before, count(&a));
+        assert_eq!(r.after, r.before);
         assert_eq!(r.vertices_touched, 0);
         assert_eq!(r.max_distance, 0.0);
     }
@@ -556,7 +566,7 @@ fn repair_fixes_a_tilted_normal_and_keeps_g1_and_watertight() {
     let opts = SchemeOptions::default();
     let before = count(&PatchTable::build(&mesh, Scheme::G1, &opts).unwrap());
     assert!(before.folded > 0, "{before:?}");
-    let (fixed, r) = repair(&mesh, Scheme::G1, &opts).unwrap();
+    let (fixed, r) = repair(&mesh, Scheme::G1, &RepairOptions::default()).unwrap();
     assert_eq!(r.before, before);
     assert_eq!(r.after.folded + r.after.undecided, 0, "{r:?}");
     assert_eq!(r.vertices_touched, 1);
@@ -579,12 +589,17 @@ fn repair_fixes_a_tilted_normal_and_keeps_g1_and_watertight() {
         r.max_distance > 0.0 && r.max_distance < mesh.diagonal(),
         "{r:?}"
     );
-    let (table, _) = repaired_is_g1_and_watertight(&mesh, &fixed, opts);
+    let (table, _) = repaired_is_g1_and_watertight(&mesh, &fixed, &r, opts);
     assert_eq!(count(&table).valid, fixed.triangles.len());
+    // The repair keeps nothing between calls: a second call searches afresh and finds
+    // bit for bit the same normals and report.
+    let (again, r2) = repair(&mesh, Scheme::G1, &RepairOptions::default()).unwrap();
+    assert_eq!(again.corner_normals, fixed.corner_normals);
+    assert_eq!(r2, r);
 }
 
 #[test]
-fn bunny_repair_counts_are_exact_and_kept_for_the_warning() {
+fn bunny_repair_counts_are_exact_and_make_the_repair_line() {
     // The repair's outcome on the bunny (deterministic): 7 folded before, none folded or
     // undecided after, by the crease-free phase alone: no edge becomes a crease, so G1
     // holds on every edge; 11 vertices move. Two input triangles turn away from every
@@ -592,7 +607,7 @@ fn bunny_repair_counts_are_exact_and_kept_for_the_warning() {
     // vertices get normals facing every triangle around them.
     let bunny = common::load("stanford-bunny.obj");
     let opts = SchemeOptions::default();
-    let (fixed, r) = repair(&bunny, Scheme::G1, &opts).unwrap();
+    let (fixed, r) = repair(&bunny, Scheme::G1, &RepairOptions::default()).unwrap();
     assert_eq!(
         (
             r.before.folded,
@@ -641,14 +656,28 @@ fn bunny_repair_counts_are_exact_and_kept_for_the_warning() {
     // 47.109° (deterministic; to 1e-3° for the printed digits): 8.8° above the bound, at
     // a close corner of the sliver.
     assert!((largest - 47.109).abs() < 1e-3, "{r:?}");
-    let (table, c) = repaired_is_g1_and_watertight(&bunny, &fixed, opts);
+    let (table, c) = repaired_is_g1_and_watertight(&bunny, &fixed, &r, opts);
     // No crease: G1 across every edge (1 − min cos checked above).
     assert_eq!(c.crease_edges, 0);
     assert_eq!(count(&table), r.after);
-    // What `repair::report` gives is the outcome kept from that search, equal to it.
-    assert_eq!(
-        g1tess::patch::repair::report(&bunny, Scheme::G1, &opts).unwrap(),
-        r
+    // The line the commands print: the report, not a warning (nothing is left folded or
+    // undecided), with the figures above.
+    let line = repair_line("stanford-bunny.obj", &table, Some(&r)).unwrap();
+    assert_eq!(line, r.to_text("stanford-bunny.obj", Scheme::G1));
+    assert!(
+        line.starts_with(
+            "stanford-bunny.obj: g1 fold repair: 7 folded and 0 undecided patches before, 0 \
+             folded and 0 undecided after; 11 vertices touched"
+        ),
+        "{line}"
+    );
+    assert!(line.contains("largest normal change 47.109°"), "{line}");
+    // Without a report, the line counts the input's folded patches.
+    let input = PatchTable::build(&bunny, Scheme::G1, &opts).unwrap();
+    let folds = repair_line("stanford-bunny.obj", &input, None).unwrap();
+    assert!(
+        folds.starts_with("warning: stanford-bunny.obj: 7 of 69451 g1 patches are folded"),
+        "{folds}"
     );
     // Fandisk (sharp features, crease normals): every G1 patch certified, nothing to
     // repair.
@@ -698,23 +727,11 @@ fn repair_next_to_a_crease_keeps_both_sides_of_the_crease_curve() {
     let opts = SchemeOptions::default();
     let before = count(&PatchTable::build(&mesh, Scheme::G1, &opts).unwrap());
     assert!(before.folded > 0, "{before:?}");
-    let (fixed, r) = repair(&mesh, Scheme::G1, &opts).unwrap();
+    let (fixed, r) = repair(&mesh, Scheme::G1, &RepairOptions::default()).unwrap();
     assert!(r.after.folded < before.folded, "{r:?}");
     let table = PatchTable::build(&fixed, Scheme::G1, &opts).unwrap();
-    let via_option = PatchTable::build(
-        &mesh,
-        Scheme::G1,
-        &SchemeOptions {
-            repair_folds: true,
-            ..opts
-        },
-    )
-    .unwrap();
-    // Bit for bit the patches of the repaired mesh, the crease neighbours included.
-    let differ = (0..table.len())
-        .filter(|&i| via_option.patch(i) != table.patch(i))
-        .count();
-    assert_eq!(differ, 0);
+    // The patches across the crease changed too, and the report counts them.
+    changed_patches_are_reported(&mesh, &table, &r, opts);
     let c = continuity(&fixed, &fixed.adjacency(), &table, &CpuEvaluator::default()).unwrap();
     assert!(c.max_gap <= 1e-12 * fixed.diagonal(), "gap {}", c.max_gap);
     assert_eq!(count(&table), r.after);
@@ -751,7 +768,7 @@ fn stats_report_counts_patches_and_prints_null_without_interior_edges() {
 }
 
 /// `tessellate --repair-folds` stitches the repaired mesh: the bunny's repair makes no
-/// crease (see `bunny_repair_counts_are_exact_and_kept_for_the_warning`), so the output
+/// crease (see `bunny_repair_counts_are_exact_and_make_the_repair_line`), so the output
 /// has one record per position, as without the option.
 #[test]
 fn tessellate_cuts_the_output_along_the_repairs_creases() {

@@ -18,7 +18,7 @@ use g1tess::io::msh::export_msh;
 use g1tess::io::writers::{write_stitched, MeshFormat};
 use g1tess::io::TempFiles;
 use g1tess::mesh::{generators, LoadOptions, Mesh, NormalWeighting};
-use g1tess::patch::repair::RepairReport;
+use g1tess::patch::repair::{RepairOptions, RepairReport};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::progress::NoProgress;
 use g1tess::tess::adaptive::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
@@ -121,10 +121,7 @@ fn options(
         recompute_normals,
         crease_angle,
     };
-    let scheme = SchemeOptions {
-        phong_alpha,
-        repair_folds: false,
-    };
+    let scheme = SchemeOptions { phong_alpha };
     Ok((load, scheme))
 }
 
@@ -134,7 +131,11 @@ fn repair(
     scheme: Scheme,
     opts: &SchemeOptions,
 ) -> g1tess::Result<(Mesh, RepairReport)> {
-    g1tess::patch::repair::repair(mesh, scheme, opts)
+    g1tess::patch::repair::repair(
+        mesh,
+        scheme,
+        &RepairOptions::default().with_scheme_options(*opts),
+    )
 }
 
 /// How a tessellation chooses its grid (`g1tess tessellate --level`, or `--tolerance` /

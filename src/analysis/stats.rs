@@ -23,7 +23,7 @@ use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
 use crate::patch::g1::any_split_normals;
-use crate::patch::repair::{repair, RepairReport};
+use crate::patch::repair::RepairReport;
 use crate::patch::validity::{count_range, PatchCounts};
 use crate::patch::{PatchBuilder, PatchTable, Scheme, SchemeOptions};
 use crate::{Error, Result};
@@ -917,24 +917,14 @@ impl<'m> EdgeStats<'m> {
 /// The statistics report of `scheme` on `mesh`, streamed in bounded memory: what
 /// `g1tess stats` prints. The edge index and the search for split normals (both in
 /// parallel) run while the scheme prepares its per-mesh data; patches are then built a
-/// chunk of edges at a time. With [`SchemeOptions::repair_folds`] the statistics are those
-/// of the repaired mesh ([`repair`]), and the report says what the repair changed.
+/// chunk of edges at a time. For the statistics of a repaired mesh, repair it first
+/// ([`crate::patch::repair::repair`]) and set the report's `repair`.
 pub fn stats_report(
     mesh: &Mesh,
     scheme: Scheme,
     opts: &SchemeOptions,
     evaluator: &dyn Evaluator,
 ) -> Result<StatsReport> {
-    if opts.repair_folds {
-        let (repaired, r) = repair(mesh, scheme, opts)?;
-        let opts = SchemeOptions {
-            repair_folds: false,
-            ..*opts
-        };
-        let mut report = stats_report(&repaired, scheme, &opts, evaluator)?;
-        report.repair = Some(r);
-        return Ok(report);
-    }
     // The builder stays on this thread (it need not be `Send`); the index and the search
     // run on the pool meanwhile.
     let mut found = None;

@@ -3,6 +3,7 @@
 use clap::Args;
 
 use crate::mesh::{LoadOptions, Mesh, NormalWeighting};
+use crate::patch::repair::{repair, repair_line, RepairOptions, RepairReport};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 
 #[derive(Args, Clone, Debug)]
@@ -57,8 +58,25 @@ impl InputArgs {
     pub fn scheme_options(&self) -> SchemeOptions {
         SchemeOptions {
             phong_alpha: self.phong_alpha,
-            repair_folds: self.repair_folds,
         }
+    }
+
+    /// The options of the repair `--repair-folds` asks for.
+    pub fn repair_options(&self) -> RepairOptions {
+        RepairOptions::default().with_scheme_options(self.scheme_options())
+    }
+
+    /// With `--repair-folds`, `mesh` repaired for the scheme (once: what follows works on
+    /// the repaired mesh) and the repair's report; otherwise `mesh` itself and no report.
+    pub fn repaired<'a>(
+        &self,
+        mesh: &'a Mesh,
+    ) -> anyhow::Result<(std::borrow::Cow<'a, Mesh>, Option<RepairReport>)> {
+        if !self.repair_folds {
+            return Ok((std::borrow::Cow::Borrowed(mesh), None));
+        }
+        let (fixed, report) = repair(mesh, self.scheme, &self.repair_options())?;
+        Ok((std::borrow::Cow::Owned(fixed), Some(report)))
     }
 
     /// Loads the mesh, printing what the reader ignored or filled in (its notes) once on
@@ -78,11 +96,11 @@ impl InputArgs {
 
     /// The mesh to work on (with `--repair-folds` the repaired one: its new creases are
     /// what the stitcher and writers see), its table, and the line to print about folded
-    /// patches or the repair ([`crate::patch::validity::repair_line`]).
+    /// patches or the repair ([`repair_line`]).
     pub fn prepare(&self, mesh: Mesh) -> anyhow::Result<(Mesh, PatchTable, Option<String>)> {
-        let (m, table, report) =
-            crate::patch::repair::prepared(&mesh, self.scheme, &self.scheme_options())?;
-        let line = crate::patch::validity::repair_line(&m.name, &table, report.as_ref());
+        let (m, report) = self.repaired(&mesh)?;
+        let table = PatchTable::build(&m, self.scheme, &self.scheme_options())?;
+        let line = repair_line(&m.name, &table, report.as_ref());
         let mesh = match m {
             std::borrow::Cow::Owned(m) => m,
             std::borrow::Cow::Borrowed(_) => mesh,

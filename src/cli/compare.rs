@@ -81,7 +81,6 @@ impl CompareArgs {
             &self.schemes(),
             &SchemeOptions {
                 phong_alpha: self.phong_alpha,
-                ..Default::default()
             },
             BackendArgs {
                 quiet: self.backend.quiet || self.quiet,

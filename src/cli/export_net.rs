@@ -42,6 +42,8 @@ pub fn run(a: &ExportNetArgs) -> anyhow::Result<()> {
         patches.saturating_mul(stride * 24) + (1 << 20),
         &format!("{stride} control points each"),
     )?;
+    // With --repair-folds the patches of the repaired mesh.
+    let (mesh, _) = a.input.repaired(&mesh)?;
     let table = crate::patch::PatchTable::build(&mesh, a.input.scheme, &a.input.scheme_options())?;
     write_nets(&a.output, &TEMP_FILES, &mesh, &table)?;
     if !a.quiet {

@@ -173,6 +173,7 @@ fn normal_pictures(ctx: &PaperRun) -> anyhow::Result<()> {
             &m,
             &[Scheme::G1, Scheme::Phong],
             &Default::default(),
+            false,
             16,
             &RenderOptions {
                 panel: 400,

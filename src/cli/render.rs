@@ -16,6 +16,7 @@ use crate::eval::Evaluator;
 use crate::gpu::tessellator::GpuTessellator;
 use crate::gpu::Precision;
 use crate::mesh::Mesh;
+use crate::patch::repair::{repair, repair_line, RepairOptions};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 use crate::render::{
     device, max_panel, render_panels, render_tessellated, write_png, RenderOptions, Row,
@@ -188,11 +189,14 @@ fn scheme_panels(
     Ok(render_panels(&surface, opts)?)
 }
 
-/// Renders `schemes` of `mesh` (one row each), evaluated by `evaluator`, into `output`.
+/// Renders `schemes` of `mesh` (one row each), evaluated by `evaluator`, into `output`;
+/// with `repair_folds`, each scheme's repaired mesh.
+#[allow(clippy::too_many_arguments)]
 pub fn render_schemes(
     mesh: &Mesh,
     schemes: &[Scheme],
     scheme_opts: &SchemeOptions,
+    repair_folds: bool,
     level: u32,
     opts: &RenderOptions,
     evaluator: &dyn Evaluator,
@@ -201,8 +205,15 @@ pub fn render_schemes(
     let mut rows = Vec::new();
     for &scheme in schemes {
         // With --repair-folds the repaired mesh, whose new creases the surface is cut along.
-        let (m, table, report) = crate::patch::repair::prepared(mesh, scheme, scheme_opts)?;
-        if let Some(w) = crate::patch::validity::repair_line(&mesh.name, &table, report.as_ref()) {
+        let (m, report) = if repair_folds {
+            let opts = RepairOptions::default().with_scheme_options(*scheme_opts);
+            let (fixed, report) = repair(mesh, scheme, &opts)?;
+            (std::borrow::Cow::Owned(fixed), Some(report))
+        } else {
+            (std::borrow::Cow::Borrowed(mesh), None)
+        };
+        let table = PatchTable::build(&m, scheme, scheme_opts)?;
+        if let Some(w) = repair_line(&mesh.name, &table, report.as_ref()) {
             eprintln!("{w}");
         }
         rows.push(Row {
@@ -261,6 +272,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         &mesh,
         &schemes,
         &a.input.scheme_options(),
+        a.input.repair_folds,
         level,
         &opts,
         evaluator.as_ref(),

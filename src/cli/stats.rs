@@ -35,12 +35,15 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
     let mut backend = a.backend.clone();
     backend.quiet |= a.quiet;
     let evaluator = backend.evaluator(crate::gpu::Precision::F64)?;
-    let report = stats_report(
+    // With --repair-folds the statistics are those of the repaired mesh.
+    let (mesh, repair) = a.input.repaired(&mesh)?;
+    let mut report = stats_report(
         &mesh,
         a.input.scheme,
         &a.input.scheme_options(),
         evaluator.as_ref(),
     )?;
+    report.repair = repair;
     if a.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {
@@ -71,9 +74,9 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
         &format!("{stride} control points each, beside the mesh"),
     )?;
     // With --repair-folds the statistics are those of the repaired mesh, as on the CPU.
-    let (mesh, table, repair) =
-        crate::patch::repair::prepared(mesh, a.input.scheme, &a.input.scheme_options())?;
+    let (mesh, repair) = a.input.repaired(mesh)?;
     let mesh = mesh.as_ref();
+    let table = crate::patch::PatchTable::build(mesh, a.input.scheme, &a.input.scheme_options())?;
     let adjacency = mesh.adjacency();
     let c = crate::gpu::stats::gpu_continuity(&gpu, mesh, &adjacency, &table)?;
     let mut report = StatsReport::new(

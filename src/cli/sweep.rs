@@ -211,7 +211,6 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
         level: a.level,
         options: SchemeOptions {
             phong_alpha: a.phong_alpha,
-            ..Default::default()
         },
         ..SweepPlan::default()
     };

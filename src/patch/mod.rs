@@ -189,17 +189,11 @@ impl std::fmt::Display for Scheme {
 pub struct SchemeOptions {
     /// Phong tessellation's shape factor α (default 3/4, the paper's).
     pub phong_alpha: f64,
-    /// Change vertex normals where needed so that every patch is certified valid (see
-    /// [`repair`]); a mesh whose patches are all valid is left exactly as it is.
-    pub repair_folds: bool,
 }
 
 impl Default for SchemeOptions {
     fn default() -> Self {
-        SchemeOptions {
-            phong_alpha: 0.75,
-            repair_folds: false,
-        }
+        SchemeOptions { phong_alpha: 0.75 }
     }
 }
 
@@ -493,11 +487,7 @@ impl<'a> PatchBuilder<'a> {
             mesh,
             scheme,
             kind: info.kind,
-            inner: if opts.repair_folds {
-                repair::repaired_builder(mesh, scheme, opts)?
-            } else {
-                (info.prepare)(mesh, opts)?
-            },
+            inner: (info.prepare)(mesh, opts)?,
         })
     }
 

@@ -807,24 +807,3 @@ fn check_within(table: &PatchTable, i: usize, max_depth: u32, max_cells: usize) 
         Verdict::Valid
     }
 }
-
-/// The line `tessellate`, `render` and `export-msh` print about `table` of mesh
-/// `mesh_name`, given the repair's `report` when there was one
-/// ([`super::repair::prepared`]): the report, a warning where a patch is left folded or
-/// undecided; without a report the count of folded patches ([`fold_line`]).
-pub fn repair_line(
-    mesh_name: &str,
-    table: &PatchTable,
-    report: Option<&super::repair::RepairReport>,
-) -> Option<String> {
-    let Some(report) = report else {
-        return fold_line(mesh_name, table);
-    };
-    let c = count(table);
-    let line = report.to_text(mesh_name, table.scheme);
-    Some(if c.folded > 0 || c.undecided > 0 {
-        format!("warning: {line}")
-    } else {
-        line
-    })
-}
