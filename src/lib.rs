@@ -8,12 +8,17 @@
 //!
 //! # Cargo features
 //!
-//! - `cli` (default): the `g1tess` binary and [`cli`], with what only the command line needs:
-//!   argument parsing (clap), progress bars (indicatif), log–log plots (`output::plot`) and
-//!   composed PNG pictures (`render::compose`), which use plotters.
+//! - `gpu` (default): the GPU path on wgpu: `gpu` (device, shaders, tessellator, GPU
+//!   statistics), `eval::gpu`, `tess::screen_gpu` and the render pass (`render::pipeline`),
+//!   on the platform's native backend (Vulkan on Linux, Vulkan or DX12 on Windows, Metal on
+//!   macOS).
+//! - `cli` (default, implies `gpu`): the `g1tess` binary and `cli`, with what only the
+//!   command line needs: argument parsing (clap), progress bars (indicatif), log–log plots
+//!   (`output::plot`) and composed PNG pictures (`render::compose`), which use plotters.
 //!
-//! Without default features the library builds without any of them and keeps meshes,
-//! patches, the CPU and GPU evaluators (wgpu), statistics, the writers and the render pass.
+//! Without default features the library is CPU-only and compiles no GPU crate: meshes,
+//! patches, the CPU evaluator, statistics, the writers and the render module's camera and
+//! colour ramp.
 
 /// Whether the CPU has every named instruction set (detected at run time, once, by the
 /// standard library; false off x86-64): the one check behind the kernels' choice of lanes
@@ -36,6 +41,7 @@ macro_rules! cpu_has {
 pub mod cli;
 pub mod error;
 pub mod eval;
+#[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod mesh;
 pub mod output;

@@ -2,6 +2,7 @@
 //! GPU backend (wgpu compute). Results stream to the consumer chunk by chunk.
 
 pub mod cpu;
+#[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod pattern;
 
@@ -283,6 +284,7 @@ pub trait Evaluator {
     /// The working precision when this evaluator runs on a GPU (its device can then
     /// tessellate in place, see [`crate::gpu::tessellator`]); `None` for the CPU, or a GPU
     /// backend that could not open (its evaluation then reports why).
+    #[cfg(feature = "gpu")]
     fn gpu_precision(&self) -> Option<crate::gpu::Precision> {
         None
     }

@@ -5,5 +5,6 @@
 pub mod adaptive;
 pub mod layout;
 pub mod screen;
+#[cfg(feature = "gpu")]
 pub mod screen_gpu;
 pub mod stitch;
