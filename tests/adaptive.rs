@@ -510,6 +510,7 @@ fn gpu_evaluates_per_edge_patterns_with_the_cpu_topology() {
     }
 }
 
+#[cfg(feature = "cli")]
 fn g1tess(args: &[&str]) -> std::process::Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_g1tess"))
         .args(args)
@@ -519,6 +520,7 @@ fn g1tess(args: &[&str]) -> std::process::Output {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn cli_tolerance_reports_what_it_measured() {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join(format!("g1tess-adaptive-{}", std::process::id()));
@@ -603,6 +605,7 @@ fn cli_tolerance_reports_what_it_measured() {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn every_writer_takes_per_edge_levels() {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join(format!("g1tess-adaptive-fmt-{}", std::process::id()));

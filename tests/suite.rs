@@ -21,10 +21,13 @@ mod attributes;
 mod backend_cli;
 #[cfg(feature = "cli")]
 mod bench_cli;
+#[cfg(feature = "cli")]
 mod cli_errors;
+#[cfg(feature = "cli")]
 mod cli_output;
 mod cpu_fast;
 mod creases;
+#[cfg(feature = "cli")]
 mod export_net;
 mod formats;
 mod fuzz;
