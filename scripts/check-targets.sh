@@ -4,7 +4,7 @@
 # machine without default features (CPU-only, no GPU crate). `cargo check` only: types and
 # borrows, no linker or SDK of the other platforms needed. A target's standard library is
 # installed with `rustup target add` when it is missing. One line per check with its time;
-# the compiler's output only where a check fails or warns.
+# the compiler's messages only where a check fails or warns.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -20,17 +20,21 @@ done
 
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
-# Runs `cargo check ARGS...` and prints one line; the output too when it failed or warned.
+# Runs `cargo check ARGS...` and prints one line with its time, after the compiler's
+# messages (one line each) where there are any; the whole output where it failed without.
 check() {
   local start=$SECONDS rc=0
-  cargo check "$@" >"$log" 2>&1 || rc=$?
-  if [ "$rc" != 0 ]; then
+  cargo check --message-format short "$@" >"$log" 2>&1 || rc=$?
+  local messages
+  messages=$(grep -E '(^|: )(warning|error)(\[|:)' "$log" | grep -vE '^(warning|error): .*generated [0-9]+ warning|^error: could not compile' || true)
+  if [ -n "$messages" ]; then
+    echo "$messages"
+  elif [ "$rc" != 0 ]; then
     cat "$log"
+  fi
+  if [ "$rc" != 0 ]; then
     echo "FAIL cargo check $* ($((SECONDS - start)) s)"
     return "$rc"
-  fi
-  if grep -q '^warning' "$log"; then
-    cat "$log"
   fi
   echo "ok   cargo check $* ($((SECONDS - start)) s)"
 }
