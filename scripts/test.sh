@@ -3,6 +3,9 @@
 # Mesa's lavapipe Vulkan driver (GPU tests run on it when no other Vulkan device exists).
 # The Python tests (scripts/python_test.sh) install theirs into a cached virtual environment.
 # With CI=true a missing GPU adapter fails the GPU tests instead of skipping them.
+# After the cargo tests, scripts/check-targets.sh checks that the library compiles for macOS
+# and Windows (their standard libraries installed with rustup when missing) and without the
+# GPU path.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -40,6 +43,9 @@ setup_done() { # PID LOG
 
 echo "== cargo test --release"
 cargo test --release 2>&1
+
+echo "== other platforms and CPU-only: scripts/check-targets.sh"
+scripts/check-targets.sh
 
 echo "== blender add-on integration test"
 setup_done "$blender_setup" .cache/blender-setup.log

@@ -9,6 +9,22 @@
 //! atomic files) → [`gpu`] (device, the GPU evaluator, statistics and tessellator) →
 //! [`render`] (the normal field drawn by a GPU render pass) → `cli`.
 //!
+//! # Cargo features
+//!
+//! - `gpu` (default): the GPU path on wgpu: `gpu` (device, shaders, tessellator, GPU
+//!   statistics), and the render pass (`render::pipeline`),
+//!   on the platform's native backend (Vulkan on Linux, Vulkan or DX12 on Windows, Metal on
+//!   macOS).
+//! - `cli` (default, implies `gpu`): the `g1tess` binary and `cli`, with what only the
+//!   command line needs: argument parsing (clap), progress bars (indicatif), log–log plots
+//!   (`io::plot`) and composed PNG pictures (`render::compose`), which use plotters.
+//!
+//! Without default features the library is CPU-only and compiles no GPU crate: meshes,
+//! patches, the CPU evaluator, statistics, the writers and the render module's camera and
+//! colour ramp.
+//!
+//! # Example
+//!
 //! Every patch of a built-in icosphere on the grid of level 8, on the CPU:
 //!
 //! ```
@@ -56,6 +72,7 @@ pub mod analysis;
 pub mod cli;
 pub mod error;
 pub mod eval;
+#[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod io;
 pub mod mesh;

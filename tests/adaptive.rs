@@ -7,14 +7,18 @@
 use crate::common;
 
 use std::collections::HashMap;
+#[cfg(feature = "gpu")]
 use std::sync::Arc;
 
 use glam::{DMat4, DVec3};
 
 use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::eval::{Evaluator, Vector};
+#[cfg(feature = "gpu")]
 use g1tess::gpu::eval::GpuEvaluator;
+#[cfg(feature = "gpu")]
 use g1tess::gpu::screen::{gpu_screen_levels, LEVELS_WGSL};
+#[cfg(feature = "gpu")]
 use g1tess::gpu::{GpuContext, Precision};
 use g1tess::mesh::{Adjacency, LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
@@ -399,6 +403,7 @@ fn screen_space_levels_stay_watertight_along_a_camera_path() {
 }
 
 #[test]
+#[cfg(feature = "gpu")]
 fn levels_wgsl_validates_and_names_the_function_it_mirrors() {
     let module = g1tess::gpu::shaders::validate(LEVELS_WGSL, Precision::F32).unwrap();
     assert!(module.entry_points.iter().any(|e| e.name == "levels_main"));
@@ -410,11 +415,13 @@ fn levels_wgsl_validates_and_names_the_function_it_mirrors() {
     assert_eq!(mirrors, ["tess::screen::edge_level"]);
 }
 
+#[cfg(feature = "gpu")]
 fn ci() -> bool {
     std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
 }
 
 /// The shared context, or None (SKIP) without an adapter; with CI=true no adapter panics.
+#[cfg(feature = "gpu")]
 fn context() -> Option<Arc<GpuContext>> {
     match GpuContext::shared() {
         Ok(c) => Some(c),
@@ -427,6 +434,7 @@ fn context() -> Option<Arc<GpuContext>> {
 }
 
 #[test]
+#[cfg(feature = "gpu")]
 fn gpu_level_pass_matches_the_cpu() {
     let Some(ctx) = context() else { return };
     let mesh = load("spot.obj", None);
@@ -478,6 +486,7 @@ fn gpu_level_pass_matches_the_cpu() {
 }
 
 #[test]
+#[cfg(feature = "gpu")]
 fn gpu_evaluates_per_edge_patterns_with_the_cpu_topology() {
     let Some(ctx) = context() else { return };
     let mesh = load("icosphere:1", None);
@@ -501,6 +510,7 @@ fn gpu_evaluates_per_edge_patterns_with_the_cpu_topology() {
     }
 }
 
+#[cfg(feature = "cli")]
 fn g1tess(args: &[&str]) -> std::process::Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_g1tess"))
         .args(args)
@@ -510,6 +520,7 @@ fn g1tess(args: &[&str]) -> std::process::Output {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn cli_tolerance_reports_what_it_measured() {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join(format!("g1tess-adaptive-{}", std::process::id()));
@@ -594,6 +605,7 @@ fn cli_tolerance_reports_what_it_measured() {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn every_writer_takes_per_edge_levels() {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join(format!("g1tess-adaptive-fmt-{}", std::process::id()));

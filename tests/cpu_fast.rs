@@ -13,7 +13,7 @@
 
 use crate::eval_cases;
 use eval_cases::{
-    angle, cases, evaluators, load, normal_error, regular, EPS32, MESHES, ROUNDING_FACTOR,
+    angle, evaluators, load, normal_error, regular, tables, EPS32, MESHES, ROUNDING_FACTOR,
 };
 
 use glam::DVec3;
@@ -91,7 +91,7 @@ fn f32_fast_path_matches_the_f64_reference() {
     for name in MESHES {
         let mesh = load(name);
         let diag = mesh.diagonal();
-        for (_, table, what) in cases(&mesh) {
+        for (table, what) in tables(&mesh) {
             for level in [1, 8, 32] {
                 // Level 32 (561 samples a patch: 70 blocks of 8 and a partial one) on the
                 // built-ins only: on spot and fandisk it is 3.3 M and 7.3 M samples a
@@ -128,7 +128,7 @@ fn f32_fast_path_matches_the_f64_reference() {
 #[test]
 fn f32_fast_path_chunks_and_threads_do_not_change_results() {
     let mesh = load("spot.obj");
-    for (_, table, what) in cases(&mesh) {
+    for (table, what) in tables(&mesh) {
         let run = |ev: &CpuEvaluator| {
             let (mut p, mut n, mut firsts) = (Vec::new(), Vec::new(), Vec::new());
             ev.evaluate_f32(&table, &Pattern::Grid { level: 9 }, &mut |c| {
@@ -175,7 +175,7 @@ fn f32_kernels_of_both_widths_give_the_same_bits() {
         F32Kernel::Avx2.name()
     );
     let mesh = load("sphere320");
-    for (_, table, what) in cases(&mesh) {
+    for (table, what) in tables(&mesh) {
         for level in [1, 2, 3, 8, 32] {
             let run = |f32_kernel: F32Kernel| {
                 let ev = CpuEvaluator {
@@ -220,7 +220,7 @@ fn grid_corners_are_the_input_vertices_bit_for_bit() {
     let per = grid_len(level);
     for name in ["torus200", "spot.obj", "fandisk.obj"] {
         let mesh = load(name);
-        for (_, table, what) in cases(&mesh) {
+        for (table, what) in tables(&mesh) {
             let input = |i: usize, k: usize| mesh.positions[mesh.triangles[i][k] as usize];
             for i in 0..table.len() {
                 for k in 0..3 {
@@ -287,7 +287,7 @@ fn f32_grids_agree_with_the_f64_reference_on_every_backend() {
     let per = grid_len(level);
     let mesh = load("spot.obj");
     let diag = mesh.diagonal();
-    for (_, table, what) in cases(&mesh) {
+    for (table, what) in tables(&mesh) {
         let reference = grid_weights(&table, level);
         for (backend, ev) in evaluators() {
             let (mut dp, mut dn, mut samples) = (0f64, 0f64, 0);
@@ -439,7 +439,7 @@ fn edge_pairs_are_bitwise_the_point_list_on_the_cpu() {
         assert_eq!(stats.samples, SAMPLES_PER_EDGE);
         assert_eq!(stats.pairs.len(), adj.interior);
         assert_eq!(stats.len(), 2 * 21 * adj.interior);
-        for (_, table, what) in cases(&mesh) {
+        for (table, what) in tables(&mesh) {
             let patterns = [
                 stats.clone(),
                 all_orders(40, 1),
@@ -654,7 +654,7 @@ fn edge_pairs_agree_with_the_f64_reference_on_every_backend() {
     let edges = edge_pairs(&mesh, &adj);
     let points = edges.points();
     let per = edges.samples as usize;
-    for (_, table, what) in cases(&mesh) {
+    for (table, what) in tables(&mesh) {
         let weights: Vec<_> = points.iter().map(|p| table.kind.weights(p.b)).collect();
         for (backend, ev) in evaluators() {
             let (pos, nrm, _) = run_edges(ev.as_ref(), &table, &edges);

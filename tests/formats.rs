@@ -4,6 +4,7 @@
 //! and from f64 ones); atomic writes; the command line.
 
 use std::path::{Path, PathBuf};
+#[cfg(feature = "cli")]
 use std::process::Command;
 
 use glam::DVec3;
@@ -424,6 +425,7 @@ fn failed_write_leaves_target_untouched() {
     }
 }
 
+#[cfg(feature = "cli")]
 fn g1tess(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_g1tess"))
         .args(args)
@@ -432,6 +434,7 @@ fn g1tess(args: &[&str]) -> std::process::Output {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn cli_tessellate_json_and_errors() {
     let out = dir().join("cli.ply");
     let o = g1tess(&[

@@ -9,6 +9,7 @@
 //! `FUZZ_CLI_CASES` the command lines.
 
 use std::path::{Path, PathBuf};
+#[cfg(feature = "cli")]
 use std::process::Command;
 
 use g1tess::mesh::{LoadOptions, Mesh};
@@ -374,6 +375,7 @@ proptest! {
 }
 
 /// One argument of a command line, possibly mutated.
+#[cfg(feature = "cli")]
 fn argument() -> impl Strategy<Value = Vec<String>> {
     let v =
         |xs: &[&str]| prop::sample::select(xs.iter().map(|s| s.to_string()).collect::<Vec<_>>());
@@ -401,6 +403,7 @@ fn argument() -> impl Strategy<Value = Vec<String>> {
     ]
 }
 
+#[cfg(feature = "cli")]
 fn run_cli(args: &[String]) -> Result<(), TestCaseError> {
     let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
         .args(args)
@@ -439,6 +442,7 @@ fn run_cli(args: &[String]) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+#[cfg(feature = "cli")]
 proptest! {
     #![proptest_config(config(300, "FUZZ_CLI_CASES"))]
     #[test]

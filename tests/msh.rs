@@ -6,7 +6,9 @@
 use crate::common;
 
 use std::collections::HashMap;
+#[cfg(feature = "cli")]
 use std::path::PathBuf;
+#[cfg(feature = "cli")]
 use std::process::Command;
 
 use glam::DVec3;
@@ -18,6 +20,7 @@ use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::progress::NoProgress;
 
+#[cfg(feature = "cli")]
 fn out(name: &str) -> PathBuf {
     let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join(format!("g1tess-msh-{}", std::process::id()));
@@ -246,6 +249,7 @@ fn nodes_of_type(t: i32) -> usize {
     }
 }
 
+#[cfg(feature = "cli")]
 fn export(spec: &str, extra: &[&str], name: &str) -> (Msh, serde_json::Value) {
     let path = out(name);
     let o = Command::new(env!("CARGO_BIN_EXE_g1tess"))
@@ -348,6 +352,7 @@ fn node_order_is_gmsh_reference_order() {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn every_order_reads_back_with_shared_nodes_on_the_surface() {
     let mesh = common::load("sphere320");
     let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
@@ -395,6 +400,7 @@ fn every_order_reads_back_with_shared_nodes_on_the_surface() {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn ascii_and_binary_agree() {
     let spot = common::shared_spec("spot.obj");
     let (a, sa) = export(&spot, &["--order", "4"], "spot4.msh");
@@ -407,6 +413,7 @@ fn ascii_and_binary_agree() {
 }
 
 /// The Lagrange cubic through 4 equally spaced points, at `t` (written out here).
+#[cfg(feature = "cli")]
 fn cubic(x: [DVec3; 4], t: f64) -> DVec3 {
     let s = 3.0 * t;
     let l = [
@@ -419,6 +426,7 @@ fn cubic(x: [DVec3; 4], t: f64) -> DVec3 {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn order_3_g1_edges_are_the_boundary_cubics() {
     // Walton–Meek boundary curves are cubic, so the element's edge (the cubic through its
     // four edge nodes) is the patch's boundary curve itself. Spot (smooth) and fandisk with
@@ -668,6 +676,7 @@ fn boundary_lines_and_flat_nodes_on_a_square() {
 /// prints the repair's report instead, makes no crease (the repair keeps G1 on the bunny)
 /// and no element may fold.
 #[test]
+#[cfg(feature = "cli")]
 fn cli_warns_of_folds_and_exports_the_repaired_mesh() {
     let bunny = common::shared_spec("stanford-bunny.obj");
     let run = |extra: &[&str], name: &str| {
@@ -709,6 +718,7 @@ fn cli_warns_of_folds_and_exports_the_repaired_mesh() {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn cli_refuses_bad_orders_and_writes_stdout() {
     let bin = env!("CARGO_BIN_EXE_g1tess");
     for bad in ["0", "6"] {

@@ -1,7 +1,9 @@
 //! The paper's results: Table 1 to the printed digits, the distance study's convergence
 //! orders and values, and the commands (`compare`, `sweep`, the default run) end to end.
 
+#[cfg(feature = "cli")]
 use std::path::Path;
+#[cfg(feature = "cli")]
 use std::process::Command;
 
 use g1tess::analysis::distance::{sweep, Series, SweepPlan, SweepRow};
@@ -210,10 +212,12 @@ fn icosphere_convergence_orders_and_values() {
     );
 }
 
+#[cfg(feature = "cli")]
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_g1tess"))
 }
 
+#[cfg(feature = "cli")]
 fn temp_dir(name: &str) -> std::path::PathBuf {
     let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join(format!("g1tess-paper-{name}-{}", std::process::id()));
@@ -223,6 +227,7 @@ fn temp_dir(name: &str) -> std::path::PathBuf {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn compare_json_has_one_stats_object_per_mesh_and_scheme() {
     let out = bin().args(["compare", "--json"]).output().unwrap();
     assert!(
@@ -253,6 +258,7 @@ fn compare_json_has_one_stats_object_per_mesh_and_scheme() {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn compare_markdown_and_errors() {
     let out = bin()
         .args(["compare", "icosphere:1", "--schemes", "g1,pn"])
@@ -287,6 +293,7 @@ fn compare_markdown_and_errors() {
     assert!(String::from_utf8(out.stderr).unwrap().contains("finite"));
 }
 
+#[cfg(feature = "cli")]
 fn check_study_files(dir: &Path) {
     let csv = std::fs::read_to_string(dir.join("distance.csv")).unwrap();
     // Header + 8 schemes × (5 icospheres + 2 × 26 tori).
@@ -320,6 +327,7 @@ fn check_study_files(dir: &Path) {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn sweep_writes_csv_json_and_plots() {
     let dir = temp_dir("sweep");
     let out = bin()
@@ -339,6 +347,7 @@ fn sweep_writes_csv_json_and_plots() {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn default_run_reproduces_the_paper_into_out_paper() {
     let dir = temp_dir("default");
     let out = bin().current_dir(&dir).output().unwrap();

@@ -6,6 +6,7 @@
 use crate::common;
 
 use std::path::{Path, PathBuf};
+#[cfg(feature = "cli")]
 use std::process::Command;
 
 use glam::DVec3;
@@ -1159,6 +1160,7 @@ fn obj_texture_coordinates_follow_the_corners_and_the_weld() {
 }
 
 #[test]
+#[cfg(feature = "cli")]
 fn cli_stats_reads_what_tessellate_wrote() {
     let bin = env!("CARGO_BIN_EXE_g1tess");
     for ext in ["ply", "glb", "stl"] {

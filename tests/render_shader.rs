@@ -1,4 +1,4 @@
-//! The pieces of `render` that need no GPU: its WGSL (`shaders/render.wgsl` under the
+//! The pieces of `render` that need no GPU device: its WGSL (feature `gpu`) (`shaders/render.wgsl` under the
 //! header generated from the colour ramp) validates with naga as wgpu would on shader
 //! creation, its uniform block matches the Rust struct byte for byte, the ramp has one
 //! source, and the orthographic camera maps the bounding box onto the panel as documented.
@@ -6,11 +6,16 @@
 use glam::DVec3;
 
 use g1tess::render::camera::{Camera, DEPTH_MARGIN, MARGIN};
+#[cfg(feature = "gpu")]
 use g1tess::render::pipeline::{Uniforms, RENDER_WGSL};
-use g1tess::render::{ramp, shader_source, RAMP};
+#[cfg(feature = "gpu")]
+use g1tess::render::shader_source;
+use g1tess::render::{ramp, RAMP};
 
+#[cfg(feature = "gpu")]
 use crate::common;
 
+#[cfg(feature = "gpu")]
 fn module() -> naga::Module {
     let src = shader_source();
     let module = naga::front::wgsl::parse_str(&src)
@@ -25,6 +30,7 @@ fn module() -> naga::Module {
 }
 
 #[test]
+#[cfg(feature = "gpu")]
 fn render_shader_validates_with_naga() {
     let m = module();
     let stages: Vec<(String, naga::ShaderStage)> = m
@@ -42,6 +48,7 @@ fn render_shader_validates_with_naga() {
 }
 
 #[test]
+#[cfg(feature = "gpu")]
 fn uniform_block_matches_the_rust_struct() {
     let m = module();
     let (members, span) = m
@@ -77,6 +84,7 @@ fn uniform_block_matches_the_rust_struct() {
 }
 
 /// The value of a constant expression that is a vector of f32 literals.
+#[cfg(feature = "gpu")]
 fn vec3_of(m: &naga::Module, h: naga::Handle<naga::Expression>) -> [f32; 3] {
     let naga::Expression::Compose { components, .. } = &m.global_expressions[h] else {
         panic!("not a vector: {:?}", m.global_expressions[h]);
@@ -93,6 +101,7 @@ fn vec3_of(m: &naga::Module, h: naga::Handle<naga::Expression>) -> [f32; 3] {
 }
 
 #[test]
+#[cfg(feature = "gpu")]
 fn render_wgsl_names_the_rust_function_it_mirrors() {
     let names = common::mirrored_functions("shaders/render.wgsl", RENDER_WGSL);
     assert_eq!(names, ["render::ramp"]);
@@ -100,6 +109,7 @@ fn render_wgsl_names_the_rust_function_it_mirrors() {
 
 /// The shader's stops are generated from `RAMP` (the file holds no copy of them).
 #[test]
+#[cfg(feature = "gpu")]
 fn the_ramp_has_one_source() {
     for decl in ["var<private> STOPS", "const SEGMENTS", "const LAST_SEGMENT"] {
         assert!(!RENDER_WGSL.contains(decl), "render.wgsl declares {decl}");

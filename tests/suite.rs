@@ -7,37 +7,51 @@
 //! per-file names under `CARGO_TARGET_TMPDIR`, leave the environment and the global rayon
 //! pool alone (a test that needs its own threads builds a local pool), and run the
 //! command line as a child process.
+//!
+//! Files that test only the GPU path build with feature `gpu`, and those that also need
+//! the `g1tess` binary or its picture writer with `cli` (which implies `gpu`); the other
+//! files gate their GPU tests one by one.
 
 mod common;
 mod eval_cases;
 
 mod adaptive;
 mod attributes;
+#[cfg(feature = "cli")]
 mod backend_cli;
+#[cfg(feature = "cli")]
 mod bench_cli;
+#[cfg(feature = "cli")]
 mod cli_errors;
+#[cfg(feature = "cli")]
 mod cli_output;
 mod cpu_fast;
 mod creases;
 mod docs;
+#[cfg(feature = "cli")]
 mod export_net;
 mod formats;
 mod fuzz;
 mod g1_patch;
+#[cfg(feature = "gpu")]
 mod gpu;
 mod mesh_input;
 mod msh;
 mod obj_fuzz;
 mod paper;
 mod readers;
+#[cfg(feature = "cli")]
 mod render;
 mod render_shader;
 mod schemes;
+#[cfg(feature = "gpu")]
 mod shaders;
 mod source_rules;
 mod stats_certified;
 mod stitch;
+#[cfg(feature = "gpu")]
 mod tessellator;
+#[cfg(feature = "gpu")]
 mod tessellator_levels;
 mod unit_cli;
 mod unit_eval;
@@ -46,4 +60,5 @@ mod unit_output;
 mod unit_patch;
 mod unit_tess;
 mod validity;
+#[cfg(feature = "cli")]
 mod viewer;

@@ -771,6 +771,7 @@ fn stats_report_counts_patches_and_prints_null_without_interior_edges() {
 /// crease (see `bunny_repair_counts_are_exact_and_make_the_repair_line`), so the output
 /// has one record per position, as without the option.
 #[test]
+#[cfg(feature = "cli")]
 fn tessellate_cuts_the_output_along_the_repairs_creases() {
     use std::process::Command;
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
@@ -813,6 +814,7 @@ fn tessellate_cuts_the_output_along_the_repairs_creases() {
 /// The command line: `stats --json` counts patches, `tessellate` warns about a fold and
 /// `--repair-folds` repairs it, and leaves a mesh without folds bit for bit alone.
 #[test]
+#[cfg(feature = "cli")]
 fn command_line_counts_warns_and_repairs() {
     use std::process::Command;
     let bin = env!("CARGO_BIN_EXE_g1tess");

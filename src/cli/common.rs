@@ -192,7 +192,7 @@ impl LazyGpu {
             Ok(ev)
         };
         if self.backend == Backend::Auto {
-            let adapters = crate::gpu::vulkan_adapters();
+            let adapters = crate::gpu::adapters();
             if !adapters.is_empty()
                 && adapters
                     .iter()

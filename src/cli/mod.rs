@@ -82,6 +82,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// [`crate::io::TempFiles::remove_live_temp_files`]) and exit with 128 + the signal's
 /// number (130, 143), as a shell reports a process the signal ended. The signal is
 /// received on a thread of its own (signal-hook), where removing files is safe.
+#[cfg(unix)]
 fn install_signal_handler() {
     use signal_hook::consts::{SIGINT, SIGTERM};
     let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) else {
@@ -95,6 +96,32 @@ fn install_signal_handler() {
                 TEMP_FILES.remove_live_temp_files();
                 std::process::exit(128 + sig);
             }
+        });
+}
+
+/// The same where signal-hook has no signal iterator (Windows: Ctrl-C is SIGINT): the
+/// handler only records the signal, and a thread of its own, looking every 50 ms, removes
+/// the files and exits with 128 + its number.
+#[cfg(not(unix))]
+fn install_signal_handler() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Arc;
+    let received = Arc::new(AtomicUsize::new(0));
+    for sig in [SIGINT, SIGTERM] {
+        if signal_hook::flag::register_usize(sig, received.clone(), sig as usize).is_err() {
+            return;
+        }
+    }
+    let _ = std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || loop {
+            let sig = received.load(Ordering::SeqCst);
+            if sig != 0 {
+                TEMP_FILES.remove_live_temp_files();
+                std::process::exit(128 + sig as i32);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
         });
 }
 
@@ -258,7 +285,7 @@ fn usage_error(e: clap::Error) -> ExitCode {
 /// do, instead of panicking on the failed write. Rust ignores SIGPIPE by default; restore
 /// the default action (terminate) before anything is printed.
 fn default_sigpipe() {
-    #[cfg(target_os = "linux")]
+    #[cfg(unix)]
     // SAFETY: called at the start of main, before any other thread exists; SIG_DFL is a
     // valid disposition for SIGPIPE.
     unsafe {

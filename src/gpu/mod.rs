@@ -1,7 +1,7 @@
 //! GPU device set-up, kept apart from the work done on it (the split of the wgpu examples).
 //!
-//! [`GpuContext`] opens a **Vulkan** adapter (never another backend, never silently GL),
-//! requests its full limits and [`wgpu::Features::SHADER_F64`] where offered, and records
+//! [`GpuContext`] opens an adapter of the platform's native backend ([`BACKENDS`]: Vulkan
+//! on Linux, Vulkan or DX12 on Windows, Metal on macOS; never silently GL), requests its full limits and [`wgpu::Features::SHADER_F64`] where offered, and records
 //! the adapter's name and driver for reports. Work is done by free functions taking
 //! `(&Device, &Queue, ...)` (see [`crate::gpu::eval`]), so tests and other modules (picture
 //! rendering) can reuse one context:
@@ -33,7 +33,29 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use crate::{Error, Result};
 
-/// An open Vulkan device with its queue, the adapter's description and limits.
+/// The backends a [`GpuContext`] may open, whatever `WGPU_BACKEND` says: wgpu's primary
+/// ones, of which Cargo.toml compiles the platform's own (Vulkan on Linux, where this is
+/// Vulkan alone; Vulkan and DX12 on Windows; Metal on macOS). Never GL: no silent fallback.
+pub const BACKENDS: wgpu::Backends = wgpu::Backends::PRIMARY;
+
+/// [`BACKENDS`] by name, for messages.
+#[cfg(target_vendor = "apple")]
+const BACKEND_NAMES: &str = "Metal";
+#[cfg(windows)]
+const BACKEND_NAMES: &str = "Vulkan or DX12";
+#[cfg(not(any(windows, target_vendor = "apple")))]
+const BACKEND_NAMES: &str = "Vulkan";
+
+/// What a machine without an adapter needs, for the error.
+#[cfg(target_vendor = "apple")]
+const DRIVER_HINT: &str = "GPU evaluation needs a Metal device";
+#[cfg(windows)]
+const DRIVER_HINT: &str = "GPU evaluation needs a Vulkan or DX12 driver";
+#[cfg(not(any(windows, target_vendor = "apple")))]
+const DRIVER_HINT: &str =
+    "GPU evaluation needs a Vulkan driver (e.g. Mesa's lavapipe, package mesa-vulkan-drivers)";
+
+/// An open device (Vulkan, DX12 or Metal) with its queue, the adapter's description and limits.
 pub struct GpuContext {
     pub instance: wgpu::Instance,
     pub adapter: wgpu::Adapter,
@@ -57,16 +79,15 @@ impl std::fmt::Debug for GpuContext {
 }
 
 impl GpuContext {
-    /// Opens the first Vulkan adapter (high-performance preference). Errors when there is
-    /// none: callers decide whether falling back to the CPU is allowed.
+    /// Opens the first adapter of [`BACKENDS`] (high-performance preference). Errors when
+    /// there is none: callers decide whether falling back to the CPU is allowed.
     pub fn new() -> Result<GpuContext> {
         pollster::block_on(Self::new_async())
     }
 
     async fn new_async() -> Result<GpuContext> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        // Vulkan only, whatever WGPU_BACKEND says: no silent GL.
-        desc.backends = wgpu::Backends::VULKAN;
+        desc.backends = BACKENDS;
         let instance = wgpu::Instance::new(desc);
         let adapter = instance
             .request_adapter(&wgpu::RequestAdapterOptions {
@@ -78,8 +99,7 @@ impl GpuContext {
             .await
             .map_err(|e| {
                 Error::Gpu(format!(
-                    "no Vulkan adapter ({e}); GPU evaluation needs a Vulkan driver (e.g. \
-                     Mesa's lavapipe, package mesa-vulkan-drivers); the CPU backend needs none"
+                    "no {BACKEND_NAMES} adapter ({e}); {DRIVER_HINT}; the CPU backend needs none"
                 ))
             })?;
         let info = adapter.get_info();
@@ -115,8 +135,8 @@ impl GpuContext {
         })
     }
 
-    /// One context per process, opened on first use (tests and commands share it; Vulkan
-    /// device creation is slow on software drivers). The error, if any, is remembered.
+    /// One context per process, opened on first use (tests and commands share it; device
+    /// creation is slow on software drivers). The error, if any, is remembered.
     pub fn shared() -> Result<Arc<GpuContext>> {
         static SHARED: OnceLock<std::result::Result<Arc<GpuContext>, String>> = OnceLock::new();
         SHARED
@@ -130,7 +150,7 @@ impl GpuContext {
             .map_err(Error::Gpu)
     }
 
-    /// "NAME (Vulkan, DRIVER DRIVER_INFO, TYPE)", for reports.
+    /// "NAME (BACKEND, DRIVER DRIVER_INFO, TYPE)", for reports.
     pub fn describe(&self) -> String {
         let i = &self.info;
         format!(
@@ -189,15 +209,15 @@ impl GpuContext {
     }
 }
 
-/// The Vulkan adapters this process can open (name, driver, device type), without opening a
-/// device; empty where there is no Vulkan driver. Callers choosing between the GPU and the
-/// CPU read `device_type`: [`wgpu::DeviceType::Cpu`] is a software rasteriser (lavapipe)
-/// running on the same cores as the CPU backend.
-pub fn vulkan_adapters() -> Vec<wgpu::AdapterInfo> {
+/// The adapters of [`BACKENDS`] this process can open (name, driver, device type), without
+/// opening a device; empty where there is no driver. Callers choosing between the GPU and
+/// the CPU read `device_type`: [`wgpu::DeviceType::Cpu`] is a software rasteriser (lavapipe,
+/// WARP) running on the same cores as the CPU backend.
+pub fn adapters() -> Vec<wgpu::AdapterInfo> {
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-    desc.backends = wgpu::Backends::VULKAN;
+    desc.backends = BACKENDS;
     let instance = wgpu::Instance::new(desc);
-    pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN))
+    pollster::block_on(instance.enumerate_adapters(BACKENDS))
         .iter()
         .map(|a| a.get_info())
         .collect()

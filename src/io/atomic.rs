@@ -450,8 +450,9 @@ fn write_block(
                 }
             }
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            // The file system's alignment is coarser than ours: through the page cache.
-            Err(e) if *direct && e.raw_os_error() == Some(libc::EINVAL) => {
+            // The file system's alignment is coarser than ours (EINVAL, the one OS error
+            // of kind InvalidInput): through the page cache.
+            Err(e) if *direct && e.kind() == std::io::ErrorKind::InvalidInput => {
                 if !buffered(file, direct) {
                     return Err(e);
                 }

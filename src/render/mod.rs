@@ -3,28 +3,34 @@
 //! colour ramp, under an orthographic camera fitted to the surface's bounding box.
 //!
 //! - [`camera`]: the orthographic camera (a frame and the map into clip space);
-//! - [`pipeline`]: the render pass on a `wgpu::Device`/`Queue` and the read-back of the
-//!   panels; its WGSL is `shaders/render.wgsl`, headed by constants generated from [`RAMP`];
+//! - `pipeline` (feature `gpu`): the render pass on a `wgpu::Device`/`Queue` and the
+//!   read-back of the panels; its WGSL is `shaders/render.wgsl`, headed by constants
+//!   generated from [`RAMP`];
 //! - `compose` (feature `cli`): titles, legend and the PNG file.
 //!
-//! The device is a Vulkan adapter only (lavapipe in tests), opened once per process by
-//! [`device`].
+//! The device is an adapter of the platform's native backend (Vulkan on Linux, lavapipe in
+//! tests; see `crate::gpu`), opened once per process by `device`.
 
+#[cfg(feature = "gpu")]
 use std::sync::Arc;
 
 use glam::DVec3;
 
+#[cfg(feature = "gpu")]
 use crate::gpu::GpuContext;
+#[cfg(feature = "gpu")]
 use crate::{Error, Result};
 
 pub mod camera;
 #[cfg(feature = "cli")]
 pub mod compose;
+#[cfg(feature = "gpu")]
 pub mod pipeline;
 
 pub use camera::Camera;
 #[cfg(feature = "cli")]
 pub use compose::{write_png, Row};
+#[cfg(feature = "gpu")]
 pub use pipeline::{render_panels, render_panels_on, render_tessellated, shader_source};
 
 /// Background of the panels (white).
@@ -99,8 +105,9 @@ impl Panels {
     }
 }
 
-/// The process's GPU (the shared Vulkan-only [`GpuContext`]), opened on first use; an
-/// error such as no Vulkan driver is remembered and returned every time.
+/// The process's GPU (the shared [`GpuContext`]), opened on first use; an error such as
+/// no Vulkan driver is remembered and returned every time.
+#[cfg(feature = "gpu")]
 pub fn device() -> Result<Arc<GpuContext>> {
     GpuContext::shared()
 }
@@ -114,6 +121,7 @@ pub const MAX_PANEL: u32 = 4096;
 
 /// Largest panel side `gpu` can draw: three panels side by side must fit in one texture
 /// row, and [`MAX_PANEL`].
+#[cfg(feature = "gpu")]
 pub fn max_panel(gpu: &GpuContext) -> u32 {
     (gpu.device.limits().max_texture_dimension_2d / 3).min(MAX_PANEL)
 }
@@ -153,6 +161,7 @@ impl SurfaceSize {
 
     /// Whether `gpu` can draw it: each buffer within the device's buffer size, and the
     /// 32-bit indices and index count in range. The error names the adapter and the limit.
+    #[cfg(feature = "gpu")]
     pub fn check_device(&self, gpu: &GpuContext) -> Result<()> {
         let max = gpu.device.limits().max_buffer_size as u128;
         if self.buffer_bytes() > max {

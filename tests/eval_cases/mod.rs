@@ -1,14 +1,17 @@
 //! Tables every evaluator is checked on (used by `tests/gpu.rs` and `tests/cpu_fast.rs`).
 //!
-//! `cases` gives, for a mesh, every scheme's own table (`Scheme::all()`) with the shader
-//! file that evaluates it.
+//! `tables` gives, for a mesh, every scheme's own table (`Scheme::all()`); `cases` adds the
+//! shader file that evaluates it.
 #![allow(dead_code)]
 
+#[cfg(feature = "gpu")]
 use std::sync::Arc;
 
 use glam::DVec3;
 
+#[cfg(feature = "gpu")]
 use g1tess::gpu::shaders::{self, ShaderFile};
+#[cfg(feature = "gpu")]
 use g1tess::gpu::GpuContext;
 use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::basis::Weights;
@@ -18,16 +21,26 @@ pub use crate::common::load;
 
 pub const MESHES: [&str; 4] = ["sphere320", "torus200", "spot.obj", "fandisk.obj"];
 
+/// (table, label) for every scheme on `mesh`.
+pub fn tables(mesh: &Mesh) -> Vec<(PatchTable, String)> {
+    Scheme::all()
+        .into_iter()
+        .map(|scheme| {
+            let table = PatchTable::build(mesh, scheme, &Default::default())
+                .unwrap_or_else(|e| panic!("{}: {scheme}: {e}", mesh.name));
+            (table, format!("scheme {scheme}"))
+        })
+        .collect()
+}
+
 /// (shader file, table, label) for every scheme on `mesh`; together they cover every
 /// (shader file, patch kind) pair the GPU can run (checked here).
+#[cfg(feature = "gpu")]
 pub fn cases(mesh: &Mesh) -> Vec<(ShaderFile, PatchTable, String)> {
-    let mut out = Vec::new();
-    for scheme in Scheme::all() {
-        let table = PatchTable::build(mesh, scheme, &Default::default())
-            .unwrap_or_else(|e| panic!("{}: {scheme}: {e}", mesh.name));
-        let file = shaders::file_for(table.kind);
-        out.push((file, table, format!("scheme {scheme}")));
-    }
+    let out: Vec<_> = tables(mesh)
+        .into_iter()
+        .map(|(table, label)| (shaders::file_for(table.kind), table, label))
+        .collect();
     for (file, kind) in shaders::variants() {
         assert!(
             out.iter().any(|(f, t, _)| *f == file && t.kind == kind),
@@ -93,13 +106,11 @@ pub fn ci() -> bool {
     std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
 }
 
-/// Every backend a comparison runs on: the CPU with each f32 kernel and, where a Vulkan
-/// adapter is present, the GPU in f32 and (with SHADER_F64) f64. With `CI=true` a missing
-/// adapter fails; otherwise the GPU entries are absent and a NOTE line says so.
+/// Every backend a comparison runs on: the CPU with each f32 kernel and, with feature `gpu`
+/// where an adapter is present, the GPU in f32 and (with SHADER_F64) f64. With `CI=true` a
+/// missing adapter fails; otherwise the GPU entries are absent and a NOTE line says so.
 pub fn evaluators() -> Vec<(String, Box<dyn g1tess::eval::Evaluator>)> {
     use g1tess::eval::cpu::{CpuEvaluator, F32Kernel};
-    use g1tess::gpu::eval::GpuEvaluator;
-    use g1tess::gpu::{GpuContext, Precision};
     let mut out: Vec<(String, Box<dyn g1tess::eval::Evaluator>)> = Vec::new();
     for kernel in [F32Kernel::Auto, F32Kernel::Portable] {
         out.push((
@@ -110,6 +121,16 @@ pub fn evaluators() -> Vec<(String, Box<dyn g1tess::eval::Evaluator>)> {
             }),
         ));
     }
+    #[cfg(feature = "gpu")]
+    gpu_evaluators(&mut out);
+    out
+}
+
+/// The GPU's entries of [`evaluators`].
+#[cfg(feature = "gpu")]
+fn gpu_evaluators(out: &mut Vec<(String, Box<dyn g1tess::eval::Evaluator>)>) {
+    use g1tess::gpu::eval::GpuEvaluator;
+    use g1tess::gpu::Precision;
     match GpuContext::shared() {
         Ok(ctx) => {
             for precision in [Precision::F32, Precision::F64] {
@@ -127,10 +148,10 @@ pub fn evaluators() -> Vec<(String, Box<dyn g1tess::eval::Evaluator>)> {
             eprintln!("NOTE: no GPU adapter ({e}): CPU backends only");
         }
     }
-    out
 }
 
 /// The shared context, or None (SKIP) without an adapter; with CI=true no adapter panics.
+#[cfg(feature = "gpu")]
 pub fn context(test: &str) -> Option<Arc<GpuContext>> {
     match GpuContext::shared() {
         Ok(c) => Some(c),

@@ -51,6 +51,8 @@ impl EdgeKernel {
 /// (from, to) and each sample, the weights at b[from] = 1 − t, b[to] = t, both sparse (as
 /// [`PatchTable::eval_sparse`] takes them) and, for the lane kernel, dense over the points
 /// any sample of that pair weighs, in blocks of `width` samples.
+// Some fields are read only by the x86-64 lane kernels.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub(super) struct EdgeWeights {
     kind: crate::patch::PatchKind,
     per: usize,
@@ -86,6 +88,8 @@ pub fn min_len2() -> f64 {
 }
 
 /// The weights of one (from, to) pair for the lane kernel.
+// Some fields are read only by the x86-64 lane kernels.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 #[derive(Default)]
 struct DenseEdgeWeights {
     /// Samples per block (the kernel's lanes).
@@ -373,6 +377,8 @@ impl EdgeWeights {
 }
 
 /// Per-job buffers of [`EdgeWeights::pair_products`].
+// Some fields are read only by the x86-64 lane kernels.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 #[derive(Default)]
 pub(super) struct PairScratch {
     a: Vec<f64>,

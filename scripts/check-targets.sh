@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Checks that the library compiles where wgpu's native backends run: macOS (Metal), Windows
+# (DX12 and Vulkan) and Linux (Vulkan), each with the GPU path (feature `gpu`), and on this
+# machine without default features (CPU-only, no GPU crate). `cargo check` only: types and
+# borrows, no linker or SDK of the other platforms needed. A target's standard library is
+# installed with `rustup target add` when it is missing. One line per check with its time;
+# the compiler's messages only where a check fails or warns.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+TARGETS=(aarch64-apple-darwin x86_64-pc-windows-msvc x86_64-unknown-linux-gnu)
+
+installed=$(rustup target list --installed)
+for t in "${TARGETS[@]}"; do
+  if ! grep -qx "$t" <<<"$installed"; then
+    echo "== rustup target add $t"
+    rustup target add "$t" >/dev/null 2>&1 || { echo "cannot install the $t standard library" >&2; exit 1; }
+  fi
+done
+
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+# Runs `cargo check ARGS...` and prints one line with its time, after the compiler's
+# messages (one line each) where there are any; the whole output where it failed without.
+check() {
+  local start=$SECONDS rc=0
+  cargo check --message-format short "$@" >"$log" 2>&1 || rc=$?
+  local messages
+  messages=$(grep -E '(^|: )(warning|error)(\[|:)' "$log" | grep -vE '^(warning|error): .*generated [0-9]+ warning|^error: could not compile' || true)
+  if [ -n "$messages" ]; then
+    echo "$messages"
+  elif [ "$rc" != 0 ]; then
+    cat "$log"
+  fi
+  if [ "$rc" != 0 ]; then
+    echo "FAIL cargo check $* ($((SECONDS - start)) s)"
+    return "$rc"
+  fi
+  echo "ok   cargo check $* ($((SECONDS - start)) s)"
+}
+
+for t in "${TARGETS[@]}"; do
+  check --lib --features gpu --target "$t"
+done
+check --lib --no-default-features
