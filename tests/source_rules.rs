@@ -318,7 +318,9 @@ fn module_graph_has_no_cycles() {
         edges.get(&Vec::new())
     );
     let mut failures = Vec::new();
-    for (parent, list) in &edges {
+    // The crate's layers and the modules of each layer; deeper folders (the repair's
+    // phases, `impl` blocks of one driver struct split by file) are one unit.
+    for (parent, list) in edges.iter().filter(|(p, _)| p.len() <= 1) {
         let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
         for (a, b, _) in list {
             graph.entry(a.clone()).or_default().insert(b.clone());
