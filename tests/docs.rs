@@ -129,23 +129,7 @@ fn architecture_is_at_most_200_lines_without_lines_over_400_characters() {
     assert!(long.is_empty(), "ARCHITECTURE.md: {long:?}");
 }
 
-/// Every `.rs` file under `dir`, sorted.
-fn rust_files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else if p.extension().is_some_and(|x| x == "rs") {
-                out.push(p);
-            }
-        }
-    }
-    out.sort();
-    out
-}
+use crate::common::rust_files;
 
 /// The longest run of consecutive `//!` lines of a file, and the line it starts on.
 fn longest_module_comment(text: &str) -> (usize, usize) {
