@@ -4,6 +4,7 @@
 
 pub mod adaptive;
 pub mod layout;
+pub mod numbering;
 pub mod screen;
 pub mod screen_gpu;
 pub mod stitch;
