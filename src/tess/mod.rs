@@ -6,5 +6,6 @@
 pub mod adaptive;
 pub mod layout;
 pub mod levels;
+pub mod numbering;
 pub mod screen;
 pub mod stitch;

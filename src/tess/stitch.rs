@@ -43,23 +43,24 @@
 //!
 //! Order: positions and records are numbered in the order they first appear when the
 //! patches are visited in order, and within a patch: corners 0, 1, 2, edges 0, 1, 2 (each
-//! from its lower-numbered vertex to the other), then the interior in grid order. A writer
-//! can therefore emit each patch's new positions and records as soon as it arrives.
+//! from its lower-numbered vertex to the other), then the interior in grid order
+//! ([`crate::tess::numbering`], which the GPU tessellator's table shares). A writer can
+//! therefore emit each patch's new positions and records as soon as it arrives.
 
-use std::collections::HashMap;
 use std::ops::Range;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::eval::pattern::grid_index;
 use crate::eval::{grid_len, grid_triangles, Chunk, Evaluator, PatchPoint, Pattern, Vector};
-use crate::mesh::creases::{normal_key, split_ends};
 use crate::mesh::{Adjacency, CornerAttributes, Mesh};
 use crate::patch::PatchTable;
 use crate::progress::{NoProgress, Progress};
 use crate::tess::layout;
 use crate::tess::levels::Levels;
+use crate::tess::numbering::{
+    corner_grid, edge_grid, interior_rows, Bases, Item, Numbering, Order,
+};
 use crate::{Error, Result};
 
 const NONE: u32 = u32::MAX;
@@ -131,23 +132,6 @@ pub struct StitchPlan {
     attrs: Option<Box<CornerAttributes>>,
 }
 
-/// Bits of corner k of triangle t's attributes (0 for absent parts; −0 as 0), the key
-/// records and seams are split by.
-fn attribute_key(attrs: &CornerAttributes, t: usize, k: usize) -> [u32; 6] {
-    let bits = |x: f32| if x == 0.0 { 0 } else { x.to_bits() };
-    let mut key = [0; 6];
-    if let Some(u) = &attrs.uvs {
-        key[0] = bits(u[t][k][0]);
-        key[1] = bits(u[t][k][1]);
-    }
-    if let Some(c) = &attrs.colors {
-        for (d, &x) in key[2..].iter_mut().zip(&c[t][k]) {
-            *d = bits(x);
-        }
-    }
-    key
-}
-
 /// Linear interpolation of three corner values at barycentric coordinates `b`, in f64.
 fn interpolate<const N: usize>(corners: &[[f32; N]; 3], b: [f64; 3]) -> [f32; N] {
     std::array::from_fn(|c| {
@@ -166,32 +150,6 @@ struct AdaptivePlan {
     inner: Vec<u32>,
     /// Store slot of each edge's first sample (after the input vertices).
     edge_store: Vec<u32>,
-}
-
-/// Grid index of corner k of the grid of level n.
-fn corner_grid(n: u32, k: usize) -> usize {
-    match k {
-        0 => grid_index(n, 0, 0),
-        1 => grid_index(n, n, 0),
-        _ => grid_index(n, 0, n),
-    }
-}
-
-/// Grid index of the sample at step i (1..n) from corner k along local edge k.
-fn edge_grid(n: u32, k: usize, i: u32) -> usize {
-    match k {
-        0 => grid_index(n, i, 0),
-        1 => grid_index(n, n - i, i),
-        _ => grid_index(n, 0, n - i),
-    }
-}
-
-/// Interior grid points as runs of consecutive grid indices (one per grid row j ≥ 1:
-/// i = 1..n − j − 1), in grid order.
-fn interior_rows(n: u32) -> Vec<Range<usize>> {
-    (1..n.saturating_sub(1))
-        .map(|j| grid_index(n, 1, j)..grid_index(n, n - j, j))
-        .collect()
 }
 
 impl StitchPlan {
@@ -252,6 +210,8 @@ impl StitchPlan {
                 mesh.name
             )));
         }
+        let attrs = (a.uvs.is_some() || a.colors.is_some()).then(|| Box::new(a.clone()));
+        let mut numbering = Numbering::new(mesh, adjacency, attrs.as_deref())?;
         let nv = mesh.positions.len();
         let ne = adjacency.edges.len();
         let uniform = adaptive.is_none();
@@ -263,22 +223,23 @@ impl StitchPlan {
             report: StitchReport {
                 boundary_edges: adjacency.boundary,
                 nonmanifold_edges: adjacency.nonmanifold,
-                ..Default::default()
+                split_edges: numbering.split.iter().filter(|&&s| s).count(),
+                extra_records: 0,
             },
             tris: mesh.triangles.clone(),
             vertices: nv,
-            use_edge: vec![NONE; 3 * nf],
-            use_rev: vec![false; 3 * nf],
+            use_edge: std::mem::take(&mut numbering.use_edge),
+            use_rev: std::mem::take(&mut numbering.use_rev),
             vertex_owner: vec![NONE; nv],
             vertex_pos: vec![NONE; nv],
             edge_owner: vec![NONE; ne],
             edge_pos: vec![NONE; ne],
-            corner_rec: vec![NONE; 3 * nf],
-            corner_new_rec: vec![false; 3 * nf],
-            use_rec: vec![NONE; 3 * nf],
-            use_new_rec: vec![false; 3 * nf],
-            interior_pos: vec![NONE; nf],
-            interior_rec: vec![NONE; nf],
+            corner_rec: Vec::new(),
+            corner_new_rec: Vec::new(),
+            use_rec: Vec::new(),
+            use_new_rec: Vec::new(),
+            interior_pos: Vec::new(),
+            interior_rec: Vec::new(),
             corner_g: [0, 1, 2].map(|k| corner_grid(n, k) as u32),
             edge_g: if uniform {
                 (0..3)
@@ -293,25 +254,20 @@ impl StitchPlan {
                 Vec::new()
             },
             adaptive,
-            attrs: (mesh.attributes.uvs.is_some() || mesh.attributes.colors.is_some())
-                .then(|| Box::new(mesh.attributes.clone())),
+            attrs,
         };
-        for (e, edge) in adjacency.edges.iter().enumerate() {
-            for u in &edge.uses {
-                let i = 3 * u.triangle as usize + u.local as usize;
-                plan.use_edge[i] = e as u32;
-                plan.use_rev[i] =
-                    mesh.triangles[u.triangle as usize][u.local as usize] != edge.v[0];
-            }
-        }
         // Upper bound on records: every corner, edge use and interior point its own.
         let mut bound = nv as u64;
         let mut triangles = 0u64;
+        let mut interiors = Vec::with_capacity(if uniform { 0 } else { nf });
         for p in 0..nf {
             let (e, inner) = plan.patch_levels(p);
-            bound += 3 + e.iter().map(|&l| l as u64 - 1).sum::<u64>();
-            bound += layout::interior_count(e, inner) as u64;
+            let interior = layout::interior_count(e, inner) as u64;
+            bound += 3 + e.iter().map(|&l| l as u64 - 1).sum::<u64>() + interior;
             triangles += layout::triangle_count(e, inner) as u64;
+            if !uniform {
+                interiors.push(interior);
+            }
         }
         if bound >= NONE as u64 || triangles >= NONE as u64 {
             return Err(Error::Invalid(format!(
@@ -325,86 +281,60 @@ impl StitchPlan {
             )));
         }
         plan.triangles = triangles as usize;
-        let mut split: Vec<bool> = split_ends(mesh, adjacency)
-            .iter()
-            .map(|s| s[0] || s[1])
-            .collect();
-        if let Some(attrs) = &plan.attrs {
-            // A seam: the edge's triangles disagree on an end's attributes.
-            for (e, edge) in adjacency.edges.iter().enumerate() {
-                let ends = |u: &crate::mesh::EdgeUse| {
-                    let (t, k) = (u.triangle as usize, u.local as usize);
-                    let a = attribute_key(attrs, t, k);
-                    let b = attribute_key(attrs, t, (k + 1) % 3);
-                    if mesh.triangles[t][k] == edge.v[0] {
-                        (a, b)
-                    } else {
-                        (b, a)
-                    }
-                };
-                if let Some((first, rest)) = edge.uses.split_first() {
-                    let f = ends(first);
-                    split[e] |= rest.iter().any(|u| ends(u) != f);
-                }
-            }
-        }
-        plan.report.split_edges = split.iter().filter(|&&s| s).count();
-        let mut groups: HashMap<(u32, [u64; 3], [u32; 6]), u32> = HashMap::new();
-        let (mut pos, mut rec) = (0u32, 0u32);
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            for (k, &vk) in tri.iter().enumerate() {
-                let v = vk as usize;
-                if plan.vertex_pos[v] == NONE {
-                    plan.vertex_pos[v] = pos;
-                    plan.vertex_owner[v] = t as u32;
-                    pos += 1;
-                }
-                let akey = match &plan.attrs {
-                    Some(a) => attribute_key(a, t, k),
-                    None => [0; 6],
-                };
-                let key = (vk, normal_key(mesh.corner_normals[t][k]), akey);
-                let c = 3 * t + k;
-                match groups.get(&key) {
-                    Some(&r) => plan.corner_rec[c] = r,
-                    None => {
-                        groups.insert(key, rec);
-                        plan.corner_rec[c] = rec;
-                        plan.corner_new_rec[c] = true;
-                        rec += 1;
-                    }
-                }
-            }
-            for k in 0..3 {
-                let u = 3 * t + k;
-                let e = plan.use_edge[u] as usize;
-                let samples = plan.edge_samples(e);
-                if plan.edge_pos[e] == NONE {
-                    plan.edge_pos[e] = pos;
-                    plan.edge_owner[e] = u as u32;
-                    pos += samples;
-                    plan.use_rec[u] = rec;
-                    plan.use_new_rec[u] = true;
-                    rec += samples;
-                } else if split[e] {
-                    plan.use_rec[u] = rec;
-                    plan.use_new_rec[u] = true;
-                    rec += samples;
-                } else {
-                    plan.use_rec[u] = plan.use_rec[plan.edge_owner[e] as usize];
-                }
-            }
-            let (e, inner) = plan.patch_levels(t);
-            let interior = layout::interior_count(e, inner) as u32;
-            plan.interior_pos[t] = pos;
-            plan.interior_rec[t] = rec;
-            pos += interior;
-            rec += interior;
-        }
-        plan.positions = pos as usize;
-        plan.records = rec as usize;
-        plan.report.extra_records = plan.records - plan.positions;
+        plan.resolve(&numbering, &interiors);
         Ok(plan)
+    }
+
+    /// Takes the ids of `numbering` at the plan's levels (`interiors`: each patch's interior
+    /// samples, for per-edge levels).
+    fn resolve(&mut self, numbering: &Numbering, interiors: &[u64]) {
+        let bases = |order: &Order| match &self.adaptive {
+            None => Bases::grid(self.level),
+            Some(_) => Bases::prefix(
+                order
+                    .block_first
+                    .iter()
+                    .map(|&u| self.edge_samples(self.use_edge[u as usize] as usize) as u64),
+                interiors.iter().copied(),
+            ),
+        };
+        let (records, positions) = (&numbering.records, &numbering.positions);
+        let (rb, pb) = (bases(records), bases(positions));
+        // Every id fits: the caller checked the bound on records.
+        let id = |b: &Bases, item: Item| b.base(item) as u32;
+        let uses = 0..3 * self.tris.len();
+        self.corner_rec = uses
+            .clone()
+            .map(|c| id(&rb, records.corner_item(c)))
+            .collect();
+        self.corner_new_rec = uses.clone().map(|c| records.makes_corner(c)).collect();
+        self.use_rec = uses
+            .clone()
+            .map(|u| id(&rb, records.block_item(u)))
+            .collect();
+        self.use_new_rec = uses.map(|u| records.makes_block(u)).collect();
+        let patches = 0..self.tris.len();
+        self.interior_rec = patches
+            .clone()
+            .map(|p| id(&rb, records.interior_item(p)))
+            .collect();
+        self.interior_pos = patches
+            .map(|p| id(&pb, positions.interior_item(p)))
+            .collect();
+        for &c in &positions.corner_first {
+            let (t, k) = (c as usize / 3, c as usize % 3);
+            let v = self.tris[t][k] as usize;
+            self.vertex_owner[v] = t as u32;
+            self.vertex_pos[v] = id(&pb, positions.corner_item(c as usize));
+        }
+        for &u in &positions.block_first {
+            let e = self.use_edge[u as usize] as usize;
+            self.edge_owner[e] = u;
+            self.edge_pos[e] = id(&pb, positions.block_item(u as usize));
+        }
+        self.positions = pb.base(positions.end()) as usize;
+        self.records = rb.base(records.end()) as usize;
+        self.report.extra_records = self.records - self.positions;
     }
 
     /// Whether the output records carry texture coordinates

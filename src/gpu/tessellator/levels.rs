@@ -7,6 +7,7 @@ use crate::gpu::Precision;
 use crate::patch::PatchKind;
 use crate::tess::adaptive::{InnerRule, Levels};
 use crate::tess::layout::MAX_LEVEL;
+use crate::tess::numbering::{interior_len, Bases};
 use crate::{Error, Result};
 
 use super::buffers::{groups, new_buffer};
@@ -100,11 +101,16 @@ impl Topology {
     pub fn level_capacity(&self, max_level: u32) -> LevelCapacity {
         let m = max_level.max(1) as u64;
         let l = m.max(3);
-        let interior = (l - 1) * (l - 2) / 2;
+        let interior = interior_len(l as u32);
         let p = self.patches as u64;
+        // Every block at most m − 1 samples, every interior at most the inner level's.
+        let most = Bases::Uniform {
+            block: m - 1,
+            interior,
+        };
         LevelCapacity {
             max_level,
-            vertices: self.corner_records as u64 + self.edge_blocks as u64 * (m - 1) + p * interior,
+            vertices: most.base(self.end()),
             indices: 3 * p * l * l,
             samples: p * (3 * m + interior),
         }

@@ -56,19 +56,18 @@
 //! # }
 //! ```
 
-// The numbering (the topology table, `record_of`: what the shaders mirror) and the
-// tessellator's state are here; its construction and buffers, uniform levels, per-edge
-// levels and the WGSL assembly each have a file.
+// The topology table (filled from `tess::numbering`, the stitcher's numbering),
+// `record_of` (what the shaders mirror) and the tessellator's state are here; its
+// construction and buffers, uniform levels, per-edge levels and the WGSL assembly each have
+// a file.
 mod buffers;
 mod levels;
 mod shader;
 mod uniform;
 
-use std::collections::HashMap;
-
-use crate::mesh::creases::{normal_key, split_ends};
 use crate::mesh::{Adjacency, Mesh};
 use crate::patch::PatchKind;
+use crate::tess::numbering::{canonical_sample, grid_point, Bases, GridPoint, Item, Numbering};
 use crate::{Error, Result};
 
 use super::Precision;
@@ -143,7 +142,8 @@ pub struct Rec {
 
 impl Topology {
     /// The table of `mesh` (whose adjacency is `adjacency`), numbered as
-    /// [`crate::tess::stitch::StitchPlan::new`] numbers the output.
+    /// [`crate::tess::stitch::StitchPlan::new`] numbers the output: the same
+    /// [`Numbering`], without attributes (the vertices carry none).
     pub fn new(mesh: &Mesh, adjacency: &Adjacency) -> Result<Topology> {
         let nf = mesh.triangles.len();
         if nf as u64 >= u32::MAX as u64 / 4 {
@@ -152,99 +152,70 @@ impl Topology {
                 mesh.name
             )));
         }
-        let split: Vec<bool> = split_ends(mesh, adjacency)
-            .iter()
-            .map(|s| s[0] || s[1])
-            .collect();
-        const NONE: u32 = u32::MAX;
-        let mut use_edge = vec![NONE; 3 * nf];
-        let mut use_rev = vec![false; 3 * nf];
-        for (e, edge) in adjacency.edges.iter().enumerate() {
-            for u in &edge.uses {
-                let i = 3 * u.triangle as usize + u.local as usize;
-                use_edge[i] = e as u32;
-                use_rev[i] = mesh.triangles[u.triangle as usize][u.local as usize] != edge.v[0];
-            }
-        }
-        if let Some(u) = use_edge.iter().position(|&e| e == NONE) {
-            return Err(Error::Invalid(format!(
-                "{}: edge {} of triangle {} is missing from the adjacency",
-                mesh.name,
-                u % 3,
-                u / 3
-            )));
-        }
+        let numbering = Numbering::new(mesh, adjacency, None)?;
+        Ok(Topology::from_numbering(&numbering, adjacency.edges.len()))
+    }
+
+    /// The table of `numbering` (of a mesh with `edges` adjacency edges): every item's
+    /// (a, b, c) and flags, per patch.
+    pub fn from_numbering(numbering: &Numbering, edges: usize) -> Topology {
+        let rec = &numbering.records;
+        let nf = numbering.patches();
+        let abc = |item: Item| [item.a, item.b, item.c];
         let mut table = vec![0u32; TOPO_STRIDE * nf];
-        let mut groups: HashMap<(u32, [u64; 3]), [u32; 3]> = HashMap::new();
-        let mut edge_block: Vec<Option<[u32; 3]>> = vec![None; adjacency.edges.len()];
-        let (mut a, mut b, mut copied) = (0u32, 0u32, 0u32);
-        let mut block_edge = Vec::with_capacity(adjacency.edges.len());
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            let row = &mut table[t * TOPO_STRIDE..(t + 1) * TOPO_STRIDE];
-            let c = t as u32;
-            for (k, &v) in tri.iter().enumerate() {
-                let key = (v, normal_key(mesh.corner_normals[t][k]));
-                let (abc, flags) = match groups.get(&key) {
-                    Some(&abc) => (abc, 0),
-                    None => {
-                        let abc = [a, b, c];
-                        groups.insert(key, abc);
-                        a += 1;
-                        (abc, FLAG_WRITE)
-                    }
-                };
+        for (t, row) in table.chunks_exact_mut(TOPO_STRIDE).enumerate() {
+            for k in 0..3 {
+                let c = 3 * t + k;
                 let o = TOPO_CORNER + 4 * k;
-                row[o..o + 3].copy_from_slice(&abc);
-                row[o + 3] = flags;
+                row[o..o + 3].copy_from_slice(&abc(rec.corner_item(c)));
+                row[o + 3] = if rec.makes_corner(c) { FLAG_WRITE } else { 0 };
             }
             for k in 0..3 {
                 let u = 3 * t + k;
-                let e = use_edge[u] as usize;
-                let rev = if use_rev[u] { FLAG_REVERSED } else { 0 };
-                let (own, owner, flags) = match edge_block[e] {
-                    None => {
-                        let abc = [a, b, c];
-                        edge_block[e] = Some(abc);
-                        block_edge.push(e as u32);
-                        b += 1;
-                        (abc, abc, FLAG_WRITE)
-                    }
-                    Some(owner) if split[e] => {
-                        let abc = [a, b, c];
-                        block_edge.push(e as u32);
-                        b += 1;
-                        copied += 1;
-                        (abc, owner, FLAG_WRITE | FLAG_COPY)
-                    }
-                    Some(owner) => (owner, owner, 0),
+                let owner = numbering.owner(u);
+                let mut flags = match (rec.makes_block(u), owner == u) {
+                    (false, _) => 0,
+                    (true, true) => FLAG_WRITE,
+                    (true, false) => FLAG_WRITE | FLAG_COPY,
                 };
+                if numbering.use_rev[u] {
+                    flags |= FLAG_REVERSED;
+                }
                 let o = TOPO_EDGE + 7 * k;
-                row[o..o + 3].copy_from_slice(&own);
-                row[o + 3] = flags | rev;
-                row[o + 4..o + 7].copy_from_slice(&owner);
+                row[o..o + 3].copy_from_slice(&abc(rec.block_item(u)));
+                row[o + 3] = flags;
+                row[o + 4..o + 7].copy_from_slice(&abc(rec.block_item(owner)));
             }
-            row[TOPO_INTERIOR] = a;
-            row[TOPO_INTERIOR + 1] = b;
+            let interior = rec.interior_item(t);
+            row[TOPO_INTERIOR] = interior.a;
+            row[TOPO_INTERIOR + 1] = interior.b;
         }
-        Ok(Topology {
+        let end = rec.end();
+        Topology {
             table,
-            corner_records: a,
-            edge_blocks: b,
-            copied_blocks: copied,
+            corner_records: end.a,
+            edge_blocks: end.b,
+            copied_blocks: numbering.copied_blocks(),
             patches: nf,
-            block_edge,
-            patch_edges: use_edge,
-            edges: adjacency.edges.len(),
-        })
+            block_edge: numbering.block_edges(rec).collect(),
+            patch_edges: numbering.use_edge.clone(),
+            edges,
+        }
+    }
+
+    /// The totals: every corner record, edge block and interior (the end of the order).
+    pub fn end(&self) -> Item {
+        Item {
+            a: self.corner_records,
+            b: self.edge_blocks,
+            c: self.patches as u32,
+        }
     }
 
     /// Vertex records at `level`: `a + b (n − 1) + patches (n − 1)(n − 2)/2` with the
     /// totals (exact, in u64).
     pub fn records(&self, level: u32) -> u64 {
-        let n = level.max(1) as u64;
-        self.corner_records as u64
-            + self.edge_blocks as u64 * (n - 1)
-            + self.patches as u64 * ((n - 1) * n.saturating_sub(2) / 2)
+        Bases::grid(level).base(self.end())
     }
 
     /// Triangle indices at `level`: 3 n² per patch.
@@ -256,10 +227,13 @@ impl Topology {
         self.table[p as usize * TOPO_STRIDE + o]
     }
 
-    fn item_base(&self, p: u32, o: usize, n: u32) -> u32 {
-        let em = n - 1;
-        let interior = em * n.saturating_sub(2) / 2;
-        self.topo(p, o) + self.topo(p, o + 1) * em + self.topo(p, o + 2) * interior
+    /// The item whose (a, b, c) is at offset `o` of patch `p`'s entry.
+    fn item(&self, p: u32, o: usize) -> Item {
+        Item {
+            a: self.topo(p, o),
+            b: self.topo(p, o + 1),
+            c: self.topo(p, o + 2),
+        }
     }
 
     /// The triangles of every patch at `level` as record ids, in the order the GPU writes
@@ -287,57 +261,47 @@ impl Topology {
 }
 
 /// Record of grid point (i, j) (b1 = i/n, b2 = j/n) of patch `p` at level `n`, from the
-/// table alone (`record_of` of `shaders/tessellate.wgsl` mirrors it).
+/// table alone (`record_of` of `shaders/tessellate.wgsl` mirrors it): the first id of the
+/// item the point belongs to at level n ([`Bases::grid`]), plus its place in the item.
 pub fn record_of(topology: &Topology, p: u32, n: u32, i: u32, j: u32) -> Rec {
-    let em = n - 1;
-    let corner = match (i, j) {
-        (0, 0) => Some(0),
-        (i, 0) if i == n => Some(1),
-        (0, j) if j == n => Some(2),
-        _ => None,
-    };
-    if let Some(k) = corner {
-        let o = TOPO_CORNER + 4 * k;
-        let id = topology.item_base(p, o, n);
-        return Rec {
-            id,
-            flags: topology.topo(p, o + 3),
-            source: id,
-        };
-    }
-    let edge = if j == 0 {
-        Some((0, i))
-    } else if i + j == n {
-        Some((1, j))
-    } else if i == 0 {
-        Some((2, n - j))
-    } else {
-        None
-    };
-    if let Some((k, s)) = edge {
-        let o = TOPO_EDGE + 7 * k;
-        let flags = topology.topo(p, o + 3);
-        let m = if flags & FLAG_REVERSED != 0 {
-            em - s
-        } else {
-            s - 1
-        };
-        let id = topology.item_base(p, o, n) + m;
-        let source = if flags & FLAG_COPY != 0 {
-            topology.item_base(p, o + 4, n) + m
-        } else {
-            id
-        };
-        return Rec { id, flags, source };
-    }
-    let interior = em * n.saturating_sub(2) / 2;
-    let base =
-        topology.topo(p, TOPO_INTERIOR) + topology.topo(p, TOPO_INTERIOR + 1) * em + p * interior;
-    let id = base + (j - 1) * em - (j - 1) * j / 2 + i - 1;
-    Rec {
-        id,
-        flags: FLAG_WRITE,
-        source: id,
+    let bases = Bases::grid(n);
+    // Ids wrap as the shader's u32 arithmetic does.
+    let base = |item: Item| bases.base(item) as u32;
+    match grid_point(n, i, j) {
+        GridPoint::Corner(k) => {
+            let o = TOPO_CORNER + 4 * k;
+            let id = base(topology.item(p, o));
+            Rec {
+                id,
+                flags: topology.topo(p, o + 3),
+                source: id,
+            }
+        }
+        GridPoint::Edge(k, s) => {
+            let o = TOPO_EDGE + 7 * k;
+            let flags = topology.topo(p, o + 3);
+            let m = canonical_sample(n - 1, s, flags & FLAG_REVERSED != 0);
+            let id = base(topology.item(p, o)).wrapping_add(m);
+            let source = if flags & FLAG_COPY != 0 {
+                base(topology.item(p, o + 4)).wrapping_add(m)
+            } else {
+                id
+            };
+            Rec { id, flags, source }
+        }
+        GridPoint::Interior(m) => {
+            let interior = Item {
+                a: topology.topo(p, TOPO_INTERIOR),
+                b: topology.topo(p, TOPO_INTERIOR + 1),
+                c: p,
+            };
+            let id = base(interior).wrapping_add(m);
+            Rec {
+                id,
+                flags: FLAG_WRITE,
+                source: id,
+            }
+        }
     }
 }
 
@@ -481,4 +445,140 @@ pub fn decode_bounds(keys: [u32; 6]) -> ([f32; 3], [f32; 3]) {
     let hi = [0, 1, 2].map(|k| key_to_f32(keys[k]));
     let lo = [0, 1, 2].map(|k| -key_to_f32(keys[3 + k]));
     (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+
+    use super::*;
+    use crate::mesh::LoadOptions;
+    use crate::tess::levels::Levels;
+    use crate::tess::layout;
+    use crate::tess::stitch::StitchPlan;
+
+    /// A unit box without its top, creases at 45°: 4 boundary edges, 8 creased box edges.
+    fn open_box() -> Mesh {
+        let positions: Vec<DVec3> = (0..8)
+            .map(|v| DVec3::new((v & 1) as f64, (v >> 1 & 1) as f64, (v >> 2) as f64))
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [0, 1, 5, 4],
+            [1, 3, 7, 5],
+            [3, 2, 6, 7],
+            [2, 0, 4, 6],
+        ];
+        let triangles: Vec<[u32; 3]> = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        let opts = LoadOptions {
+            crease_angle: Some(45.0),
+            ..LoadOptions::default()
+        };
+        Mesh::from_soup("open box", &positions, &triangles, None, &opts).unwrap()
+    }
+
+    /// The uploaded table is the one filled from the stitcher's numbering, and read as the
+    /// per-edge shader reads it (each item at a + the samples of the blocks before it + the
+    /// samples of the interiors before it, running sums written out here) it gives
+    /// `StitchPlan::with_levels`'s record of every sample of every patch, with creases, a
+    /// boundary, and edge levels 1..=6.
+    #[test]
+    fn topology_table_is_the_stitch_numbering_at_per_edge_levels() {
+        let mesh = open_box();
+        let adj = mesh.adjacency();
+        let topo = Topology::new(&mesh, &adj).unwrap();
+        let numbering = Numbering::new(&mesh, &adj, None).unwrap();
+        let same = Topology::from_numbering(&numbering, adj.edges.len());
+        assert_eq!(
+            (topo.table.len(), &topo.table),
+            (10 * TOPO_STRIDE, &same.table)
+        );
+        // Every box edge but the 4 of the open top is a crease with a block per side.
+        assert_eq!((adj.boundary, topo.copied_blocks), (4, 8));
+        assert_eq!(topo.edge_blocks as usize, adj.edges.len() + 8);
+        // A record per face at each vertex (faces meet at 90°): 3 at the bottom corners,
+        // 2 at the top ones; 17 edges (12 of the box, 5 quad diagonals), each with a block.
+        assert_eq!(topo.corner_records, 4 * 3 + 4 * 2);
+        assert_eq!(adj.edges.len(), 17);
+        let edges: Vec<u32> = (0..adj.edges.len() as u32)
+            .map(|e| 1 + (5 * e + 2) % 6)
+            .collect();
+        let inner = (0..10u32)
+            .map(|p| {
+                let e = [0, 1, 2].map(|k| edges[topo.patch_edges[3 * p as usize + k] as usize]);
+                if p % 2 == 0 {
+                    e.into_iter().max().unwrap()
+                } else {
+                    2
+                }
+            })
+            .collect();
+        let levels = Levels { edges, inner };
+        let plan = StitchPlan::with_levels(&mesh, &adj, &levels).unwrap();
+        assert!(!plan.is_uniform());
+        // The device's scans: samples of the blocks and interiors before each.
+        let mut block_off = vec![0u32];
+        for &e in &topo.block_edge {
+            block_off.push(block_off.last().unwrap() + levels.edges[e as usize] - 1);
+        }
+        let mut int_off = vec![0u32];
+        for p in 0..10 {
+            let (e, inner) = plan.patch_levels(p);
+            int_off.push(int_off.last().unwrap() + layout::interior_count(e, inner) as u32);
+        }
+        let at = |p: u32, o: usize| {
+            let [a, b, c] = [0, 1, 2].map(|i| topo.topo(p, o + i));
+            a + block_off[b as usize] + int_off[c as usize]
+        };
+        let (mut rec, mut pos) = (Vec::new(), Vec::new());
+        let mut record_position = vec![u32::MAX; plan.records];
+        let mut written = vec![0u32; plan.records];
+        let mut copies = Vec::new();
+        for p in 0..10u32 {
+            plan.local_ids(p as usize, &mut rec, &mut pos);
+            let mut want = Vec::new();
+            let mut write = Vec::new();
+            for k in 0..3 {
+                want.push(at(p, TOPO_CORNER + 4 * k));
+                write.push(topo.topo(p, TOPO_CORNER + 4 * k + 3) & FLAG_WRITE != 0);
+            }
+            let (e, inner) = plan.patch_levels(p as usize);
+            for (k, &l) in e.iter().enumerate() {
+                let o = TOPO_EDGE + 7 * k;
+                let flags = topo.topo(p, o + 3);
+                for s in 1..l {
+                    let m = canonical_sample(l - 1, s, flags & FLAG_REVERSED != 0);
+                    want.push(at(p, o) + m);
+                    write.push(flags & FLAG_WRITE != 0);
+                    if flags & FLAG_COPY != 0 {
+                        copies.push((at(p, o) + m, at(p, o + 4) + m));
+                    }
+                }
+            }
+            let (a, b) = (topo.topo(p, TOPO_INTERIOR), topo.topo(p, TOPO_INTERIOR + 1));
+            let interior = a + block_off[b as usize] + int_off[p as usize];
+            for m in 0..layout::interior_count(e, inner) as u32 {
+                want.push(interior + m);
+                write.push(true);
+            }
+            assert_eq!(rec, want, "patch {p}");
+            for ((&r, &q), &w) in rec.iter().zip(&pos).zip(&write) {
+                record_position[r as usize] = q;
+                written[r as usize] += w as u32;
+            }
+        }
+        // Every record written once; split records take an owner record's position.
+        assert!(written.iter().all(|&w| w == 1), "{written:?}");
+        assert!(!copies.is_empty());
+        for (id, source) in copies {
+            assert_ne!(id, source);
+            assert_eq!(
+                record_position[id as usize],
+                record_position[source as usize]
+            );
+        }
+    }
 }

@@ -1,0 +1,472 @@
+//! The numbering of the stitched output, from the topology alone and independent of the
+//! levels: which records and positions each patch makes or takes, where every item starts
+//! at any levels, and which grid point is which corner, edge sample or interior point. The
+//! CPU stitcher ([`crate::tess::stitch::StitchPlan`]) resolves it for one set of levels;
+//! the GPU tessellator's topology table (`gpu::tessellator::Topology`) is filled from it
+//! and resolved on the device at every level.
+//!
+//! **Order.** Patches are visited in order, and within a patch corners 0, 1, 2, edges 0, 1,
+//! 2, then the interior. Each visit makes an *item* or takes one made before:
+//! - a corner takes the corner item of its (vertex, corner normal, corner attributes), made
+//!   by the first corner with that key;
+//! - an edge use takes the block of its edge's first use (its *owner*), or makes its own
+//!   where the edge is split (its triangles disagree on an end normal or an end's
+//!   attributes: a crease, a UV seam); a block holds the edge's samples from its lower vertex
+//!   id to the other (canonical order);
+//! - every patch makes its interior (its points in grid order).
+//!
+//! Records follow that order ([`Numbering::records`]); positions follow the same order with
+//! one corner item per vertex and one block per edge ([`Numbering::positions`]).
+//!
+//! **Level independence.** An item is known by what was made before it ([`Item`]): a corner
+//! items, b blocks and c interiors. Its first id is a plus the sizes of those b blocks and c
+//! interiors ([`Bases`]): `a + b (n − 1) + c (n − 1)(n − 2)/2` on the grid of level n, prefix
+//! sums of the blocks' E − 1 and the interiors' sample counts with per-edge levels.
+
+use std::collections::HashMap;
+use std::ops::Range;
+
+use crate::eval::pattern::grid_index;
+use crate::mesh::creases::{normal_key, split_ends};
+use crate::mesh::{Adjacency, CornerAttributes, Mesh};
+use crate::{Error, Result};
+
+const NONE: u32 = u32::MAX;
+
+/// An item of the stitched order, by what was made before it: `a` corner items, `b` blocks
+/// and `c` interiors (c is the patch that made it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Item {
+    pub a: u32,
+    pub b: u32,
+    pub c: u32,
+}
+
+/// The sizes items take: every block and interior alike (a grid level), or each its own
+/// (per-edge levels), as exclusive prefix sums.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Bases {
+    /// Ids per block and per interior.
+    Uniform { block: u64, interior: u64 },
+    /// `blocks[b]`: ids in blocks 0..b; `interiors[c]`: ids in interiors 0..c.
+    Prefix {
+        blocks: Vec<u64>,
+        interiors: Vec<u64>,
+    },
+}
+
+/// Interior points of the grid of level n: (n − 1)(n − 2)/2.
+pub fn interior_len(n: u32) -> u64 {
+    let n = n.max(1) as u64;
+    (n - 1) * n.saturating_sub(2) / 2
+}
+
+impl Bases {
+    /// The grid of level n (≥ 1) everywhere: n − 1 samples per block, (n − 1)(n − 2)/2 per
+    /// interior.
+    pub fn grid(n: u32) -> Bases {
+        Bases::Uniform {
+            block: n.max(1) as u64 - 1,
+            interior: interior_len(n),
+        }
+    }
+
+    /// Each block and interior its own size, in the order they were made.
+    pub fn prefix(
+        blocks: impl IntoIterator<Item = u64>,
+        interiors: impl IntoIterator<Item = u64>,
+    ) -> Bases {
+        let scan = |sizes: &mut dyn Iterator<Item = u64>| {
+            let mut sum = 0u64;
+            let mut out = vec![0];
+            out.extend(sizes.map(|s| {
+                sum += s;
+                sum
+            }));
+            out
+        };
+        Bases::Prefix {
+            blocks: scan(&mut blocks.into_iter()),
+            interiors: scan(&mut interiors.into_iter()),
+        }
+    }
+
+    /// First id of `item` (at the end of the order: the total).
+    pub fn base(&self, item: Item) -> u64 {
+        let (a, b, c) = (item.a as u64, item.b as usize, item.c as usize);
+        match self {
+            Bases::Uniform { block, interior } => a + b as u64 * block + c as u64 * interior,
+            Bases::Prefix { blocks, interiors } => a + blocks[b] + interiors[c],
+        }
+    }
+}
+
+/// One numbering of the stitched order (records or positions): the item each corner and
+/// edge use takes, and where each item was made.
+#[derive(Clone, Debug, Default)]
+pub struct Order {
+    /// Per corner 3t + k: its corner item.
+    pub corner: Vec<u32>,
+    /// Per corner item: the corner (3t + k) that made it.
+    pub corner_first: Vec<u32>,
+    /// Per edge use 3t + k: its block.
+    pub block: Vec<u32>,
+    /// Per block: the edge use that made it.
+    pub block_first: Vec<u32>,
+    /// Per patch: the corner items and blocks made before its interior.
+    pub interior: Vec<[u32; 2]>,
+}
+
+impl Order {
+    fn with_capacity(patches: usize) -> Order {
+        Order {
+            corner: Vec::with_capacity(3 * patches),
+            block: Vec::with_capacity(3 * patches),
+            interior: Vec::with_capacity(patches),
+            ..Order::default()
+        }
+    }
+
+    fn make_corner(&mut self, corner: usize) -> u32 {
+        self.corner_first.push(corner as u32);
+        self.corner_first.len() as u32 - 1
+    }
+
+    fn make_block(&mut self, edge_use: usize) -> u32 {
+        self.block_first.push(edge_use as u32);
+        self.block_first.len() as u32 - 1
+    }
+
+    fn end_patch(&mut self) {
+        let made = [self.corner_first.len(), self.block_first.len()];
+        self.interior.push(made.map(|m| m as u32));
+    }
+
+    /// The item of corner `corner` (3t + k).
+    pub fn corner_item(&self, corner: usize) -> Item {
+        let a = self.corner[corner];
+        let c = self.corner_first[a as usize] / 3;
+        // Made among patch c's corners: after every block of the patches before.
+        let b = match c {
+            0 => 0,
+            _ => self.interior[c as usize - 1][1],
+        };
+        Item { a, b, c }
+    }
+
+    /// The block of edge use `edge_use` (3t + k).
+    pub fn block_item(&self, edge_use: usize) -> Item {
+        let b = self.block[edge_use];
+        let c = self.block_first[b as usize] / 3;
+        // Made among patch c's edges: after all its corners.
+        Item {
+            a: self.interior[c as usize][0],
+            b,
+            c,
+        }
+    }
+
+    /// The interior of patch `p`.
+    pub fn interior_item(&self, p: usize) -> Item {
+        let [a, b] = self.interior[p];
+        Item { a, b, c: p as u32 }
+    }
+
+    /// The end of the order: every corner item, block and interior.
+    pub fn end(&self) -> Item {
+        Item {
+            a: self.corner_first.len() as u32,
+            b: self.block_first.len() as u32,
+            c: self.interior.len() as u32,
+        }
+    }
+
+    /// Whether corner `corner` made its item.
+    pub fn makes_corner(&self, corner: usize) -> bool {
+        self.corner_first[self.corner[corner] as usize] == corner as u32
+    }
+
+    /// Whether edge use `edge_use` made its block.
+    pub fn makes_block(&self, edge_use: usize) -> bool {
+        self.block_first[self.block[edge_use] as usize] == edge_use as u32
+    }
+}
+
+/// The level-independent numbering of the stitched output of a mesh.
+#[derive(Clone, Debug)]
+pub struct Numbering {
+    /// Per edge use 3t + k: the edge (index in the adjacency).
+    pub use_edge: Vec<u32>,
+    /// Per edge use: its local direction (corner k → k + 1) runs from the higher to the
+    /// lower vertex id, against the canonical sample order.
+    pub use_rev: Vec<bool>,
+    /// Per edge: whether its uses have a block each (split normals or attributes).
+    pub split: Vec<bool>,
+    /// Vertex records: one corner item per (vertex, normal, attributes), a block per edge
+    /// and one per extra use of a split edge.
+    pub records: Order,
+    /// Positions: one corner item per vertex, one block per edge.
+    pub positions: Order,
+}
+
+/// Bits of corner k of triangle t's attributes (0 for absent parts; −0 as 0), the key
+/// records and seams are split by.
+pub fn attribute_key(attrs: &CornerAttributes, t: usize, k: usize) -> [u32; 6] {
+    let bits = |x: f32| if x == 0.0 { 0 } else { x.to_bits() };
+    let mut key = [0; 6];
+    if let Some(u) = &attrs.uvs {
+        key[0] = bits(u[t][k][0]);
+        key[1] = bits(u[t][k][1]);
+    }
+    if let Some(c) = &attrs.colors {
+        for (d, &x) in key[2..].iter_mut().zip(&c[t][k]) {
+            *d = bits(x);
+        }
+    }
+    key
+}
+
+/// Per edge, whether its uses disagree on an end normal, or (with `attrs`) on an end's
+/// attributes (a seam).
+fn split_edges(mesh: &Mesh, adjacency: &Adjacency, attrs: Option<&CornerAttributes>) -> Vec<bool> {
+    let mut split: Vec<bool> = split_ends(mesh, adjacency)
+        .iter()
+        .map(|s| s[0] || s[1])
+        .collect();
+    if let Some(attrs) = attrs {
+        for (e, edge) in adjacency.edges.iter().enumerate() {
+            let ends = |u: &crate::mesh::EdgeUse| {
+                let (t, k) = (u.triangle as usize, u.local as usize);
+                let a = attribute_key(attrs, t, k);
+                let b = attribute_key(attrs, t, (k + 1) % 3);
+                if mesh.triangles[t][k] == edge.v[0] {
+                    (a, b)
+                } else {
+                    (b, a)
+                }
+            };
+            if let Some((first, rest)) = edge.uses.split_first() {
+                let f = ends(first);
+                split[e] |= rest.iter().any(|u| ends(u) != f);
+            }
+        }
+    }
+    split
+}
+
+impl Numbering {
+    /// Numbers the stitched output of `mesh` (whose adjacency is `adjacency`); corners and
+    /// edges are split by `attrs` too where given.
+    pub fn new(
+        mesh: &Mesh,
+        adjacency: &Adjacency,
+        attrs: Option<&CornerAttributes>,
+    ) -> Result<Numbering> {
+        let nf = mesh.triangles.len();
+        if 3 * nf as u64 >= NONE as u64 {
+            return Err(Error::Invalid(format!(
+                "{}: {nf} triangles are too many for 32-bit indices",
+                mesh.name
+            )));
+        }
+        let mut use_edge = vec![NONE; 3 * nf];
+        let mut use_rev = vec![false; 3 * nf];
+        for (e, edge) in adjacency.edges.iter().enumerate() {
+            for u in &edge.uses {
+                let i = 3 * u.triangle as usize + u.local as usize;
+                use_edge[i] = e as u32;
+                use_rev[i] = mesh.triangles[u.triangle as usize][u.local as usize] != edge.v[0];
+            }
+        }
+        if let Some(u) = use_edge.iter().position(|&e| e == NONE) {
+            return Err(Error::Invalid(format!(
+                "{}: edge {} of triangle {} is missing from the adjacency",
+                mesh.name,
+                u % 3,
+                u / 3
+            )));
+        }
+        let split = split_edges(mesh, adjacency, attrs);
+        let mut records = Order::with_capacity(nf);
+        let mut positions = Order::with_capacity(nf);
+        let mut groups: HashMap<(u32, [u64; 3], [u32; 6]), u32> = HashMap::new();
+        let mut vertex_item = vec![NONE; mesh.positions.len()];
+        // Per edge: its position block, and its owner's record block.
+        let mut edge_item = vec![NONE; adjacency.edges.len()];
+        let mut owner_block = vec![NONE; adjacency.edges.len()];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for (k, &v) in tri.iter().enumerate() {
+                let c = 3 * t + k;
+                let slot = &mut vertex_item[v as usize];
+                if *slot == NONE {
+                    *slot = positions.make_corner(c);
+                }
+                positions.corner.push(*slot);
+                let akey = attrs.map_or([0; 6], |a| attribute_key(a, t, k));
+                let key = (v, normal_key(mesh.corner_normals[t][k]), akey);
+                let r = *groups.entry(key).or_insert_with(|| records.make_corner(c));
+                records.corner.push(r);
+            }
+            for k in 0..3 {
+                let u = 3 * t + k;
+                let e = use_edge[u] as usize;
+                if edge_item[e] == NONE {
+                    edge_item[e] = positions.make_block(u);
+                    owner_block[e] = records.make_block(u);
+                }
+                positions.block.push(edge_item[e]);
+                let b = if split[e] && records.block_first[owner_block[e] as usize] != u as u32 {
+                    records.make_block(u)
+                } else {
+                    owner_block[e]
+                };
+                records.block.push(b);
+            }
+            records.end_patch();
+            positions.end_patch();
+        }
+        Ok(Numbering {
+            use_edge,
+            use_rev,
+            split,
+            records,
+            positions,
+        })
+    }
+
+    /// Number of patches.
+    pub fn patches(&self) -> usize {
+        self.records.interior.len()
+    }
+
+    /// The owner of edge use `edge_use`'s edge: the edge's first use.
+    pub fn owner(&self, edge_use: usize) -> usize {
+        let b = self.positions.block[edge_use];
+        self.positions.block_first[b as usize] as usize
+    }
+
+    /// The edge of each block of `order`, in the order they were made.
+    pub fn block_edges<'a>(&'a self, order: &'a Order) -> impl Iterator<Item = u32> + 'a {
+        order.block_first.iter().map(|&u| self.use_edge[u as usize])
+    }
+
+    /// Record blocks whose positions are the owner's (the extra blocks of split edges).
+    pub fn copied_blocks(&self) -> u32 {
+        let r = &self.records;
+        (0..r.block_first.len())
+            .filter(|&b| {
+                let u = r.block_first[b] as usize;
+                self.owner(u) != u
+            })
+            .count() as u32
+    }
+}
+
+/// What grid point (i, j) of the grid of level n (b1 = i/n, b2 = j/n) is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GridPoint {
+    /// Corner k (b_k = 1).
+    Corner(usize),
+    /// The sample at step `s` (1..n) from corner k along local edge k (corner k → k + 1).
+    Edge(usize, u32),
+    /// Interior point number m, in grid order.
+    Interior(u32),
+}
+
+/// Which corner, edge sample or interior point grid point (i, j) of level n is.
+pub fn grid_point(n: u32, i: u32, j: u32) -> GridPoint {
+    match (i, j) {
+        (0, 0) => GridPoint::Corner(0),
+        (i, 0) if i == n => GridPoint::Corner(1),
+        (0, j) if j == n => GridPoint::Corner(2),
+        (i, 0) => GridPoint::Edge(0, i),
+        (i, j) if i + j == n => GridPoint::Edge(1, j),
+        (0, j) => GridPoint::Edge(2, n - j),
+        // Rows j = 1 .. n − 2 hold i = 1 .. n − j − 1.
+        (i, j) => GridPoint::Interior((j - 1) * (n - 1) - (j - 1) * j / 2 + i - 1),
+    }
+}
+
+/// Index in its block (canonical order, from 0) of the sample at step `s` (1..=`samples`)
+/// along an edge use, `reversed` where the use runs against the canonical order.
+pub fn canonical_sample(samples: u32, s: u32, reversed: bool) -> u32 {
+    if reversed {
+        samples - s
+    } else {
+        s - 1
+    }
+}
+
+/// Grid index of corner k of the grid of level n.
+pub fn corner_grid(n: u32, k: usize) -> usize {
+    match k {
+        0 => grid_index(n, 0, 0),
+        1 => grid_index(n, n, 0),
+        _ => grid_index(n, 0, n),
+    }
+}
+
+/// Grid index of the sample at step i (1..n) from corner k along local edge k.
+pub fn edge_grid(n: u32, k: usize, i: u32) -> usize {
+    match k {
+        0 => grid_index(n, i, 0),
+        1 => grid_index(n, n - i, i),
+        _ => grid_index(n, 0, n - i),
+    }
+}
+
+/// Interior grid points as runs of consecutive grid indices (one per grid row j ≥ 1:
+/// i = 1..n − j − 1), in grid order.
+pub fn interior_rows(n: u32) -> Vec<Range<usize>> {
+    (1..n.saturating_sub(1))
+        .map(|j| grid_index(n, 1, j)..grid_index(n, n - j, j))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `grid_point` inverts `corner_grid`, `edge_grid` and `interior_rows`: every grid
+    /// point of levels 1..=9 is named once, as the item whose grid index it is.
+    #[test]
+    fn grid_point_inverts_the_grid_indices() {
+        for n in 1..=9u32 {
+            let mut named = vec![None; crate::eval::grid_len(n)];
+            for k in 0..3 {
+                named[corner_grid(n, k)] = Some(GridPoint::Corner(k));
+                for s in 1..n {
+                    named[edge_grid(n, k, s)] = Some(GridPoint::Edge(k, s));
+                }
+            }
+            let interior = interior_rows(n).into_iter().flatten();
+            for (m, g) in interior.enumerate() {
+                named[g] = Some(GridPoint::Interior(m as u32));
+            }
+            assert_eq!(named.len() as u64, 3 + 3 * (n as u64 - 1) + interior_len(n));
+            for j in 0..=n {
+                for i in 0..=n - j {
+                    assert_eq!(
+                        Some(grid_point(n, i, j)),
+                        named[grid_index(n, i, j)],
+                        "level {n} ({i}, {j})"
+                    );
+                }
+            }
+        }
+    }
+
+    /// Uniform bases are prefix sums of equal sizes.
+    #[test]
+    fn uniform_bases_are_equal_prefix_sums() {
+        for n in [1u32, 2, 3, 7] {
+            let prefix = Bases::prefix(vec![n as u64 - 1; 5], vec![interior_len(n); 4]);
+            for (a, b, c) in [(0, 0, 0), (3, 2, 1), (9, 5, 4)] {
+                let item = Item { a, b, c };
+                assert_eq!(Bases::grid(n).base(item), prefix.base(item), "level {n}");
+            }
+        }
+        // Level 4: 2 + 3 blocks of 3 + 2 interiors of 3.
+        assert_eq!(Bases::grid(4).base(Item { a: 2, b: 3, c: 2 }), 2 + 9 + 6);
+    }
+}
