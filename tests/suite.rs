@@ -20,6 +20,7 @@ mod cli_output;
 mod cpu_fast;
 mod creases;
 mod docs;
+mod errors;
 mod export_net;
 mod formats;
 mod fuzz;

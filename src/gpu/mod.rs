@@ -16,7 +16,8 @@
 //!
 //! Validation errors that wgpu reports outside an error scope are collected (instead of
 //! wgpu's default panic) and turned into [`Error::Gpu`] by [`GpuContext::check`]; results
-//! come back through [`read_buffer`] (map, wait, copy out, unmap, errors as `Result`s).
+//! come back through [`read_buffer`] (map, wait, copy out, unmap, errors as `Result`s). A lost
+//! device is reported by [`GpuContext::check`] as [`Error::DeviceLost`].
 
 pub mod eval;
 pub mod readback;
@@ -46,6 +47,8 @@ pub struct GpuContext {
     /// The features the device was opened with.
     pub features: wgpu::Features,
     errors: Arc<Mutex<Vec<String>>>,
+    /// The reason the device was lost, once it is.
+    lost: Arc<Mutex<Option<String>>>,
 }
 
 impl std::fmt::Debug for GpuContext {
@@ -76,11 +79,8 @@ impl GpuContext {
                 ..Default::default()
             })
             .await
-            .map_err(|e| {
-                Error::Gpu(format!(
-                    "no Vulkan adapter ({e}); GPU evaluation needs a Vulkan driver (e.g. \
-                     Mesa's lavapipe, package mesa-vulkan-drivers); the CPU backend needs none"
-                ))
+            .map_err(|e| Error::NoAdapter {
+                detail: e.to_string(),
             })?;
         let info = adapter.get_info();
         let limits = adapter.limits();
@@ -103,6 +103,18 @@ impl GpuContext {
                 v.push(e.to_string().replace('\n', " "));
             }
         }));
+        let lost = Arc::new(Mutex::new(None));
+        let lost_sink = lost.clone();
+        device.set_device_lost_callback(move |reason, message: String| {
+            if let Ok(mut slot) = lost_sink.lock() {
+                let text = if message.is_empty() {
+                    format!("{reason:?}")
+                } else {
+                    message.replace('\n', " ")
+                };
+                slot.get_or_insert(text);
+            }
+        });
         Ok(GpuContext {
             instance,
             adapter,
@@ -112,22 +124,22 @@ impl GpuContext {
             limits,
             features,
             errors,
+            lost,
         })
     }
 
     /// One context per process, opened on first use (tests and commands share it; Vulkan
     /// device creation is slow on software drivers). The error, if any, is remembered.
     pub fn shared() -> Result<Arc<GpuContext>> {
-        static SHARED: OnceLock<std::result::Result<Arc<GpuContext>, String>> = OnceLock::new();
-        SHARED
-            .get_or_init(|| {
-                GpuContext::new().map(Arc::new).map_err(|e| match e {
-                    Error::Gpu(m) => m,
-                    other => other.to_string(),
-                })
-            })
-            .clone()
-            .map_err(Error::Gpu)
+        static SHARED: OnceLock<Result<Arc<GpuContext>>> = OnceLock::new();
+        match SHARED.get_or_init(|| GpuContext::new().map(Arc::new)) {
+            Ok(ctx) => Ok(ctx.clone()),
+            Err(Error::NoAdapter { detail }) => Err(Error::NoAdapter {
+                detail: detail.clone(),
+            }),
+            Err(Error::Gpu(m)) => Err(Error::Gpu(m.clone())),
+            Err(other) => Err(Error::Gpu(other.to_string())),
+        }
     }
 
     /// "NAME (Vulkan, DRIVER DRIVER_INFO, TYPE)", for reports.
@@ -169,8 +181,15 @@ impl GpuContext {
         self.limits.max_compute_workgroups_per_dimension
     }
 
-    /// Fails with the validation errors wgpu reported since the last check, if any.
+    /// Fails with [`Error::DeviceLost`] once the device is lost, else with the validation
+    /// errors wgpu reported since the last check, if any.
     pub fn check(&self) -> Result<()> {
+        if let Some(reason) = self.lost.lock().ok().and_then(|slot| slot.clone()) {
+            return Err(Error::DeviceLost {
+                device: self.info.name.clone(),
+                reason,
+            });
+        }
         let mut v = self
             .errors
             .lock()

@@ -230,10 +230,18 @@ fn header(path: &Path, data: &[u8], report: &mut LoadReport) -> Result<Header> {
                     "ascii" => Format::Ascii,
                     "binary_little_endian" => Format::Binary { big: false },
                     "binary_big_endian" => Format::Binary { big: true },
-                    _ => return Err(err(format!("unknown format '{}'", echo(f)))),
+                    _ => {
+                        return Err(Error::unsupported(
+                            format!("{}:{line}", path.display()),
+                            format!("unknown format '{}'", echo(f)),
+                        ))
+                    }
                 });
                 if tok.next() != Some("1.0") {
-                    return Err(err("unsupported PLY version (1.0 expected)".into()));
+                    return Err(Error::unsupported(
+                        format!("{}:{line}", path.display()),
+                        "unsupported PLY version (1.0 expected)",
+                    ));
                 }
             }
             "element" => {
