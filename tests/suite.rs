@@ -29,6 +29,8 @@ mod cpu_fast;
 mod creases;
 mod docs;
 #[cfg(feature = "cli")]
+mod errors;
+#[cfg(feature = "cli")]
 mod export_net;
 mod formats;
 mod fuzz;

@@ -429,7 +429,8 @@ pub struct Budget {
 
 impl Budget {
     /// Fails with one line when `need` bytes exceed the budget: "COMMAND: WHAT needs about
-    /// N (DETAIL), over the memory budget of B (--max-memory)".
+    /// N (DETAIL), over the memory budget of B (--max-memory)", an
+    /// [`crate::Error::OverBudget`].
     pub fn check(&self, command: &str, what: &str, need: u64, detail: &str) -> anyhow::Result<()> {
         if need > self.bytes {
             let detail = if detail.is_empty() {
@@ -437,12 +438,18 @@ impl Budget {
             } else {
                 format!(" ({detail})")
             };
-            anyhow::bail!(
-                "{command}: {what} needs about {}{detail}, over the memory budget of {} \
-                 (--max-memory)",
-                human_bytes(need),
-                human_bytes(self.bytes)
-            );
+            return Err(crate::Error::OverBudget {
+                what: what.to_string(),
+                needed: need,
+                allowed: self.bytes,
+                message: format!(
+                    "{command}: {what} needs about {}{detail}, over the memory budget of {} \
+                     (--max-memory)",
+                    human_bytes(need),
+                    human_bytes(self.bytes)
+                ),
+            }
+            .into());
         }
         Ok(())
     }

@@ -119,7 +119,8 @@ fn check_level(
     if fits(&size) {
         return Ok(());
     }
-    let why = match size.check_device(gpu) {
+    let device = size.check_device(gpu);
+    let why = match &device {
         Err(e) => e.to_string(),
         Ok(()) => format!(
             "the picture needs about {} MB, over the memory budget of {} MB (--max-memory)",
@@ -133,7 +134,7 @@ fn check_level(
     } else {
         "the default level"
     };
-    anyhow::bail!(
+    let message = format!(
         "{}: {flag} {level} on {t} triangles is too large ({why}); {}",
         mesh.name,
         if best >= 1 {
@@ -141,7 +142,18 @@ fn check_level(
         } else {
             "the mesh is too large to draw".into()
         }
-    )
+    );
+    match device {
+        // The device can draw it: the memory budget refuses it.
+        Ok(()) => Err(crate::Error::OverBudget {
+            what: "the picture".into(),
+            needed: u64::try_from(size.host_bytes()).unwrap_or(u64::MAX),
+            allowed: u64::try_from(budget).unwrap_or(u64::MAX),
+            message,
+        }
+        .into()),
+        Err(_) => anyhow::bail!(message),
+    }
 }
 
 fn parse_vec(s: &str) -> Result<DVec3, String> {

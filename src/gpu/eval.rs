@@ -788,10 +788,14 @@ impl GpuEvaluator {
     /// An evaluator on `ctx`. Errors for f64 when the adapter lacks `SHADER_F64`.
     pub fn new(ctx: Arc<GpuContext>, precision: Precision) -> Result<GpuEvaluator> {
         if precision == Precision::F64 && !ctx.supports_f64() {
-            return Err(Error::Gpu(format!(
-                "{}: the adapter does not offer SHADER_F64: f64 evaluation needs it; f32 works",
-                ctx.info.name
-            )));
+            return Err(Error::missing_feature(
+                "SHADER_F64",
+                format!(
+                    "{}: the adapter does not offer SHADER_F64: f64 evaluation needs it; f32 \
+                     works",
+                    ctx.info.name
+                ),
+            ));
         }
         let layout = bind_group_layout(&ctx.device);
         Ok(GpuEvaluator {
@@ -873,10 +877,15 @@ impl GpuEvaluator {
         let by_groups = w.saturating_mul(w).saturating_mul(WORKGROUP as u64);
         let n = by_binding.min(by_groups).min(u32::MAX as u64 / 2) as usize;
         if n == 0 {
-            return Err(Error::Gpu(format!(
-                "storage binding limit of {} bytes is below one sample",
-                self.max_binding_bytes
-            )));
+            return Err(Error::limit(
+                "max_storage_buffer_binding_size",
+                bytes_per_sample as u64,
+                self.max_binding_bytes,
+                format!(
+                    "storage binding limit of {} bytes is below one sample",
+                    self.max_binding_bytes
+                ),
+            ));
         }
         Ok(n)
     }
@@ -921,8 +930,11 @@ impl GpuEvaluator {
         let per_dispatch = self.limit_samples(sample_bytes)?;
         let by_uploads = (self.max_binding_bytes / upload_bytes as u64) as usize;
         if by_uploads == 0 {
-            return Err(Error::Gpu(
-                "storage binding limit is below one patch".into(),
+            return Err(Error::limit(
+                "max_storage_buffer_binding_size",
+                upload_bytes as u64,
+                self.max_binding_bytes,
+                "storage binding limit is below one patch",
             ));
         }
         let patches_per_chunk = (self.chunk_samples / per)

@@ -16,7 +16,8 @@
 //!
 //! Validation errors that wgpu reports outside an error scope are collected (instead of
 //! wgpu's default panic) and turned into [`Error::Gpu`] by [`GpuContext::check`]; results
-//! come back through [`read_buffer`] (map, wait, copy out, unmap, errors as `Result`s).
+//! come back through [`read_buffer`] (map, wait, copy out, unmap, errors as `Result`s). A lost
+//! device is reported by [`GpuContext::check`] as [`Error::DeviceLost`].
 
 pub mod eval;
 pub mod readback;
@@ -68,6 +69,8 @@ pub struct GpuContext {
     /// The features the device was opened with.
     pub features: wgpu::Features,
     errors: Arc<Mutex<Vec<String>>>,
+    /// The reason the device was lost, once it is.
+    lost: Arc<Mutex<Option<String>>>,
 }
 
 impl std::fmt::Debug for GpuContext {
@@ -97,10 +100,11 @@ impl GpuContext {
                 ..Default::default()
             })
             .await
-            .map_err(|e| {
-                Error::Gpu(format!(
+            .map_err(|e| Error::NoAdapter {
+                detail: e.to_string(),
+                message: format!(
                     "no {BACKEND_NAMES} adapter ({e}); {DRIVER_HINT}; the CPU backend needs none"
-                ))
+                ),
             })?;
         let info = adapter.get_info();
         let limits = adapter.limits();
@@ -123,6 +127,18 @@ impl GpuContext {
                 v.push(e.to_string().replace('\n', " "));
             }
         }));
+        let lost = Arc::new(Mutex::new(None));
+        let lost_sink = lost.clone();
+        device.set_device_lost_callback(move |reason, message: String| {
+            if let Ok(mut slot) = lost_sink.lock() {
+                let text = if message.is_empty() {
+                    format!("{reason:?}")
+                } else {
+                    message.replace('\n', " ")
+                };
+                slot.get_or_insert(text);
+            }
+        });
         Ok(GpuContext {
             instance,
             adapter,
@@ -132,22 +148,23 @@ impl GpuContext {
             limits,
             features,
             errors,
+            lost,
         })
     }
 
     /// One context per process, opened on first use (tests and commands share it; device
     /// creation is slow on software drivers). The error, if any, is remembered.
     pub fn shared() -> Result<Arc<GpuContext>> {
-        static SHARED: OnceLock<std::result::Result<Arc<GpuContext>, String>> = OnceLock::new();
-        SHARED
-            .get_or_init(|| {
-                GpuContext::new().map(Arc::new).map_err(|e| match e {
-                    Error::Gpu(m) => m,
-                    other => other.to_string(),
-                })
-            })
-            .clone()
-            .map_err(Error::Gpu)
+        static SHARED: OnceLock<Result<Arc<GpuContext>>> = OnceLock::new();
+        match SHARED.get_or_init(|| GpuContext::new().map(Arc::new)) {
+            Ok(ctx) => Ok(ctx.clone()),
+            Err(Error::NoAdapter { detail, message }) => Err(Error::NoAdapter {
+                detail: detail.clone(),
+                message: message.clone(),
+            }),
+            Err(Error::Gpu(m)) => Err(Error::Gpu(m.clone())),
+            Err(other) => Err(Error::Gpu(other.to_string())),
+        }
     }
 
     /// "NAME (BACKEND, DRIVER DRIVER_INFO, TYPE)", for reports.
@@ -189,8 +206,15 @@ impl GpuContext {
         self.limits.max_compute_workgroups_per_dimension
     }
 
-    /// Fails with the validation errors wgpu reported since the last check, if any.
+    /// Fails with [`Error::DeviceLost`] once the device is lost, else with the validation
+    /// errors wgpu reported since the last check, if any.
     pub fn check(&self) -> Result<()> {
+        if let Some(reason) = self.lost.lock().ok().and_then(|slot| slot.clone()) {
+            return Err(Error::DeviceLost {
+                device: self.info.name.clone(),
+                reason,
+            });
+        }
         let mut v = self
             .errors
             .lock()

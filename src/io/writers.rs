@@ -71,10 +71,10 @@ impl MeshFormat {
             "ply" => Ok(MeshFormat::Ply),
             "stl" => Ok(MeshFormat::Stl),
             "glb" => Ok(MeshFormat::Glb),
-            _ => Err(Error::Invalid(format!(
-                "{}: unknown output format '{ext}' (known: .obj, .ply, .stl, .glb)",
-                path.display()
-            ))),
+            _ => Err(Error::unsupported(
+                path.display().to_string(),
+                format!("unknown output format '{ext}' (known: .obj, .ply, .stl, .glb)"),
+            )),
         }
     }
 

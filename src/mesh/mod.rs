@@ -137,10 +137,10 @@ impl InputFormat {
             Some("gltf") | Some("glb") => return Ok(InputFormat::Gltf),
             Some(e) => {
                 if let Some((_, name)) = UNSUPPORTED.iter().find(|(x, _)| *x == e) {
-                    return Err(Error::Invalid(format!(
-                        "{}: {name} files are not supported (supported: {SUPPORTED})",
-                        path.display()
-                    )));
+                    return Err(Error::unsupported(
+                        path.display().to_string(),
+                        format!("{name} files are not supported (supported: {SUPPORTED})"),
+                    ));
                 }
             }
             None => {}
@@ -180,16 +180,16 @@ impl InputFormat {
             return Ok(InputFormat::Pn);
         }
         if head.starts_with(b"OFF") || head.starts_with(b"COFF") || head.starts_with(b"NOFF") {
-            return Err(Error::Invalid(format!(
-                "{}: OFF files are not supported (supported: {SUPPORTED})",
-                path.display()
-            )));
+            return Err(Error::unsupported(
+                path.display().to_string(),
+                format!("OFF files are not supported (supported: {SUPPORTED})"),
+            ));
         }
         if head.starts_with(b"Kaydara FBX Binary") {
-            return Err(Error::Invalid(format!(
-                "{}: FBX files are not supported (supported: {SUPPORTED})",
-                path.display()
-            )));
+            return Err(Error::unsupported(
+                path.display().to_string(),
+                format!("FBX files are not supported (supported: {SUPPORTED})"),
+            ));
         }
         Ok(InputFormat::Obj)
     }

@@ -213,6 +213,7 @@ fn header(path: &Path, data: &[u8], report: &mut LoadReport) -> Result<Header> {
         lines = line;
         let l = raw.trim_end_matches('\r');
         let err = |m: String| Error::parse(path, line, m);
+        let unsupported = |m: String| Error::unsupported(format!("{}:{line}", path.display()), m);
         let mut tok = l.split_ascii_whitespace();
         let kw = tok.next().unwrap_or("");
         if i == 0 {
@@ -230,10 +231,10 @@ fn header(path: &Path, data: &[u8], report: &mut LoadReport) -> Result<Header> {
                     "ascii" => Format::Ascii,
                     "binary_little_endian" => Format::Binary { big: false },
                     "binary_big_endian" => Format::Binary { big: true },
-                    _ => return Err(err(format!("unknown format '{}'", echo(f)))),
+                    _ => return Err(unsupported(format!("unknown format '{}'", echo(f)))),
                 });
                 if tok.next() != Some("1.0") {
-                    return Err(err("unsupported PLY version (1.0 expected)".into()));
+                    return Err(unsupported("unsupported PLY version (1.0 expected)".into()));
                 }
             }
             "element" => {

@@ -174,14 +174,18 @@ impl Raw {
             if l == HEADER {
                 return Ok(());
             }
-            return Err(err(if l.starts_with("g1tess-pn ") {
-                format!(
-                    "unsupported version '{}' (this g1tess reads '{HEADER}')",
-                    echo(l)
-                )
-            } else {
-                format!("not a point-normal file: the first line must be '{HEADER}'")
-            }));
+            if l.starts_with("g1tess-pn ") {
+                return Err(Error::unsupported(
+                    format!("{}:{lineno}", path.display()),
+                    format!(
+                        "unsupported version '{}' (this g1tess reads '{HEADER}')",
+                        echo(l)
+                    ),
+                ));
+            }
+            return Err(err(format!(
+                "not a point-normal file: the first line must be '{HEADER}'"
+            )));
         }
         let mut tok = Tokens::new(line);
         let Some(kw) = tok.next() else {

@@ -165,14 +165,19 @@ impl SurfaceSize {
     pub fn check_device(&self, gpu: &GpuContext) -> Result<()> {
         let max = gpu.device.limits().max_buffer_size as u128;
         if self.buffer_bytes() > max {
-            return Err(Error::Gpu(format!(
-                "{}: a surface of {} triangles needs a {} MB buffer, more than the device's \
-                 {} MB",
-                gpu.describe(),
-                self.triangles,
-                self.buffer_bytes() / 1_000_000,
-                max / 1_000_000
-            )));
+            return Err(Error::limit(
+                "max_buffer_size",
+                u64::try_from(self.buffer_bytes()).unwrap_or(u64::MAX),
+                max as u64,
+                format!(
+                    "{}: a surface of {} triangles needs a {} MB buffer, more than the \
+                     device's {} MB",
+                    gpu.describe(),
+                    self.triangles,
+                    self.buffer_bytes() / 1_000_000,
+                    max / 1_000_000
+                ),
+            ));
         }
         if 3 * self.triangles > u32::MAX as u128 || self.records > u32::MAX as u128 {
             return Err(Error::Gpu(format!(

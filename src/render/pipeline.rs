@@ -95,14 +95,19 @@ pub fn render_panels_on(
     let camera = Camera::fit(&mesh.positions, opts.view, opts.up)?;
     let bytes = (VERTEX_BYTES * mesh.normals.len() as u64).max(12 * mesh.triangles.len() as u64);
     if bytes > limits.max_buffer_size {
-        return Err(Error::Gpu(format!(
-            "{}: {} vertices and {} triangles exceed the device's buffer size ({} bytes); \
-             evaluate the surface on a coarser grid",
-            gpu.describe(),
-            mesh.normals.len(),
-            mesh.triangles.len(),
-            limits.max_buffer_size
-        )));
+        return Err(Error::limit(
+            "max_buffer_size",
+            bytes,
+            limits.max_buffer_size,
+            format!(
+                "{}: {} vertices and {} triangles exceed the device's buffer size ({} bytes); \
+                 evaluate the surface on a coarser grid",
+                gpu.describe(),
+                mesh.normals.len(),
+                mesh.triangles.len(),
+                limits.max_buffer_size
+            ),
+        ));
     }
     let (vertices, indices, count) = upload(&gpu.device, mesh);
     let geometry = Geometry {

@@ -63,9 +63,12 @@ pub(super) fn groups(count: u32, max: u32) -> Result<(u32, u32)> {
     let x = g.min(max.max(1));
     let y = g.div_ceil(x);
     if y > max {
-        return Err(Error::Gpu(format!(
-            "{count} tessellation threads need more than {max} × {max} workgroups"
-        )));
+        return Err(Error::limit(
+            "max_compute_workgroups_per_dimension",
+            u64::from(y),
+            u64::from(max),
+            format!("{count} tessellation threads need more than {max} × {max} workgroups"),
+        ));
     }
     Ok((x, y))
 }
@@ -91,19 +94,33 @@ impl GpuTessellator {
             )));
         }
         if precision == Precision::F64 && !device.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(Error::Gpu(
+            return Err(Error::missing_feature(
+                "SHADER_F64",
                 "the device was opened without SHADER_F64: f64 tessellation needs it \
-                 (request the feature when the adapter offers it); f32 works"
-                    .into(),
+                 (request the feature when the adapter offers it); f32 works",
             ));
         }
         let limits = device.limits();
         if limits.max_storage_buffers_per_shader_stage < 6 || limits.max_bind_groups < 2 {
-            return Err(Error::Gpu(format!(
-                "tessellation needs 6 storage buffers per compute shader and 2 bind groups; \
-                 the device allows {} and {}",
-                limits.max_storage_buffers_per_shader_stage, limits.max_bind_groups
-            )));
+            let (name, needed, allowed) = if limits.max_storage_buffers_per_shader_stage < 6 {
+                (
+                    "max_storage_buffers_per_shader_stage",
+                    6,
+                    limits.max_storage_buffers_per_shader_stage,
+                )
+            } else {
+                ("max_bind_groups", 2, limits.max_bind_groups)
+            };
+            return Err(Error::limit(
+                name,
+                needed,
+                u64::from(allowed),
+                format!(
+                    "tessellation needs 6 storage buffers per compute shader and 2 bind \
+                     groups; the device allows {} and {}",
+                    limits.max_storage_buffers_per_shader_stage, limits.max_bind_groups
+                ),
+            ));
         }
         let max_binding = (limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
         let max_groups = limits.max_compute_workgroups_per_dimension;
@@ -146,12 +163,17 @@ impl GpuTessellator {
         let topo_bytes: &[u8] = bytemuck::cast_slice(&topology.table);
         for (what, bytes) in [("patch data", data.len()), ("topology", topo_bytes.len())] {
             if bytes as u64 > max_binding {
-                return Err(Error::Gpu(format!(
-                    "{}: the {what} of {} patches takes {bytes} bytes, over the device's \
-                     storage binding limit of {max_binding}",
-                    mesh.name,
-                    table.len()
-                )));
+                return Err(Error::limit(
+                    "max_storage_buffer_binding_size",
+                    bytes as u64,
+                    max_binding,
+                    format!(
+                        "{}: the {what} of {} patches takes {bytes} bytes, over the device's \
+                         storage binding limit of {max_binding}",
+                        mesh.name,
+                        table.len()
+                    ),
+                ));
             }
         }
         use wgpu::BufferUsages as U;

@@ -321,13 +321,18 @@ impl GpuTessellator {
             ("index", cap.indices * 4),
         ] {
             if bytes > self.max_binding {
-                return Err(Error::Gpu(format!(
-                    "levels up to {max_level} on {} patches need a {} MB {what} buffer, over \
-                     the device's storage binding limit of {} MB",
-                    topo.patches,
-                    bytes / 1_000_000,
-                    self.max_binding / 1_000_000
-                )));
+                return Err(Error::limit(
+                    "max_storage_buffer_binding_size",
+                    bytes,
+                    self.max_binding,
+                    format!(
+                        "levels up to {max_level} on {} patches need a {} MB {what} buffer, \
+                         over the device's storage binding limit of {} MB",
+                        topo.patches,
+                        bytes / 1_000_000,
+                        self.max_binding / 1_000_000
+                    ),
+                ));
             }
         }
         Ok(cap)

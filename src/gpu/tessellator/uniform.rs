@@ -44,13 +44,18 @@ impl GpuTessellator {
         let index_bytes = index_count * 4;
         for (what, bytes) in [("vertex", vertex_bytes), ("index", index_bytes)] {
             if bytes > self.max_binding {
-                return Err(Error::Gpu(format!(
-                    "level {level} on {} patches needs a {} MB {what} buffer, over the \
-                     device's storage binding limit of {} MB",
-                    topo.patches,
-                    bytes / 1_000_000,
-                    self.max_binding / 1_000_000
-                )));
+                return Err(Error::limit(
+                    "max_storage_buffer_binding_size",
+                    bytes,
+                    self.max_binding,
+                    format!(
+                        "level {level} on {} patches needs a {} MB {what} buffer, over the \
+                         device's storage binding limit of {} MB",
+                        topo.patches,
+                        bytes / 1_000_000,
+                        self.max_binding / 1_000_000
+                    ),
+                ));
             }
         }
         Ok(())
