@@ -497,15 +497,7 @@ fn repaired_is_g1_and_watertight(
     opts: SchemeOptions,
 ) -> (PatchTable, Continuity) {
     let table = PatchTable::build(fixed, Scheme::G1, &opts).unwrap();
-    let via_option = PatchTable::build(
-        input,
-        Scheme::G1,
-        &SchemeOptions {
-            repair_folds: true,
-            ..opts
-        },
-    )
-    .unwrap();
+    let via_option = PatchTable::build(input, Scheme::G1, &opts.with_repair_folds(true)).unwrap();
     assert_eq!(via_option.points, table.points);
     let c = continuity(fixed, &fixed.adjacency(), &table, &CpuEvaluator::default()).unwrap();
     assert_eq!(c.folded, 0);
@@ -525,10 +517,7 @@ fn repaired_is_g1_and_watertight(
 fn repair_leaves_a_valid_mesh_bit_for_bit() {
     let mesh = common::load("torus200");
     let plain = SchemeOptions::default();
-    let with = SchemeOptions {
-        repair_folds: true,
-        ..plain
-    };
+    let with = plain.with_repair_folds(true);
     for s in [Scheme::G1, Scheme::Pn, Scheme::Phong] {
         let a = PatchTable::build(&mesh, s, &plain).unwrap();
         let b = PatchTable::build(&mesh, s, &with).unwrap();
@@ -665,10 +654,7 @@ fn repair_next_to_a_crease_keeps_both_sides_of_the_crease_curve() {
     // normals, so the repair must rebuild them too, or the option's table would crack.
     let mut mesh = Mesh::load(
         &common::shared_spec("fandisk.obj"),
-        &LoadOptions {
-            crease_angle: Some(40.0),
-            ..LoadOptions::default()
-        },
+        &LoadOptions::default().with_crease_angle(Some(40.0)),
     )
     .unwrap();
     let key = |n: DVec3| n.to_array().map(f64::to_bits);
@@ -701,15 +687,7 @@ fn repair_next_to_a_crease_keeps_both_sides_of_the_crease_curve() {
     let (fixed, r) = repair(&mesh, Scheme::G1, &opts).unwrap();
     assert!(r.after.folded < before.folded, "{r:?}");
     let table = PatchTable::build(&fixed, Scheme::G1, &opts).unwrap();
-    let via_option = PatchTable::build(
-        &mesh,
-        Scheme::G1,
-        &SchemeOptions {
-            repair_folds: true,
-            ..opts
-        },
-    )
-    .unwrap();
+    let via_option = PatchTable::build(&mesh, Scheme::G1, &opts.with_repair_folds(true)).unwrap();
     // Bit for bit the patches of the repaired mesh, the crease neighbours included.
     let differ = (0..table.len())
         .filter(|&i| via_option.patch(i) != table.patch(i))

@@ -185,13 +185,36 @@ impl std::fmt::Display for Scheme {
 }
 
 /// Options of the schemes that have any. Defaults are the paper's.
+///
+/// Built from [`SchemeOptions::default()`] and the `with_*` methods:
+///
+/// ```
+/// let opts = g1tess::SchemeOptions::default().with_phong_alpha(0.5);
+/// assert_eq!(opts.phong_alpha, 0.5);
+/// ```
 #[derive(Clone, Copy, Debug)]
+#[non_exhaustive]
 pub struct SchemeOptions {
     /// Phong tessellation's shape factor α (default 3/4, the paper's).
     pub phong_alpha: f64,
     /// Change vertex normals where needed so that every patch is certified valid (see
-    /// [`repair`]); a mesh whose patches are all valid is left exactly as it is.
+    /// [`repair`]); a mesh whose patches are all valid is left exactly as it is (default
+    /// false).
     pub repair_folds: bool,
+}
+
+impl SchemeOptions {
+    /// Sets [`SchemeOptions::phong_alpha`].
+    pub fn with_phong_alpha(mut self, phong_alpha: f64) -> Self {
+        self.phong_alpha = phong_alpha;
+        self
+    }
+
+    /// Sets [`SchemeOptions::repair_folds`].
+    pub fn with_repair_folds(mut self, repair_folds: bool) -> Self {
+        self.repair_folds = repair_folds;
+        self
+    }
 }
 
 impl Default for SchemeOptions {
