@@ -51,8 +51,8 @@ macro_rules! cpu_has {
 
 pub mod analysis;
 #[cfg(feature = "cli")]
-pub mod cli;
-pub mod error;
+mod cli;
+mod error;
 pub mod eval;
 pub mod gpu;
 pub mod io;
@@ -68,8 +68,6 @@ pub mod tess;
 #[doc(hidden)]
 pub mod internals {
     pub use crate::analysis::stats::{Part, BLOCK_PAIRS};
-    #[cfg(feature = "cli")]
-    pub use crate::cli::common::LazyGpu;
     pub use crate::eval::cpu::edges::min_len2;
     pub use crate::io::atomic::DIRECT_ALIGN;
     pub use crate::mesh::text::{echo, parse_f64, parse_i64, split, statements};
@@ -133,3 +131,8 @@ pub use gpu::GpuContext;
 
 /// Progress of long operations.
 pub use progress::{NoProgress, Progress};
+
+/// Runs the `g1tess` command line on this process's arguments (what the `g1tess` binary
+/// does) and returns its exit code.
+#[cfg(feature = "cli")]
+pub use cli::main as run_cli;

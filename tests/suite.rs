@@ -39,7 +39,6 @@ mod stats_certified;
 mod stitch;
 mod tessellator;
 mod tessellator_levels;
-mod unit_cli;
 mod unit_eval;
 mod unit_mesh;
 mod unit_output;
