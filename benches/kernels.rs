@@ -7,12 +7,10 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::{grid_len, Evaluator, Pattern};
-use g1tess::gpu::eval::GpuEvaluator;
-use g1tess::gpu::{GpuContext, Precision};
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::{PatchTable, Scheme};
+use g1tess::{
+    CpuEvaluator, Evaluator, GpuContext, GpuEvaluator, LoadOptions, Mesh, PatchTable, Pattern,
+    Precision, Scheme,
+};
 
 const LEVEL: u32 = 16;
 
@@ -36,8 +34,8 @@ fn kernels(c: &mut Criterion) {
             b.iter(|| PatchTable::build(&mesh, scheme, &Default::default()).unwrap())
         });
         let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
-        g.throughput(Throughput::Elements((grid_len(LEVEL) * table.len()) as u64));
         let pattern = Pattern::Grid { level: LEVEL };
+        g.throughput(Throughput::Elements(pattern.len(table.len()) as u64));
         g.bench_function(format!("cpu_f32_level{LEVEL}"), |b| {
             b.iter(|| {
                 cpu.evaluate_f32(&table, &pattern, &mut |c| {

@@ -13,14 +13,9 @@
 
 use glam::DVec3;
 
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::gpu::tessellator::GpuTessellator;
-use g1tess::gpu::Precision;
-use g1tess::mesh::Mesh;
-use g1tess::patch::{PatchTable, Scheme};
 use g1tess::render::camera::Camera;
 use g1tess::render::pipeline::{draw, upload, Geometry, IndexCount};
-use g1tess::tess::stitch::stitch;
+use g1tess::{stitch, CpuEvaluator, GpuTessellator, Mesh, PatchTable, Precision, Scheme};
 
 /// The mesh drawn.
 pub const BUNNY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/stanford-bunny.obj");

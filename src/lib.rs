@@ -28,9 +28,7 @@
 //! Every patch of a built-in icosphere on the grid of level 8, on the CPU:
 //!
 //! ```
-//! use g1tess::eval::{cpu::CpuEvaluator, Evaluator, Pattern};
-//! use g1tess::mesh::Mesh;
-//! use g1tess::patch::{PatchTable, Scheme};
+//! use g1tess::{CpuEvaluator, Evaluator, Mesh, PatchTable, Pattern, Scheme};
 //!
 //! // A built-in mesh (320 triangles on the unit sphere), or a file: "tests/data/spot.obj".
 //! let mesh = Mesh::load("icosphere:2", &Default::default())?;
@@ -69,8 +67,8 @@ macro_rules! cpu_has {
 
 pub mod analysis;
 #[cfg(feature = "cli")]
-pub mod cli;
-pub mod error;
+mod cli;
+mod error;
 pub mod eval;
 #[cfg(feature = "gpu")]
 pub mod gpu;
@@ -78,7 +76,7 @@ pub mod io;
 pub mod mesh;
 pub mod patch;
 mod pipelined;
-pub mod progress;
+mod progress;
 pub mod render;
 pub mod tess;
 
@@ -87,8 +85,6 @@ pub mod tess;
 #[doc(hidden)]
 pub mod internals {
     pub use crate::analysis::stats::{Part, BLOCK_PAIRS};
-    #[cfg(feature = "cli")]
-    pub use crate::cli::common::LazyGpu;
     pub use crate::eval::cpu::edges::min_len2;
     pub use crate::io::atomic::DIRECT_ALIGN;
     pub use crate::mesh::text::{echo, parse_f64, parse_i64, split, statements};
@@ -99,4 +95,61 @@ pub mod internals {
     pub use crate::tess::layout::rings;
 }
 
+// The public API: what a program using g1tess needs, named from the crate root
+// (`use g1tess::{Mesh, PatchTable, Scheme};`).
+
+/// Errors: one error type for the whole library.
 pub use error::{Error, Result};
+
+/// The mesh: loading (files or built-in generators), welding, adjacency and vertex normals.
+pub use mesh::{
+    Adjacency, CornerAttributes, InputFormat, LoadOptions, LoadReport, Mesh, NormalWeighting,
+};
+
+/// Schemes and their patch tables: the control points of every triangle's patch.
+pub use patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
+
+/// Repairing folded patches, and its report. (A `RepairOptions` will join these.)
+pub use patch::repair::{repair, RepairReport};
+
+/// Evaluators: where the patches are evaluated (CPU or GPU), on which samples, in which
+/// precision, and the chunks they stream.
+pub use eval::cpu::CpuEvaluator;
+pub use eval::{Chunk, ChunkF32, Evaluator, Pattern, Precision, Vector};
+
+/// Tessellation levels: uniform, per edge from the screen, or from a tolerance.
+pub use tess::adaptive::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
+pub use tess::layout::MAX_LEVEL;
+pub use tess::levels::{InnerRule, Levels};
+pub use tess::screen::{screen_levels, ScreenView};
+
+/// Tessellation: the welded numbering of a whole surface and the stitching of evaluated
+/// patches into it, into a mesh in memory or any sink.
+pub use tess::stitch::{
+    stitch, stitch_into, Needs, PatchOut, StitchPlan, StitchReport, StitchSink, StitchedMesh,
+    VertexRecord,
+};
+
+/// Statistics: the continuity of the surface across edges, and the statistics report.
+pub use analysis::stats::{continuity, stats_report, Continuity, CosStats, StatsReport};
+
+/// Writers: tessellated meshes, high-order MSH meshes, control nets, and the temporary
+/// files they go through until they are complete.
+pub use io::msh::{export_msh, MshSummary};
+pub use io::nets::write_nets;
+pub use io::writers::{write_stitched, MeshFormat};
+pub use io::TempFiles;
+
+/// The GPU: a device, the GPU evaluator, and the tessellator writing straight into a host
+/// program's vertex and index buffers.
+pub use gpu::eval::GpuEvaluator;
+pub use gpu::tessellator::{vertex_layout, GpuTessellator};
+pub use gpu::GpuContext;
+
+/// Progress of long operations.
+pub use progress::{NoProgress, Progress};
+
+/// Runs the `g1tess` command line on this process's arguments (what the `g1tess` binary
+/// does) and returns its exit code.
+#[cfg(feature = "cli")]
+pub use cli::main as run_cli;

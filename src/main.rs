@@ -1,5 +1,5 @@
 //! The `g1tess` command line: see `src/cli/`.
 
 fn main() -> std::process::ExitCode {
-    g1tess::cli::main()
+    g1tess::run_cli()
 }

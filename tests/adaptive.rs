@@ -22,13 +22,13 @@ use g1tess::gpu::screen::{gpu_screen_levels, LEVELS_WGSL};
 use g1tess::gpu::{GpuContext, Precision};
 use g1tess::mesh::{Adjacency, LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::progress::NoProgress;
 use g1tess::tess::adaptive::{
     levels_for_tolerance, measure_deviation, InnerRule, Levels, ToleranceOptions, DEVIATION_POINTS,
 };
 use g1tess::tess::layout;
 use g1tess::tess::screen::{edge_level, screen_levels, ScreenView};
 use g1tess::tess::stitch::{stitch, stitch_plan, StitchPlan, StitchedMesh};
+use g1tess::NoProgress;
 
 fn table(mesh: &Mesh) -> PatchTable {
     PatchTable::build(mesh, Scheme::G1, &SchemeOptions::default()).unwrap()
@@ -40,10 +40,7 @@ fn load(name: &str, crease: Option<f64>) -> Mesh {
     } else {
         name.to_string()
     };
-    let opts = LoadOptions {
-        crease_angle: crease,
-        ..Default::default()
-    };
+    let opts = LoadOptions::default().with_crease_angle(crease);
     Mesh::load(&spec, &opts).unwrap()
 }
 
@@ -267,11 +264,10 @@ fn tolerance_levels_are_measured_within_it_with_fewer_triangles() {
         let adj = mesh.adjacency();
         let t = table(&mesh);
         let eps = rel * mesh.diagonal();
-        let opts = ToleranceOptions {
-            tolerance: eps,
-            max_level: 64,
-            rounds: 8,
-        };
+        let opts = ToleranceOptions::default()
+            .with_tolerance(eps)
+            .with_max_level(64)
+            .with_rounds(8);
         let r = levels_for_tolerance(&mesh, &adj, &t, &cpu, &opts, &NoProgress).unwrap();
         assert!(r.met, "{name} {rel}: {:e} > {eps:e}", r.deviation.max);
         assert!(r.deviation.max <= eps);

@@ -12,9 +12,9 @@ use g1tess::io::writers::{write_stitched, MeshFormat};
 use g1tess::io::TempFiles;
 use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::progress::NoProgress;
 use g1tess::tess::adaptive::{InnerRule, Levels};
 use g1tess::tess::stitch::{stitch_into, stitch_plan, StitchPlan, StitchedMesh};
+use g1tess::NoProgress;
 use glam::DVec3;
 
 /// A unit cube (8 vertices, 12 triangles, estimated smooth normals) whose six faces each

@@ -35,10 +35,7 @@ fn cube_is_reproduced_exactly() {
     for flat in [true, false] {
         let path = tmp(if flat { "flat.obj" } else { "plain.obj" });
         std::fs::write(&path, common::cube_obj(flat)).unwrap();
-        let opts = LoadOptions {
-            crease_angle: if flat { None } else { Some(30.0) },
-            ..Default::default()
-        };
+        let opts = LoadOptions::default().with_crease_angle(if flat { None } else { Some(30.0) });
         let mesh = Mesh::load(path.to_str().unwrap(), &opts).unwrap();
         let adj = mesh.adjacency();
         assert_eq!(crease_edges(&mesh, &adj).iter().filter(|&&c| c).count(), 12);
@@ -94,10 +91,7 @@ fn cube_is_reproduced_exactly() {
 /// normals instead (the ordinary construction) opens cracks: the check can fail.
 #[test]
 fn fandisk_creases_without_cracks() {
-    let opts = LoadOptions {
-        crease_angle: Some(30.0),
-        ..Default::default()
-    };
+    let opts = LoadOptions::default().with_crease_angle(Some(30.0));
     let mesh = Mesh::load(&common::shared_spec("fandisk.obj"), &opts).unwrap();
     let diag = mesh.diagonal();
     let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();

@@ -120,28 +120,6 @@ fn unknown_ply_format_is_unsupported_format_at_its_line() {
 }
 
 #[test]
-fn memory_budget_refusal_is_over_budget_with_the_sizes() {
-    let budget = g1tess::cli::Budget { bytes: 1 << 20 };
-    let err = budget.check("stats", "the mesh", 3 << 20, "").unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "stats: the mesh needs about 3.0 MiB, over the memory budget of 1.0 MiB (--max-memory)"
-    );
-    match err.downcast_ref::<Error>() {
-        Some(Error::OverBudget {
-            what,
-            needed,
-            allowed,
-            ..
-        }) => {
-            assert_eq!(what, "the mesh");
-            assert_eq!((*needed, *allowed), (3 << 20, 1 << 20));
-        }
-        other => panic!("expected OverBudget, got {other:?}"),
-    }
-}
-
-#[test]
 fn tessellator_on_a_small_device_names_the_missing_feature_and_the_limit() {
     let Some(ctx) = context() else { return };
     // A device without SHADER_F64 and with 256-byte storage bindings (the adapter's other

@@ -151,10 +151,7 @@ fn g1_nets_reproduce_the_surface() {
         &fandisk,
         Scheme::G1,
         &["--crease-angle", "30"],
-        LoadOptions {
-            crease_angle: Some(30.0),
-            ..Default::default()
-        },
+        LoadOptions::default().with_crease_angle(Some(30.0)),
     );
 }
 

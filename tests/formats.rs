@@ -15,10 +15,10 @@ use g1tess::io::writers::{ply_file_bytes, write_stitched, MeshFormat};
 use g1tess::io::TempFiles;
 use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::progress::NoProgress;
 use g1tess::tess::stitch::{
     stitch_in, stitch_into, PatchOut, StitchPlan, StitchSink, StitchedMesh,
 };
+use g1tess::NoProgress;
 
 use crate::common;
 

@@ -592,10 +592,7 @@ fn gpu_statistics_agree_with_the_cpu_f64_statistics() {
                 // Creases: 30° splits the normals along fandisk's sharp edges.
                 mesh = g1tess::mesh::Mesh::load(
                     &common::shared_spec(name),
-                    &g1tess::mesh::LoadOptions {
-                        crease_angle: Some(30.0),
-                        ..Default::default()
-                    },
+                    &g1tess::mesh::LoadOptions::default().with_crease_angle(Some(30.0)),
                 )
                 .unwrap();
             }

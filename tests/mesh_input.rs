@@ -144,13 +144,7 @@ fn recompute_normals_option_overrides_file_normals() {
     let p = write_obj("recompute.obj", text);
     let keep = load_path(&p, &LoadOptions::default());
     assert_eq!(keep.corner_normals[0][0], DVec3::X);
-    let re = load_path(
-        &p,
-        &LoadOptions {
-            recompute_normals: true,
-            ..Default::default()
-        },
-    );
+    let re = load_path(&p, &LoadOptions::default().with_recompute_normals(true));
     assert_eq!(re.corner_normals[0][0], DVec3::Z);
 }
 

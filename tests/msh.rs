@@ -18,7 +18,7 @@ use g1tess::io::msh::{
 };
 use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::progress::NoProgress;
+use g1tess::NoProgress;
 
 #[cfg(feature = "cli")]
 fn out(name: &str) -> PathBuf {
@@ -441,10 +441,8 @@ fn order_3_g1_edges_are_the_boundary_cubics() {
         let mut args = vec!["--order", "3", "--binary"];
         args.extend(&extra);
         let (m, s) = export(&spec, &args, "edges3.msh");
-        let opts = LoadOptions {
-            crease_angle: extra.get(1).map(|a| a.parse().unwrap()),
-            ..LoadOptions::default()
-        };
+        let opts =
+            LoadOptions::default().with_crease_angle(extra.get(1).map(|a| a.parse().unwrap()));
         let mesh = Mesh::load(&spec, &opts).unwrap();
         let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
         let diag = mesh.diagonal();
@@ -569,10 +567,7 @@ fn a_non_manifold_edge_with_split_normals_gets_nodes_per_triangle() {
         tris.push([1, ci, di]);
     }
     // Pages 100° apart are split by a crease angle of 30°; a page's 15° fold is not.
-    let opts = LoadOptions {
-        crease_angle: Some(30.0),
-        ..LoadOptions::default()
-    };
+    let opts = LoadOptions::default().with_crease_angle(Some(30.0));
     let mesh = Mesh::from_soup("book", &pos, &tris, None, &opts).unwrap();
     let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
     let ho = build(&mesh, &table, 3, &NoProgress).unwrap();

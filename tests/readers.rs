@@ -18,8 +18,8 @@ use g1tess::io::writers::{write_stitched, MeshFormat};
 use g1tess::io::TempFiles;
 use g1tess::mesh::{InputFormat, LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::progress::NoProgress;
 use g1tess::tess::stitch::{stitch_in, stitch_into, StitchedMesh};
+use g1tess::NoProgress;
 
 fn dir() -> PathBuf {
     let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
@@ -1102,10 +1102,7 @@ fn spot_reads_alike_in_every_format() {
     // With the normals estimated alike everywhere (`--recompute-normals`), the same
     // positions give identical statistics in every format, STL included (STL has no
     // vertex normals).
-    let opts = LoadOptions {
-        recompute_normals: true,
-        ..LoadOptions::default()
-    };
+    let opts = LoadOptions::default().with_recompute_normals(true);
     let again = |p: &Path| stats(&Mesh::load(p.to_str().unwrap(), &opts).unwrap());
     let want = again(&reference);
     for ext in ["ply", "glb"] {

@@ -41,11 +41,10 @@ fn panels(spec: &str, scheme: Scheme, size: u32) -> Panels {
 }
 
 fn front(size: u32) -> RenderOptions {
-    RenderOptions {
-        panel: size,
-        view: DVec3::Z,
-        up: DVec3::Y,
-    }
+    RenderOptions::default()
+        .with_panel(size)
+        .with_view(DVec3::Z)
+        .with_up(DVec3::Y)
 }
 
 /// As [`panels`], tessellated on the GPU straight into the render pass's buffers (the

@@ -209,10 +209,18 @@ fn max_position_difference(a: &PatchTable, b: &PatchTable) -> f64 {
 #[test]
 fn nlsa_is_phong_at_one_half_and_phong_at_zero_is_flat() {
     let mesh = generators::from_spec("torus200").unwrap().unwrap();
-    let half =
-        PatchTable::build(&mesh, Scheme::Phong, &SchemeOptions { phong_alpha: 0.5 }).unwrap();
-    let zero =
-        PatchTable::build(&mesh, Scheme::Phong, &SchemeOptions { phong_alpha: 0.0 }).unwrap();
+    let half = PatchTable::build(
+        &mesh,
+        Scheme::Phong,
+        &SchemeOptions::default().with_phong_alpha(0.5),
+    )
+    .unwrap();
+    let zero = PatchTable::build(
+        &mesh,
+        Scheme::Phong,
+        &SchemeOptions::default().with_phong_alpha(0.0),
+    )
+    .unwrap();
     // Same control points up to the rounding of differently ordered formulas (ε times
     // coordinates below 1.5).
     assert!(max_position_difference(&table(&mesh, Scheme::Nlsa), &half) < 1e-15);
@@ -346,9 +354,7 @@ fn bad_phong_alpha_is_an_error_not_a_nan() {
     let e = PatchTable::build(
         &mesh,
         Scheme::Phong,
-        &SchemeOptions {
-            phong_alpha: f64::NAN,
-        },
+        &SchemeOptions::default().with_phong_alpha(f64::NAN),
     );
     let msg = e.unwrap_err().to_string();
     assert!(msg.contains("phong") && msg.contains("finite"), "{msg}");
@@ -419,10 +425,7 @@ fn tables_of_subsets_are_slices_of_the_whole() {
 fn streamed_stats_do_not_depend_on_chunking() {
     let mesh = Mesh::load(
         &common::shared_spec("fandisk.obj"),
-        &LoadOptions {
-            crease_angle: Some(30.0),
-            ..Default::default()
-        },
+        &LoadOptions::default().with_crease_angle(Some(30.0)),
     )
     .unwrap();
     let adj = mesh.adjacency();

@@ -11,8 +11,8 @@ use g1tess::eval::cpu::CpuEvaluator;
 use g1tess::eval::{grid_barycentrics, grid_len, to_f32};
 use g1tess::mesh::{LoadOptions, Mesh};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::progress::NoProgress;
 use g1tess::tess::stitch::{stitch, stitch_in, stitch_into, CountingSink, StitchedMesh};
+use g1tess::NoProgress;
 
 fn load(spec: &str) -> Mesh {
     Mesh::load(spec, &LoadOptions::default()).unwrap()

@@ -55,7 +55,6 @@ mod stitch;
 mod tessellator;
 #[cfg(feature = "gpu")]
 mod tessellator_levels;
-mod unit_cli;
 mod unit_eval;
 mod unit_mesh;
 mod unit_output;

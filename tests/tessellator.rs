@@ -55,10 +55,7 @@ fn docs_samples_are_the_tessellator_doctest() {
 }
 
 fn fandisk() -> Mesh {
-    let opts = LoadOptions {
-        crease_angle: Some(45.0),
-        ..LoadOptions::default()
-    };
+    let opts = LoadOptions::default().with_crease_angle(Some(45.0));
     Mesh::load(&common::shared_spec("fandisk.obj"), &opts).unwrap()
 }
 

@@ -101,11 +101,9 @@ mod stats {
         let mut seen = [false; 2];
         for name in ["fandisk.obj", "suzanne.obj", "spot.obj"] {
             for crease in [None, Some(30.0)] {
-                let opts = LoadOptions {
-                    recompute_normals: crease.is_some(),
-                    crease_angle: crease,
-                    ..LoadOptions::default()
-                };
+                let opts = LoadOptions::default()
+                    .with_recompute_normals(crease.is_some())
+                    .with_crease_angle(crease);
                 let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
                 let mut mesh = Mesh::load(&path, &opts).unwrap();
                 for round in 0..2 {

@@ -694,10 +694,7 @@ fn repair_next_to_a_crease_keeps_both_sides_of_the_crease_curve() {
     // normals, so the repair must rebuild them too, or the option's table would crack.
     let mut mesh = Mesh::load(
         &common::shared_spec("fandisk.obj"),
-        &LoadOptions {
-            crease_angle: Some(40.0),
-            ..LoadOptions::default()
-        },
+        &LoadOptions::default().with_crease_angle(Some(40.0)),
     )
     .unwrap();
     let key = |n: DVec3| n.to_array().map(f64::to_bits);

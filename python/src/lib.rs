@@ -20,10 +20,10 @@ use g1tess::io::TempFiles;
 use g1tess::mesh::{generators, LoadOptions, Mesh, NormalWeighting};
 use g1tess::patch::repair::{RepairOptions, RepairReport};
 use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::progress::NoProgress;
 use g1tess::tess::adaptive::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
 use g1tess::tess::layout::MAX_LEVEL;
 use g1tess::tess::stitch::{stitch_into, StitchPlan, StitchedMesh};
+use g1tess::NoProgress;
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{
@@ -116,12 +116,11 @@ fn options(
             "phong_alpha must be a finite number, got {phong_alpha}"
         )));
     }
-    let load = LoadOptions {
-        weighting,
-        recompute_normals,
-        crease_angle,
-    };
-    let scheme = SchemeOptions { phong_alpha };
+    let load = LoadOptions::default()
+        .with_weighting(weighting)
+        .with_recompute_normals(recompute_normals)
+        .with_crease_angle(crease_angle);
+    let scheme = SchemeOptions::default().with_phong_alpha(phong_alpha);
     Ok((load, scheme))
 }
 
@@ -233,11 +232,10 @@ impl Grid {
             &adjacency,
             table,
             &CpuEvaluator::default(),
-            &ToleranceOptions {
-                tolerance: eps,
-                max_level: cap,
-                rounds: TOLERANCE_ROUNDS,
-            },
+            &ToleranceOptions::default()
+                .with_tolerance(eps)
+                .with_max_level(cap)
+                .with_rounds(TOLERANCE_ROUNDS),
             &NoProgress,
         )?;
         Ok(Planned {

@@ -34,19 +34,6 @@ pub struct InputArgs {
 }
 
 impl InputArgs {
-    /// Defaults for a built-in mesh (the default run).
-    pub fn builtin(mesh: &str) -> InputArgs {
-        InputArgs {
-            mesh: mesh.into(),
-            scheme: Scheme::G1,
-            normals: NormalWeighting::Angle,
-            recompute_normals: false,
-            crease_angle: None,
-            phong_alpha: 0.75,
-            repair_folds: false,
-        }
-    }
-
     pub fn load_options(&self) -> LoadOptions {
         LoadOptions {
             weighting: self.normals,
@@ -592,3 +579,6 @@ impl Budget {
         )
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -18,7 +18,7 @@ use std::sync::LazyLock;
 
 use clap::{Parser, Subcommand};
 
-pub use common::{Backend, BackendArgs, Budget, InputArgs, MemoryArgs};
+pub use common::{BackendArgs, Budget, InputArgs, MemoryArgs};
 
 /// The command line's temporary files: every file it writes lists its temporary file
 /// here, and the signal handler removes those still live.

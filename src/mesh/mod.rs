@@ -196,15 +196,47 @@ impl InputFormat {
 }
 
 /// How to obtain a mesh: options shared by every command that reads one.
+///
+/// Built from [`LoadOptions::default()`] and the `with_*` methods:
+///
+/// ```
+/// use g1tess::{LoadOptions, NormalWeighting};
+/// let opts = LoadOptions::default()
+///     .with_weighting(NormalWeighting::Area)
+///     .with_crease_angle(Some(30.0));
+/// assert!(!opts.recompute_normals);
+/// ```
 #[derive(Clone, Debug)]
+#[non_exhaustive]
 pub struct LoadOptions {
-    /// Weighting of face normals when a vertex normal must be estimated.
+    /// Weighting of face normals when a vertex normal must be estimated (default
+    /// [`NormalWeighting::Angle`]).
     pub weighting: NormalWeighting,
-    /// Estimate normals even where the file gives them.
+    /// Estimate normals even where the file gives them (default false).
     pub recompute_normals: bool,
     /// Mark edges with a dihedral angle above this many degrees as creases and estimate
-    /// normals per smoothing group (see [`creases::split_normals_by_angle`]).
+    /// normals per smoothing group (default `None`: no creases from angles).
     pub crease_angle: Option<f64>,
+}
+
+impl LoadOptions {
+    /// Sets [`LoadOptions::weighting`].
+    pub fn with_weighting(mut self, weighting: NormalWeighting) -> Self {
+        self.weighting = weighting;
+        self
+    }
+
+    /// Sets [`LoadOptions::recompute_normals`].
+    pub fn with_recompute_normals(mut self, recompute_normals: bool) -> Self {
+        self.recompute_normals = recompute_normals;
+        self
+    }
+
+    /// Sets [`LoadOptions::crease_angle`] (degrees).
+    pub fn with_crease_angle(mut self, crease_angle: Option<f64>) -> Self {
+        self.crease_angle = crease_angle;
+        self
+    }
 }
 
 impl Default for LoadOptions {

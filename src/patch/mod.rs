@@ -185,10 +185,26 @@ impl std::fmt::Display for Scheme {
 }
 
 /// Options of the schemes that have any. Defaults are the paper's.
+///
+/// Built from [`SchemeOptions::default()`] and the `with_*` methods:
+///
+/// ```
+/// let opts = g1tess::SchemeOptions::default().with_phong_alpha(0.5);
+/// assert_eq!(opts.phong_alpha, 0.5);
+/// ```
 #[derive(Clone, Copy, Debug)]
+#[non_exhaustive]
 pub struct SchemeOptions {
     /// Phong tessellation's shape factor α (default 3/4, the paper's).
     pub phong_alpha: f64,
+}
+
+impl SchemeOptions {
+    /// Sets [`SchemeOptions::phong_alpha`].
+    pub fn with_phong_alpha(mut self, phong_alpha: f64) -> Self {
+        self.phong_alpha = phong_alpha;
+        self
+    }
 }
 
 impl Default for SchemeOptions {

@@ -67,15 +67,37 @@ pub fn ramp(v: f64) -> [u8; 3] {
     })
 }
 
-/// How to draw.
+/// How to draw: [`RenderOptions::default()`] and the `with_*` methods.
 #[derive(Clone, Debug)]
+#[non_exhaustive]
 pub struct RenderOptions {
-    /// Side of one square panel in pixels.
+    /// Side of one square panel in pixels (default 512).
     pub panel: u32,
-    /// Direction from the surface towards the camera.
+    /// Direction from the surface towards the camera (default +z).
     pub view: DVec3,
-    /// Direction that points up in the picture (projected perpendicular to `view`).
+    /// Direction that points up in the picture, projected perpendicular to `view` (default
+    /// +y).
     pub up: DVec3,
+}
+
+impl RenderOptions {
+    /// Sets [`RenderOptions::panel`].
+    pub fn with_panel(mut self, panel: u32) -> Self {
+        self.panel = panel;
+        self
+    }
+
+    /// Sets [`RenderOptions::view`].
+    pub fn with_view(mut self, view: DVec3) -> Self {
+        self.view = view;
+        self
+    }
+
+    /// Sets [`RenderOptions::up`].
+    pub fn with_up(mut self, up: DVec3) -> Self {
+        self.up = up;
+        self
+    }
 }
 
 impl Default for RenderOptions {

@@ -205,15 +205,60 @@ pub fn measure_deviation(
 }
 
 /// What [`levels_for_tolerance`] is asked.
+///
+/// Built from [`ToleranceOptions::new`] (or [`ToleranceOptions::default()`]) and the
+/// `with_*` methods:
+///
+/// ```
+/// let opts = g1tess::ToleranceOptions::new(1e-3).with_max_level(32);
+/// assert_eq!((opts.tolerance, opts.max_level, opts.rounds), (1e-3, 32, 8));
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct ToleranceOptions {
-    /// Largest deviation allowed (absolute, the mesh's units).
+    /// Largest deviation allowed (absolute, the mesh's units; default 1e-3).
     pub tolerance: f64,
-    /// Cap on every level.
+    /// Cap on every level (default 64, as `g1tess tessellate --tolerance`).
     pub max_level: u32,
     /// Most refinement rounds after the first measurement (coarsening attempts once the
-    /// tolerance is met come on top: four at most, two measurements each).
+    /// tolerance is met come on top: four at most, two measurements each; default 8, as
+    /// `g1tess tessellate --tolerance`).
     pub rounds: u32,
+}
+
+impl Default for ToleranceOptions {
+    fn default() -> Self {
+        ToleranceOptions {
+            tolerance: 1e-3,
+            max_level: 64,
+            rounds: 8,
+        }
+    }
+}
+
+impl ToleranceOptions {
+    /// The defaults with this tolerance.
+    pub fn new(tolerance: f64) -> Self {
+        ToleranceOptions::default().with_tolerance(tolerance)
+    }
+
+    /// Sets [`ToleranceOptions::tolerance`].
+    pub fn with_tolerance(mut self, tolerance: f64) -> Self {
+        self.tolerance = tolerance;
+        self
+    }
+
+    /// Sets [`ToleranceOptions::max_level`].
+    pub fn with_max_level(mut self, max_level: u32) -> Self {
+        self.max_level = max_level;
+        self
+    }
+
+    /// Sets [`ToleranceOptions::rounds`].
+    pub fn with_rounds(mut self, rounds: u32) -> Self {
+        self.rounds = rounds;
+        self
+    }
 }
 
 /// Levels chosen for a tolerance, with their measured deviation.

@@ -187,9 +187,6 @@ pub fn open_box() -> Mesh {
         .iter()
         .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
         .collect();
-    let opts = LoadOptions {
-        crease_angle: Some(45.0),
-        ..LoadOptions::default()
-    };
+    let opts = LoadOptions::default().with_crease_angle(Some(45.0));
     Mesh::from_soup("open box", &positions, &triangles, None, &opts).unwrap()
 }

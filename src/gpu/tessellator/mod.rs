@@ -18,10 +18,7 @@
 //! #     pipeline: &wgpu::RenderPipeline,
 //! #     target: &wgpu::TextureView,
 //! # ) -> g1tess::Result<()> {
-//! use g1tess::gpu::tessellator::GpuTessellator;
-//! use g1tess::gpu::Precision;
-//! use g1tess::mesh::Mesh;
-//! use g1tess::patch::{PatchTable, Scheme};
+//! use g1tess::{GpuTessellator, Mesh, PatchTable, Precision, Scheme};
 //!
 //! // Once: the patches, their upload and the topology table.
 //! let mesh = Mesh::load("icosphere:2", &Default::default())?;
@@ -46,7 +43,7 @@
 //!         occlusion_query_set: None,
 //!         multiview_mask: None,
 //!     });
-//!     // A pipeline whose vertex buffer 0 is g1tess::gpu::tessellator::vertex_layout():
+//!     // A pipeline whose vertex buffer 0 is g1tess::vertex_layout():
 //!     // @location(0) position, @location(1) unit normal, both vec3<f32>.
 //!     pass.set_pipeline(pipeline);
 //!     tess.draw(&mut pass); // vertex + index buffers, draw_indexed_indirect
