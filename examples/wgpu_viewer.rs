@@ -13,8 +13,8 @@
 
 use glam::DVec3;
 
-use g1tess::render::camera::Camera;
-use g1tess::render::pipeline::{draw, upload, Geometry, IndexCount};
+use g1tess::Camera;
+use g1tess::{draw, upload, Geometry, IndexCount};
 use g1tess::{stitch, CpuEvaluator, GpuTessellator, Mesh, PatchTable, Precision, Scheme};
 
 /// The mesh drawn.

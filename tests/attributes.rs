@@ -6,15 +6,16 @@ use crate::common;
 
 use std::collections::HashMap;
 
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::Vector;
-use g1tess::io::writers::{write_stitched, MeshFormat};
-use g1tess::io::TempFiles;
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::tess::adaptive::{InnerRule, Levels};
-use g1tess::tess::stitch::{stitch_into, stitch_plan, StitchPlan, StitchedMesh};
+use g1tess::stitch_plan;
+use g1tess::CpuEvaluator;
 use g1tess::NoProgress;
+use g1tess::TempFiles;
+use g1tess::Vector;
+use g1tess::{stitch_into, StitchPlan, StitchedMesh};
+use g1tess::{write_stitched, MeshFormat};
+use g1tess::{InnerRule, Levels};
+use g1tess::{LoadOptions, Mesh};
+use g1tess::{PatchTable, Scheme, SchemeOptions};
 use glam::DVec3;
 
 /// A unit cube (8 vertices, 12 triangles, estimated smooth normals) whose six faces each
@@ -285,7 +286,7 @@ fn spot_glb_has_the_input_uvs_at_the_input_corners() {
     let texcoords = glb_floats(&std::fs::read(&path).unwrap(), "TEXCOORD_0");
     assert_eq!(texcoords.len(), plan.records);
     // Grid indices of the corners at level n: (0, 0), (n, 0), (0, n).
-    let corners = [0, n as usize, g1tess::eval::grid_len(n) - 1];
+    let corners = [0, n as usize, g1tess::grid_len(n) - 1];
     let (mut rec, mut pos) = (Vec::new(), Vec::new());
     for (t, tri_uvs) in uvs.iter().enumerate() {
         plan.local_ids(t, &mut rec, &mut pos);

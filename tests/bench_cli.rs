@@ -4,7 +4,7 @@
 
 use std::process::Command;
 
-use g1tess::eval::grid_len;
+use g1tess::grid_len;
 
 fn bench(args: &[&str]) -> serde_json::Value {
     let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
@@ -37,7 +37,7 @@ fn check_rate(r: &serde_json::Value, samples: f64, roofline: f64) {
 #[test]
 fn bench_json_rows_and_rates_are_consistent() {
     let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
-    let context = g1tess::gpu::GpuContext::shared();
+    let context = g1tess::GpuContext::shared();
     let gpu = context.is_ok();
     let software = context.is_ok_and(|c| c.info.device_type == wgpu::DeviceType::Cpu);
     assert!(gpu || !ci, "CI=true and no GPU adapter");
@@ -142,7 +142,7 @@ fn bench_gpu_check_rows_are_consistent() {
         "--json",
         "--quiet",
     ];
-    if let Err(e) = g1tess::gpu::GpuContext::shared() {
+    if let Err(e) = g1tess::GpuContext::shared() {
         assert!(!ci, "CI=true and no GPU adapter: {e}");
         let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
             .args(args)

@@ -262,3 +262,32 @@ fn readme_rust_sample_is_the_crate_doctest() {
         "README.md: the sample under ## Rust"
     );
 }
+
+/// The embedding sample of docs/gpu.md and ARCHITECTURE.md (the ```rust block after
+/// `heading`) is the module doctest of `src/gpu/tessellator/mod.rs` (compiled by `cargo test`)
+/// without its hidden `# ` lines, line for line: the documents show code that compiles.
+#[test]
+fn docs_samples_are_the_tessellator_doctest() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let read = |path: &str| std::fs::read_to_string(format!("{root}/{path}")).unwrap();
+    let doctest = module_doctest(&read("src/gpu/tessellator/mod.rs"), "```no_run");
+    assert!(doctest.len() > 20 && doctest[0].starts_with("use g1tess::"));
+    for (path, heading) in [
+        ("docs/gpu.md", "## Tessellating on your own wgpu device"),
+        (
+            "ARCHITECTURE.md",
+            "## Embedding the GPU tessellator in a wgpu program",
+        ),
+    ] {
+        let text = read(path);
+        assert!(
+            text.lines().any(|l| l == heading),
+            "{path}: no heading {heading:?}"
+        );
+        assert_eq!(
+            sample_after(&text, heading),
+            doctest,
+            "{path}: the sample under {heading:?}"
+        );
+    }
+}

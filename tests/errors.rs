@@ -5,13 +5,14 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use g1tess::eval::{Evaluator, Pattern};
-use g1tess::gpu::eval::GpuEvaluator;
-use g1tess::gpu::{GpuContext, GpuTessellator, Precision};
-use g1tess::io::writers::MeshFormat;
-use g1tess::mesh::{generators, LoadOptions, Mesh};
-use g1tess::patch::{PatchTable, Scheme};
+use g1tess::generators;
 use g1tess::Error;
+use g1tess::GpuEvaluator;
+use g1tess::MeshFormat;
+use g1tess::{Evaluator, Pattern};
+use g1tess::{GpuContext, GpuTessellator, Precision};
+use g1tess::{LoadOptions, Mesh};
+use g1tess::{PatchTable, Scheme};
 
 /// The shared GPU context, or None (the test prints SKIP) without an adapter.
 fn context() -> Option<Arc<GpuContext>> {

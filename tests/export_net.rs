@@ -8,8 +8,8 @@ use std::process::Command;
 
 use glam::DVec3;
 
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+use g1tess::{LoadOptions, Mesh};
+use g1tess::{PatchTable, Scheme, SchemeOptions};
 
 fn out(name: &str) -> PathBuf {
     let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))

@@ -9,16 +9,16 @@ use std::process::Command;
 
 use glam::DVec3;
 
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::Vector;
-use g1tess::io::writers::{ply_file_bytes, write_stitched, MeshFormat};
-use g1tess::io::TempFiles;
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::tess::stitch::{
-    stitch_in, stitch_into, PatchOut, StitchPlan, StitchSink, StitchedMesh,
-};
+use g1tess::ply_file_bytes;
+use g1tess::stitch_in;
+use g1tess::CpuEvaluator;
 use g1tess::NoProgress;
+use g1tess::TempFiles;
+use g1tess::Vector;
+use g1tess::{stitch_into, PatchOut, StitchPlan, StitchSink, StitchedMesh};
+use g1tess::{write_stitched, MeshFormat};
+use g1tess::{LoadOptions, Mesh};
+use g1tess::{PatchTable, Scheme, SchemeOptions};
 
 use crate::common;
 

@@ -12,8 +12,8 @@ use std::path::{Path, PathBuf};
 #[cfg(feature = "cli")]
 use std::process::Command;
 
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+use g1tess::{LoadOptions, Mesh};
+use g1tess::{PatchTable, Scheme, SchemeOptions};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 
@@ -343,7 +343,7 @@ proptest! {
     #![proptest_config(config(1500, "PROPTEST_CASES"))]
     #[test]
     fn spec_strings(s in spec()) {
-        match g1tess::mesh::generators::from_spec(&s) {
+        match g1tess::generators::from_spec(&s) {
             Ok(Some(m)) => check(Ok(m))?,
             Ok(None) => {}
             Err(e) => check(Err(e))?,

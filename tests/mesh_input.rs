@@ -7,9 +7,9 @@ use crate::common;
 
 use std::path::PathBuf;
 
-use g1tess::mesh::generators::{icosphere, torus, TorusNormals};
-use g1tess::mesh::normals::vertex_normals;
-use g1tess::mesh::{LoadOptions, Mesh, NormalWeighting};
+use g1tess::generators::{icosphere, torus, TorusNormals};
+use g1tess::vertex_normals;
+use g1tess::{LoadOptions, Mesh, NormalWeighting};
 use glam::DVec3;
 
 fn write_obj(name: &str, text: &str) -> PathBuf {
@@ -238,16 +238,9 @@ fn non_unit_normals_are_renormalised() {
     for n in m.corner_normals.iter().flatten() {
         assert!((n.length() - 1.0).abs() < 1e-15);
     }
-    let table =
-        g1tess::patch::PatchTable::build(&m, g1tess::patch::Scheme::G1, &Default::default())
-            .unwrap();
-    let c = g1tess::analysis::stats::continuity(
-        &m,
-        &m.adjacency(),
-        &table,
-        &g1tess::eval::cpu::CpuEvaluator::default(),
-    )
-    .unwrap();
+    let table = g1tess::PatchTable::build(&m, g1tess::Scheme::G1, &Default::default()).unwrap();
+    let c =
+        g1tess::continuity(&m, &m.adjacency(), &table, &g1tess::CpuEvaluator::default()).unwrap();
     // G1 to f64 rounding (~1e-16); 1e-12 is far above that and far below any real kink.
     assert!(
         1.0 - c.cos.min <= 1e-12,
@@ -833,7 +826,7 @@ fn load_err(name: &str, text: impl AsRef<[u8]>) -> String {
 /// Every scheme's patches on `m`, evaluated at corners, edge midpoints and the centre: all
 /// finite, normals unit.
 fn patches_are_finite(m: &Mesh) {
-    use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+    use g1tess::{PatchTable, Scheme, SchemeOptions};
     for scheme in Scheme::all() {
         let table = PatchTable::build(m, scheme, &SchemeOptions::default())
             .unwrap_or_else(|e| panic!("{scheme:?} on {}: {e}", m.name));

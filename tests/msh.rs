@@ -13,12 +13,12 @@ use std::process::Command;
 
 use glam::DVec3;
 
-use g1tess::io::msh::{
+use g1tess::msh::{
     build, lagrange_triangle, triangle_node_count, triangle_nodes, write_msh, HighOrderMesh,
 };
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use g1tess::NoProgress;
+use g1tess::{LoadOptions, Mesh};
+use g1tess::{PatchTable, Scheme, SchemeOptions};
 
 #[cfg(feature = "cli")]
 fn out(name: &str) -> PathBuf {

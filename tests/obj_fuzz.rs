@@ -4,8 +4,8 @@
 
 use std::path::PathBuf;
 
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+use g1tess::{LoadOptions, Mesh};
+use g1tess::{PatchTable, Scheme, SchemeOptions};
 use proptest::prelude::*;
 
 fn line() -> impl Strategy<Value = String> {

@@ -12,14 +12,15 @@ use std::process::Command;
 use glam::DVec3;
 use serde_json::json;
 
-use g1tess::analysis::stats::stats_report;
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::io::writers::{write_stitched, MeshFormat};
-use g1tess::io::TempFiles;
-use g1tess::mesh::{InputFormat, LoadOptions, Mesh};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::tess::stitch::{stitch_in, stitch_into, StitchedMesh};
+use g1tess::stats_report;
+use g1tess::stitch_in;
+use g1tess::CpuEvaluator;
 use g1tess::NoProgress;
+use g1tess::TempFiles;
+use g1tess::{stitch_into, StitchedMesh};
+use g1tess::{write_stitched, MeshFormat};
+use g1tess::{InputFormat, LoadOptions, Mesh};
+use g1tess::{PatchTable, Scheme, SchemeOptions};
 
 fn dir() -> PathBuf {
     let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))

@@ -13,8 +13,8 @@
 //! files gate their GPU tests one by one.
 
 mod common;
-mod eval_cases;
 
+#[cfg(feature = "cli")]
 mod adaptive;
 mod attributes;
 #[cfg(feature = "cli")]
@@ -25,8 +25,6 @@ mod bench_cli;
 mod cli_errors;
 #[cfg(feature = "cli")]
 mod cli_output;
-mod cpu_fast;
-mod creases;
 mod docs;
 #[cfg(feature = "cli")]
 mod errors;
@@ -34,9 +32,6 @@ mod errors;
 mod export_net;
 mod formats;
 mod fuzz;
-mod g1_patch;
-#[cfg(feature = "gpu")]
-mod gpu;
 mod mesh_input;
 mod msh;
 mod obj_fuzz;
@@ -44,22 +39,8 @@ mod paper;
 mod readers;
 #[cfg(feature = "cli")]
 mod render;
-mod render_shader;
-mod schemes;
-#[cfg(feature = "gpu")]
-mod shaders;
 mod source_rules;
-mod stats_certified;
-mod stitch;
-#[cfg(feature = "gpu")]
-mod tessellator;
-#[cfg(feature = "gpu")]
-mod tessellator_levels;
-mod unit_eval;
-mod unit_mesh;
-mod unit_output;
-mod unit_patch;
-mod unit_tess;
+#[cfg(feature = "cli")]
 mod validity;
 #[cfg(feature = "cli")]
 mod viewer;

@@ -12,18 +12,20 @@
 use std::io::ErrorKind;
 use std::path::{Path, PathBuf};
 
-use g1tess::analysis::stats::stats_report;
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::io::msh::export_msh;
-use g1tess::io::writers::{write_stitched, MeshFormat};
-use g1tess::io::TempFiles;
-use g1tess::mesh::{generators, LoadOptions, Mesh, NormalWeighting};
-use g1tess::patch::repair::{RepairOptions, RepairReport};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::tess::adaptive::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
-use g1tess::tess::layout::MAX_LEVEL;
-use g1tess::tess::stitch::{stitch_into, StitchPlan, StitchedMesh};
+use g1tess::export_msh;
+use g1tess::generators;
+use g1tess::stats_report;
+use g1tess::CpuEvaluator;
 use g1tess::NoProgress;
+use g1tess::RepairOptions;
+use g1tess::RepairReport;
+use g1tess::TempFiles;
+use g1tess::MAX_LEVEL;
+use g1tess::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
+use g1tess::{stitch_into, StitchPlan, StitchedMesh};
+use g1tess::{write_stitched, MeshFormat};
+use g1tess::{LoadOptions, Mesh, NormalWeighting};
+use g1tess::{PatchTable, Scheme, SchemeOptions};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{
@@ -130,7 +132,7 @@ fn repair(
     scheme: Scheme,
     opts: &SchemeOptions,
 ) -> g1tess::Result<(Mesh, RepairReport)> {
-    g1tess::patch::repair::repair(
+    g1tess::repair(
         mesh,
         scheme,
         &RepairOptions::default().with_scheme_options(*opts),

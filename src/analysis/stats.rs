@@ -18,7 +18,9 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::eval::{EdgePairs, EdgeSide, Evaluator, PairProducts, PatchPoint};
+#[cfg(test)]
+use crate::eval::PatchPoint;
+use crate::eval::{EdgePairs, EdgeSide, Evaluator, PairProducts};
 use crate::mesh::adjacency::{EdgeCounts, EdgeIndex};
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, EdgeUse, LoadReport, Mesh};
@@ -135,6 +137,7 @@ fn index_edges<'a>(index: &'a EdgeIndex<'a>) -> impl Iterator<Item = Edge> + 'a 
         .map(move |e| Edge::new(e.v, [e.use_at(0), e.use_at(1)]))
 }
 
+#[cfg(test)]
 /// The evaluation points of every interior edge: for each edge and each t, the point on the
 /// first triangle then the same point on the second (patch = triangle index), as
 /// [`edge_pairs`] lists them.
@@ -856,6 +859,7 @@ impl<'m> EdgeStats<'m> {
         self.index.counts
     }
 
+    #[cfg(test)]
     /// The continuity of `builder`'s patches (built chunk by chunk) and the fallbacks of
     /// its whole construction (as [`PatchTable::fallbacks`] of the whole table).
     pub fn continuity(
@@ -1159,5 +1163,131 @@ impl StatsReport {
             ));
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Part, BLOCK_PAIRS};
+    use crate::eval::PairProducts;
+    use crate::mesh::creases::normal_key;
+    use crate::patch::g1::any_split_normals;
+    use crate::LoadOptions;
+    use crate::Mesh;
+
+    /// The serial search [`any_split_normals`] replaced: each vertex's first corner in
+    /// triangle order is its representative.
+    fn serial_split_normals(mesh: &Mesh) -> bool {
+        let mut first = vec![u32::MAX; mesh.positions.len()];
+        for (t, (tri, normals)) in mesh.triangles.iter().zip(&mesh.corner_normals).enumerate() {
+            for k in 0..3 {
+                let f = &mut first[tri[k] as usize];
+                if *f == u32::MAX {
+                    *f = (3 * t + k) as u32;
+                    continue;
+                }
+                let (ft, fk) = (*f as usize / 3, *f as usize % 3);
+                if normal_key(mesh.corner_normals[ft][fk]) != normal_key(normals[k]) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    #[test]
+    fn block_parts_are_those_of_pushing_in_order() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let special = [0.0, -0.0, f64::NAN, -1.0, 1.0, 1.0000000000000004, -0.5];
+        let bits = |p: &Part| {
+            (
+                [p.n, p.folded, p.crease_n],
+                [
+                    p.shift,
+                    p.s1,
+                    p.s2,
+                    p.min,
+                    p.max,
+                    p.worst_abs,
+                    p.gap2,
+                    p.crease_gap2,
+                ]
+                .map(f64::to_bits),
+            )
+        };
+        for len in [0, 1, 2, 3, 17, BLOCK_PAIRS] {
+            for mix in 0..6 {
+                let samples: Vec<PairProducts> = (0..len)
+                    .map(|_| {
+                        let r = next();
+                        let u = (r >> 11) as f64 / (1u64 << 53) as f64;
+                        let pick = special[(r % 7) as usize];
+                        let cos = match mix {
+                            // Near 1 (a smooth surface), then anywhere in [−1, 1].
+                            0 => 1.0 - 1e-6 * u,
+                            1 => 2.0 * u - 1.0,
+                            // Special values among ordinary ones, then only those.
+                            2 if r % 5 == 0 => pick,
+                            2 => 2.0 * u - 1.0,
+                            3 => pick,
+                            // Zeros of both signs only (the order-dependent extremes).
+                            4 => special[(r % 2) as usize],
+                            _ => f64::NAN,
+                        };
+                        let gap2 = if mix == 3 && r % 3 == 0 {
+                            f64::NAN
+                        } else {
+                            u * 1e-30
+                        };
+                        PairProducts { cos, gap2 }
+                    })
+                    .collect();
+                let mut pushed = Part::new();
+                for &s in &samples {
+                    pushed.push(s, false);
+                }
+                assert_eq!(
+                    bits(&Part::of(&samples)),
+                    bits(&pushed),
+                    "{len} samples, mix {mix}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn parallel_split_search_agrees_with_the_serial_one() {
+        let mut seen = [false; 2];
+        for name in ["fandisk.obj", "suzanne.obj", "spot.obj"] {
+            for crease in [None, Some(30.0)] {
+                let opts = LoadOptions::default()
+                    .with_recompute_normals(crease.is_some())
+                    .with_crease_angle(crease);
+                let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
+                let mut mesh = Mesh::load(&path, &opts).unwrap();
+                for round in 0..2 {
+                    let expect = serial_split_normals(&mesh);
+                    seen[expect as usize] = true;
+                    for threads in [1, 2, 3] {
+                        let pool = rayon::ThreadPoolBuilder::new()
+                            .num_threads(threads)
+                            .build()
+                            .unwrap();
+                        let got = pool.install(|| any_split_normals(&mesh));
+                        assert_eq!(got, expect, "{name} {crease:?} round {round}");
+                    }
+                    // One corner normal of the last triangle turned a little: a split there.
+                    let last = mesh.corner_normals.last_mut().unwrap();
+                    last[2] = (last[2] + glam::DVec3::new(0.0, 1e-3, 0.0)).normalize();
+                }
+            }
+        }
+        assert_eq!(seen, [true, true]);
     }
 }

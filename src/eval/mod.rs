@@ -245,6 +245,7 @@ impl PairProducts {
     }
 }
 
+#[cfg(test)]
 /// How far [`Evaluator::evaluate_edge_products`] may put a sample's cos from
 /// [`PairProducts::of`] on the same points: 32 u (u = 2⁻⁵³, 2⁻⁴⁸ ≈ 3.6e-15). The CPU's
 /// quotient of the unnormalised cross products is within 18.5u + O(u²) of it (derivation

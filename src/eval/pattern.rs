@@ -192,3 +192,31 @@ pub fn grid_triangles(level: u32) -> Vec<[u32; 3]> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::eval::pattern::{
+        grid_barycentrics, grid_corners, grid_index, grid_len, grid_triangles,
+    };
+
+    #[test]
+    fn grid_index_and_triangles() {
+        for n in 1..=9 {
+            let b = grid_barycentrics(n);
+            assert_eq!(b.len(), grid_len(n));
+            for j in 0..=n {
+                for i in 0..=n - j {
+                    let p = b[grid_index(n, i, j)];
+                    assert_eq!(p[1], i as f64 / n as f64);
+                    assert_eq!(p[2], j as f64 / n as f64);
+                }
+            }
+            assert_eq!(grid_triangles(n).len(), (n * n) as usize);
+            let c = grid_corners(n);
+            assert_eq!(c, [0, n as usize, grid_len(n) - 1]);
+            for (k, &g) in c.iter().enumerate() {
+                assert_eq!(b[g][k], 1.0);
+            }
+        }
+    }
+}

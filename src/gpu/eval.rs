@@ -15,7 +15,7 @@
 //! Work is split so that no storage binding exceeds the adapter's limit and no dispatch
 //! dimension exceeds its workgroup limit, and results stream to the sink chunk by chunk.
 //! The device work is done by free functions on `(&Device, &Queue, ...)`
-//! ([`bind_group_layout`], [`create_pipelines`], [`dispatch`]) and results come back
+//! ([`bind_group_layout`], [`create_pipelines_with`], [`dispatch`]) and results come back
 //! through [`crate::gpu::read_buffer`].
 
 use std::sync::{Arc, Mutex};
@@ -168,17 +168,6 @@ pub fn patch_loop_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLay
     })
 }
 
-/// Builds the grid and points pipelines of `kind`'s module. The source is validated with
-/// naga first, so a shader error comes back as naga's report.
-pub fn create_pipelines(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    kind: PatchKind,
-    precision: Precision,
-) -> Result<Pipelines> {
-    create_pipelines_with(device, layout, kind, precision, false)
-}
-
 /// A module of this crate's own WGSL. With `runtime_checks` false it is created *trusted*:
 /// wgpu asks naga for no bounds checks and no loop bounding (`force_loop_bounding` adds a
 /// counter to every loop, and index clamps are added to every dynamic index of a local
@@ -209,7 +198,7 @@ pub fn shader_module(
     }
 }
 
-/// [`create_pipelines`], choosing whether wgpu adds its runtime checks ([`shader_module`]).
+/// [`create_pipelines_with`], choosing whether wgpu adds its runtime checks ([`shader_module`]).
 pub fn create_pipelines_with(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,

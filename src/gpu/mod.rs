@@ -28,7 +28,6 @@ pub mod tessellator;
 
 pub use crate::eval::Precision;
 pub use readback::read_buffer;
-pub use tessellator::GpuTessellator;
 
 use std::sync::{Arc, Mutex, OnceLock};
 

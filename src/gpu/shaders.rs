@@ -138,6 +138,7 @@ pub fn stats_source(kind: PatchKind, precision: Precision) -> Result<String> {
     ))
 }
 
+#[cfg(test)]
 /// Every evaluation file, the kinds' files then the shared one.
 pub const FILES: [ShaderFile; 3] = [BEZIER, GREGORY, COMMON];
 
@@ -149,6 +150,7 @@ pub fn file_for(kind: PatchKind) -> ShaderFile {
     }
 }
 
+#[cfg(test)]
 /// Every (file, kind) pair a pipeline is built for: [`PatchKind::all`] with their files.
 pub fn variants() -> Vec<(ShaderFile, PatchKind)> {
     PatchKind::all()

@@ -821,3 +821,81 @@ impl Drop for EarlyWriteback {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::fs::File;
+    use std::io::Write;
+
+    use super::DIRECT_ALIGN;
+    use crate::io::atomic::{write_atomic, PipedWriter};
+    use crate::TempFiles;
+
+    /// A write lists its temporary file in the `TempFiles` it is given (shared by clones,
+    /// not by another list) while it runs; removing the live files deletes it, the write
+    /// then fails without creating the target, and later writes through that list are
+    /// refused while another list still writes.
+    #[test]
+    fn temp_files_list_live_writes_and_remove_them() {
+        let dir = crate::tests::common::tmp_dir("unit_output_temp_files");
+        std::fs::create_dir_all(&dir).unwrap();
+        let target = dir.join("out.txt");
+        let _ = std::fs::remove_file(&target);
+        let tmp = dir.join(format!(".out.txt.tmp-{}", std::process::id()));
+        let (temp, other) = (TempFiles::default(), TempFiles::default());
+        let handle = temp.clone();
+        let result = write_atomic(&target, &temp, |w| {
+            w.write_all(b"partial")?;
+            w.flush()?;
+            assert_eq!(handle.live_temp_files(), vec![tmp.clone()]);
+            assert!(other.live_temp_files().is_empty());
+            assert!(tmp.is_file());
+            assert_eq!(handle.remove_live_temp_files(), vec![tmp.clone()]);
+            Ok(())
+        });
+        assert!(result.is_err(), "the rename of a removed file must fail");
+        assert!(!tmp.exists() && !target.exists());
+        assert!(temp.live_temp_files().is_empty());
+        let refused = write_atomic(&target, &temp, |w| w.write_all(b"late")).unwrap_err();
+        assert!(
+            refused.to_string().contains("the process is exiting"),
+            "{refused}"
+        );
+        assert!(!target.exists());
+        write_atomic(&target, &other, |w| w.write_all(b"whole")).unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"whole");
+        assert!(other.live_temp_files().is_empty());
+        std::fs::remove_file(&target).unwrap();
+    }
+
+    /// A stream (with or without an unaligned flush half way, which turns direct I/O off),
+    /// a second writer from a page boundary on, and the second's rest written at the end
+    /// give exactly the bytes written, whether the file system takes direct I/O or not.
+    #[test]
+    fn piped_and_split_writes_land_in_place() {
+        let data: Vec<u8> = (0..5_000_000u32)
+            .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
+            .collect();
+        // A page boundary; the second writer gets one whole block and a rest.
+        let split = 301 * DIRECT_ALIGN;
+        for flush in [false, true] {
+            let path =
+                std::env::temp_dir().join(format!("g1tess-piped-{}-{flush}", std::process::id()));
+            let mut w = PipedWriter::spawn(File::create(&path).unwrap());
+            let mut side = w.split_at(split as u64).unwrap();
+            side.write_all(&data[split..]).unwrap();
+            w.write_all(&data[..1000]).unwrap();
+            if flush {
+                w.flush().unwrap();
+            }
+            w.write_all(&data[1000..split]).unwrap();
+            let (at, rest) = side.finish_at().unwrap();
+            assert_eq!(at as usize + rest.len(), data.len());
+            w.write_at_end(at, rest);
+            drop(w.finish().unwrap());
+            let got = std::fs::read(&path).unwrap();
+            std::fs::remove_file(&path).unwrap();
+            assert!(got == data, "flush {flush}: the file differs");
+        }
+    }
+}

@@ -365,3 +365,39 @@ pub fn torus_figure(rows: &[SweepRow]) -> Figure {
         panel_size: (820, 680),
     }
 }
+
+#[cfg(feature = "cli")]
+#[cfg(test)]
+mod tests {
+    use crate::io::plot::log_ticks;
+
+    /// The sphere's x range (20 to 5120 triangles with the 1.6 margin): 1, 2, 5 × 10^k,
+    /// eight labels; minor lines at the other mantissas, never on a label.
+    #[test]
+    fn log_ticks_label_key_points() {
+        let (bold, light) = log_ticks(20.0 / 1.6, 5120.0 * 1.6);
+        assert_eq!(
+            bold,
+            [20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2000.0, 5000.0]
+        );
+        // 20..90, 100..900, 1000..8000 (25 mantissa points), less the 8 labels.
+        assert_eq!(light.len(), 8 + 9 + 8 - 8, "{light:?}");
+        assert!(light.iter().all(|v| !bold.contains(v)));
+        assert!(light.contains(&30.0) && light.contains(&8000.0) && !light.contains(&10.0));
+        // The y range of the study (1e-8..0.2, seven decades): decades only, minor lines.
+        let (bold, light) = log_ticks(5e-9, 0.2);
+        assert_eq!(bold, [1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1]);
+        // 5e-9..9e-9, seven full decades 1e-8..9e-2, 1e-1 and 2e-1, less the 8 labels.
+        assert_eq!(light.len(), 5 + 7 * 9 + 2 - 8, "{light:?}");
+        // Under a decade: every integer mantissa labelled, at least four labels.
+        let (bold, light) = log_ticks(3.5, 9.5);
+        assert_eq!(bold, [4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);
+        assert!(light.is_empty());
+        // Twelve decades: decades only, no minor lines.
+        let (bold, light) = log_ticks(1e-12, 1.0);
+        assert_eq!(bold.len(), 13);
+        assert!(light.is_empty());
+        // Not a log range: nothing.
+        assert_eq!(log_ticks(0.0, 1.0), (vec![], vec![]));
+    }
+}

@@ -133,6 +133,8 @@ pub struct EdgeIndex<'a> {
     /// Group of vertex v: `half_edges[offsets[v]..offsets[v + 1]]`.
     offsets: Vec<u32>,
     half_edges: Vec<u32>,
+    /// (Read by the unit tests; the library walks the edges.)
+    #[cfg_attr(not(test), allow(dead_code))]
     /// Number of edges.
     pub edges: usize,
     pub counts: EdgeCounts,
@@ -305,11 +307,6 @@ impl<'a> EdgeIndex<'a> {
         }
     }
 
-    /// The triangles this index was built from.
-    pub fn triangles(&self) -> &'a [[u32; 3]] {
-        self.triangles
-    }
-
     /// Every edge in order (lower vertex, then upper vertex).
     pub fn edges(&self) -> Edges<'_> {
         Edges {
@@ -418,5 +415,147 @@ impl Adjacency {
     /// The interior (two-triangle) edges.
     pub fn interior_edges(&self) -> impl Iterator<Item = &MeshEdge> {
         self.edges.iter().filter(|e| e.is_interior())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::mesh::adjacency::{EdgeCounts, EdgeIndex, EdgeUse, EdgeUses, MeshEdge};
+    use crate::Adjacency;
+
+    /// The edges by the obvious method: every use keyed by its sorted ends, sorted.
+    fn reference(triangles: &[[u32; 3]]) -> Vec<([u32; 2], Vec<EdgeUse>)> {
+        let mut uses = Vec::new();
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                uses.push((
+                    [a.min(b), a.max(b)],
+                    EdgeUse::from_half_edge((3 * t + k) as u32),
+                ));
+            }
+        }
+        uses.sort_by_key(|&(v, u)| (v, u.half_edge()));
+        let mut out: Vec<([u32; 2], Vec<EdgeUse>)> = Vec::new();
+        for (v, u) in uses {
+            match out.last_mut() {
+                Some(last) if last.0 == v => last.1.push(u),
+                _ => out.push((v, vec![u])),
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn index_matches_the_sorted_uses() {
+        // Interior, boundary and non-manifold edges, and an unused vertex id (7).
+        let tris = [
+            [0, 1, 2],
+            [0, 2, 3],
+            [0, 3, 4],
+            [2, 1, 5],
+            [1, 2, 6],
+            [0, 3, 8],
+            [8, 9, 4],
+        ];
+        let index = EdgeIndex::new(&tris);
+        let adj = Adjacency::new(&tris);
+        let expect = reference(&tris);
+        assert_eq!(index.edges, expect.len());
+        assert_eq!(adj.edges.len(), expect.len());
+        for ((e, m), (v, u)) in index.edges().zip(&adj.edges).zip(&expect) {
+            assert_eq!(e.v, *v);
+            assert_eq!(m.v, *v);
+            let got: Vec<EdgeUse> = (0..e.half_edges.len()).map(|i| e.use_at(i)).collect();
+            assert_eq!(&got, u);
+            assert_eq!(&m.uses[..], &u[..]);
+        }
+        // Edges: 01 02 03 04 08 12 15 16 23 25 26 34 38 48 49 89 (16); 02 is interior,
+        // 03 (triangles 1, 2, 5) and 12 (triangles 0, 3, 4) are non-manifold.
+        assert_eq!(
+            index.counts,
+            EdgeCounts {
+                interior: 1,
+                boundary: 13,
+                nonmanifold: 2,
+                misoriented: 0,
+            }
+        );
+        assert_eq!(adj.counts(), index.counts);
+        // A reversed copy of a triangle on the same edge is misoriented.
+        let flipped = EdgeIndex::new(&[[0, 1, 2], [1, 0, 3]]);
+        assert_eq!(flipped.counts.misoriented, 0);
+        let same = EdgeIndex::new(&[[0, 1, 2], [0, 1, 3]]);
+        assert_eq!(same.counts.misoriented, 1);
+    }
+
+    #[test]
+    fn parallel_index_matches_the_sorted_uses() {
+        // 60000 triangles on 9000 vertex ids from a fixed pseudo-random sequence: several
+        // triangle ranges (2¹⁴ triangles or more each) and vertex ranges per thread count,
+        // interior, boundary, non-manifold and misoriented edges all present.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % 9000) as u32
+        };
+        let tris: Vec<[u32; 3]> = (0..60000)
+            .map(|_| loop {
+                let t = [next(), next(), next()];
+                if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                    break t;
+                }
+            })
+            .collect();
+        let expect = reference(&tris);
+        let mut counts = EdgeCounts::default();
+        for (_, u) in &expect {
+            match u.len() {
+                1 => counts.boundary += 1,
+                2 => {
+                    counts.interior += 1;
+                    let fwd = |u: EdgeUse| {
+                        let t = tris[u.triangle as usize];
+                        t[u.local as usize] < t[(u.local as usize + 1) % 3]
+                    };
+                    if fwd(u[0]) == fwd(u[1]) {
+                        counts.misoriented += 1;
+                    }
+                }
+                _ => counts.nonmanifold += 1,
+            }
+        }
+        assert!(counts.interior > 0 && counts.nonmanifold > 0 && counts.misoriented > 0);
+        for threads in [1, 2, 3, 5] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let index = pool.install(|| EdgeIndex::new(&tris));
+            assert_eq!(index.edges, expect.len());
+            assert_eq!(index.counts, counts);
+            for (e, (v, u)) in index.edges().zip(&expect) {
+                assert_eq!(e.v, *v);
+                let got: Vec<EdgeUse> = (0..e.half_edges.len()).map(|i| e.use_at(i)).collect();
+                assert_eq!(&got, u);
+            }
+        }
+    }
+
+    #[test]
+    fn uses_are_compact() {
+        assert!(std::mem::size_of::<MeshEdge>() <= 32);
+        let many = [
+            EdgeUse::from_half_edge(1),
+            EdgeUse::from_half_edge(5),
+            EdgeUse::from_half_edge(9),
+        ];
+        for n in 0..=3 {
+            let u = EdgeUses::new(&many[..n]);
+            assert_eq!(&u[..], &many[..n]);
+            assert_eq!((&u).into_iter().count(), n);
+        }
     }
 }

@@ -53,6 +53,7 @@ pub fn split_ends(mesh: &Mesh, adjacency: &Adjacency) -> Vec<[bool; 2]> {
         .collect()
 }
 
+#[cfg(test)]
 /// For every edge of `adjacency`, whether it is a crease: an interior edge (two uses) whose
 /// triangles give different normals to one of its ends.
 pub fn crease_edges(mesh: &Mesh, adjacency: &Adjacency) -> Vec<bool> {
@@ -159,4 +160,56 @@ pub fn split_normals_by_angle(
     }
     mesh.load_report.normals_estimated = n;
     Ok(creases)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::mesh::creases::{crease_edges, split_normals_by_angle};
+    use crate::mesh::normals::face_normal;
+    use crate::{Mesh, NormalWeighting};
+    use glam::DVec3;
+
+    /// A unit cube, 12 triangles, outward, one normal per vertex (smooth).
+    fn cube() -> Mesh {
+        let p: Vec<DVec3> = crate::tests::common::cube_corners()
+            .into_iter()
+            .map(DVec3::from)
+            .collect();
+        let mut tris = Vec::new();
+        for q in crate::tests::common::CUBE_QUADS {
+            tris.push([q[0], q[1], q[2]]);
+            tris.push([q[0], q[2], q[3]]);
+        }
+        let c = DVec3::splat(0.5);
+        let n: Vec<DVec3> = p.iter().map(|x| (*x - c).normalize()).collect();
+        Mesh::from_soup("cube", &p, &tris, Some(&n), &Default::default()).unwrap()
+    }
+
+    #[test]
+    fn cube_creases_by_angle() {
+        let mut m = cube();
+        let adj = m.adjacency();
+        assert_eq!(adj.interior, 18);
+        assert!(crease_edges(&m, &adj).iter().all(|c| !c));
+        // The 12 cube edges are 90° creases, the 6 face diagonals are flat.
+        let n = split_normals_by_angle(&mut m, 30.0, NormalWeighting::Angle).unwrap();
+        assert_eq!(n, 12);
+        let creases = crease_edges(&m, &adj);
+        assert_eq!(creases.iter().filter(|&&c| c).count(), 12);
+        // Every corner normal is now its face's normal.
+        for (t, tri) in m.triangles.iter().enumerate() {
+            let f = face_normal(tri.map(|v| m.positions[v as usize]));
+            for k in 0..3 {
+                assert!((m.corner_normals[t][k] - f).length() < 1e-15);
+            }
+        }
+        // Above 90°, nothing is a crease.
+        let mut m2 = cube();
+        assert_eq!(
+            split_normals_by_angle(&mut m2, 95.0, NormalWeighting::Angle).unwrap(),
+            0
+        );
+        assert!(crease_edges(&m2, &adj).iter().all(|c| !c));
+        assert!(split_normals_by_angle(&mut m2, -1.0, NormalWeighting::Angle).is_err());
+    }
 }

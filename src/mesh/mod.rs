@@ -15,7 +15,7 @@ pub mod weld;
 use glam::DVec3;
 use std::path::Path;
 
-pub use adjacency::{Adjacency, EdgeUse, MeshEdge};
+pub use adjacency::{Adjacency, EdgeUse};
 pub use normals::NormalWeighting;
 
 use crate::{Error, Result};
@@ -1080,5 +1080,138 @@ pub(crate) mod text {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod text_tests {
+    use crate::mesh::text::{echo, parse_f64, parse_i64, split, statements};
+
+    #[test]
+    fn number_parsers_agree_with_std() {
+        // Decimal strings of every shape a mesh file holds, and some it should not.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut cases: Vec<String> = [
+            "0",
+            "-0",
+            "+0",
+            "0.",
+            ".5",
+            "-.5",
+            "+.5",
+            ".",
+            "-",
+            "+",
+            "",
+            "1.2.3",
+            "1e5",
+            "-1.5E-3",
+            "inf",
+            "-infinity",
+            "NaN",
+            "0x10",
+            "1_0",
+            " 1",
+            "00012.5000",
+            "0.30000000000000004",
+            "123456789012345",
+            "1234567890123456",
+            "9007199254740993",
+            "0.0000000000000000000001",
+            "0.00000000000000000000001",
+            "1.7976931348623157e308",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        for _ in 0..20000 {
+            let r = next();
+            let digits = (r % 20) as usize + 1;
+            let point = (r >> 8) as usize % (digits + 1);
+            let mut s = String::new();
+            if r & (1 << 20) != 0 {
+                s.push('-');
+            }
+            for k in 0..digits {
+                if k == point {
+                    s.push('.');
+                }
+                s.push((b'0' + (next() % 10) as u8) as char);
+            }
+            cases.push(s);
+            let x = f64::from_bits(next()).abs();
+            if x.is_finite() {
+                cases.push(format!("{x:?}"));
+                cases.push(format!("{:.6}", x % 1e6));
+            }
+        }
+        for s in &cases {
+            let want = s.parse::<f64>().ok().map(f64::to_bits);
+            assert_eq!(parse_f64(s).map(f64::to_bits), want, "'{s}'");
+            assert_eq!(parse_i64(s), s.parse::<i64>().ok(), "'{s}'");
+        }
+        for s in [
+            "99999999999999999999",
+            "-9223372036854775808",
+            "9223372036854775807",
+            "+7",
+        ] {
+            assert_eq!(parse_i64(s), s.parse::<i64>().ok(), "'{s}'");
+        }
+    }
+
+    #[test]
+    fn statements_follow_every_line_ending_and_continuations() {
+        let collect = |text: &str| {
+            let mut out = Vec::new();
+            let n = statements(std::path::Path::new("t"), text, 1, true, |line, s| {
+                out.push((line, s.to_string()));
+                Ok(())
+            })
+            .unwrap();
+            (n, out)
+        };
+        let want = vec![
+            (1, "a".to_string()),
+            (2, "b  c".to_string()),
+            (4, "d".to_string()),
+        ];
+        for nl in ["\n", "\r\n", "\r"] {
+            let text = format!("a{nl}b \\{nl}c{nl}d{nl}");
+            assert_eq!(collect(&text), (4, want.clone()), "{text:?}");
+        }
+        // A continuation on the last line, with and without a final newline.
+        assert_eq!(collect("x\\").1, vec![(1, "x ".to_string())]);
+        assert_eq!(collect("x\\\n").1, vec![(1, "x ".to_string())]);
+        // Splitting never cuts a statement, a CRLF or a continuation.
+        let text = "v 1\r\nv 2 \\\r\n3\rf 1\n\nf 2\\\n\\\nx\r";
+        for n in 1..=text.len() {
+            let pieces = split(text.as_bytes(), n);
+            let mut all = Vec::new();
+            let mut line = 1;
+            for p in &pieces {
+                let p = std::str::from_utf8(p).unwrap();
+                line += statements(std::path::Path::new("t"), p, line, true, |l, s| {
+                    all.push((l, s.to_string()));
+                    Ok(())
+                })
+                .unwrap();
+            }
+            assert_eq!((line - 1, all), collect(text), "{n} pieces: {pieces:?}");
+        }
+    }
+
+    #[test]
+    fn echo_escapes_and_cuts() {
+        assert_eq!(echo("a\u{1b}[1mb\tc"), "a\\u{1b}[1mb\\tc");
+        let long = "x".repeat(200);
+        assert_eq!(echo(&long), format!("{}…", "x".repeat(80)));
+        assert_eq!(echo("é"), "é");
     }
 }

@@ -482,3 +482,330 @@ fn build(path: &Path, raw: Raw) -> Result<Mesh> {
         load_report: report,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::mesh::generators::icosphere;
+    use crate::mesh::pn_file::HEADER;
+    use crate::LoadOptions;
+    use crate::Mesh;
+    use crate::Result;
+    use crate::{PatchTable, Scheme, SchemeOptions};
+    use glam::DVec3;
+
+    /// A scratch file that is removed when dropped (straight in the temporary directory,
+    /// so nothing stays behind).
+    struct Scratch(std::path::PathBuf);
+    impl Scratch {
+        fn new(name: &str, text: impl AsRef<[u8]>) -> Scratch {
+            let p = std::env::temp_dir().join(format!("g1tess-pn-{}-{name}", std::process::id()));
+            std::fs::write(&p, text).unwrap();
+            Scratch(p)
+        }
+    }
+    impl Drop for Scratch {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_file(&self.0);
+        }
+    }
+
+    /// Writes a mesh the way the Blender add-on does: shortest round-trip decimal form of
+    /// every f64 (Rust's `{:?}` and Python's `repr` agree on that), one vertex normal per
+    /// vertex taken from the first corner that uses it.
+    fn to_pn(mesh: &Mesh) -> String {
+        let mut vn = vec![DVec3::ZERO; mesh.positions.len()];
+        for (t, n) in mesh.triangles.iter().zip(&mesh.corner_normals) {
+            for k in 0..3 {
+                vn[t[k] as usize] = n[k];
+            }
+        }
+        let mut s = format!(
+            "{HEADER}\n# written by a test\ncounts {} {} 0\n",
+            mesh.positions.len(),
+            mesh.triangles.len()
+        );
+        for (p, n) in mesh.positions.iter().zip(&vn) {
+            s += &format!(
+                "v {:?} {:?} {:?} {:?} {:?} {:?}\n",
+                p.x, p.y, p.z, n.x, n.y, n.z
+            );
+        }
+        for t in &mesh.triangles {
+            s += &format!("t {} {} {}\n", t[0], t[1], t[2]);
+        }
+        s
+    }
+
+    fn load(name: &str, text: &str) -> Result<Mesh> {
+        let f = Scratch::new(name, text);
+        Mesh::load(f.0.to_str().unwrap(), &LoadOptions::default())
+    }
+
+    #[test]
+    fn plain_and_general_records_read_alike() {
+        // The same records written plainly (the one-pass reading of `Raw::fast`) and with a
+        // leading blank and a comment (the general path): the same mesh, bit for bit, over
+        // long f32 decimals, short ones, exponents, signed zeros, unnormalised normals, tabs,
+        // a `+` index and a corner normal.
+        let src = icosphere(1);
+        let mut lines = vec![format!(
+            "counts {} {} 1",
+            src.positions.len(),
+            src.triangles.len()
+        )];
+        for (i, p) in src.positions.iter().enumerate() {
+            let q = p.to_array().map(|x| x as f32 as f64);
+            let z = match i % 4 {
+                0 => format!("{:?}", q[2]),
+                1 => format!("{:.3}", q[2]),
+                2 => format!("{:e}", q[2]),
+                _ => "-0.0".into(),
+            };
+            lines.push(format!("v {:?}\t{} {z} {} 2 -0.5e0", q[0], q[1], 3 * i + 1));
+        }
+        for (i, t) in src.triangles.iter().enumerate() {
+            lines.push(if i % 7 == 0 {
+                format!("t +{} {}  {}", t[0], t[1], t[2])
+            } else {
+                format!("t {} {} {}", t[0], t[1], t[2])
+            });
+        }
+        lines.push("c 3 1 0 0 1".into());
+        let plain = format!("{HEADER}\n{}\n", lines.join("\n"));
+        let general = format!(
+            "{HEADER}\n{}",
+            lines
+                .iter()
+                .map(|l| format!(" {l} # general\n"))
+                .collect::<String>()
+        );
+        let a = load("plain.pn", &plain).unwrap();
+        let b = load("general.pn", &general).unwrap();
+        let bits = |v: &[DVec3]| -> Vec<[u64; 3]> {
+            v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
+        };
+        assert_eq!(bits(&a.positions), bits(&b.positions));
+        assert_eq!(a.triangles, b.triangles);
+        let normals = |m: &Mesh| bits(&m.corner_normals.concat());
+        assert_eq!(normals(&a), normals(&b));
+        assert_eq!(
+            format!("{:?}", a.load_report),
+            format!("{:?}", b.load_report)
+        );
+        assert_eq!(a.triangles.len(), src.triangles.len());
+    }
+
+    #[test]
+    fn round_trip_is_bitwise_and_gives_the_same_patches() {
+        let src = icosphere(2);
+        let back = load("ico2.pn", &to_pn(&src)).unwrap();
+        assert_eq!(back.triangles, src.triangles);
+        assert_eq!(back.positions.len(), 162);
+        for (a, b) in back.positions.iter().zip(&src.positions) {
+            assert_eq!(
+                a.to_array().map(f64::to_bits),
+                b.to_array().map(f64::to_bits)
+            );
+        }
+        for (a, b) in back.corner_normals.iter().zip(&src.corner_normals) {
+            for k in 0..3 {
+                // Renormalising an already unit normal moves it by a few ulps at most.
+                assert!((a[k] - b[k]).length() <= 1e-15, "{:?} vs {:?}", a[k], b[k]);
+            }
+        }
+        let t0 = PatchTable::build(&src, Scheme::G1, &SchemeOptions::default()).unwrap();
+        let t1 = PatchTable::build(&back, Scheme::G1, &SchemeOptions::default()).unwrap();
+        let worst = t0
+            .points
+            .iter()
+            .zip(&t1.points)
+            .map(|(a, b)| (*a - *b).length())
+            .fold(0.0, f64::max);
+        assert!(worst <= 1e-15, "control points differ by {worst}");
+    }
+
+    #[test]
+    fn shortest_decimal_forms_read_back_exactly() {
+        // Python's repr(0.1 + 0.2), an exponent form, a subnormal-free tiny value, -0.0.
+        let text = format!(
+            "{HEADER}\ncounts 3 1 0\n\
+             v 0.30000000000000004 1e-05 -0.0 0 0 1\n\
+             v 1.0 2.5e-300 0.0 0 0 2\n\
+             v 0.0 1.0 -9.87654321e+74 0 0 1\n\
+             t 0 1 2\n"
+        );
+        let m = load("exact.pn", &text).unwrap();
+        assert_eq!(m.positions[0].x, 0.1 + 0.2);
+        assert_eq!(m.positions[0].y, 1e-5);
+        assert_eq!(m.positions[1].y, 2.5e-300);
+        assert_eq!(m.positions[2].z, -9.87654321e74);
+        // The second vertex normal (0, 0, 2) is renormalised.
+        assert_eq!(m.corner_normals[0][1], DVec3::Z);
+    }
+
+    #[test]
+    fn corner_normals_replace_vertex_normals_and_welding_keeps_them() {
+        // Two triangles of a square folded along the diagonal 0-2. Vertex 4 duplicates
+        // vertex 2 (as Blender's unmerged vertices would), vertex 5 is unused, the last
+        // triangle repeats a vertex.
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let text = format!(
+            "{HEADER}\ncounts 6 3 2\n\
+             v 0 0 0 0 0 1\n\
+             v 1 0 0 0 0 1\n\
+             v 1 1 0 0 0 1\n\
+             v 0 1 0 0 0 1\n\
+             v 1.0 1.0 -0.0 0 {s} {s}\n\
+             v 9 9 9 1 0 0\n\
+             t 0 1 2\n\
+             t 0 4 3   # 4 welds onto 2\n\
+             t 0 0 1\n\
+             c 0 1 1 0 1\n\
+             c 1 0 0 3 4\n"
+        );
+        let m = load("fold.pn", &text).unwrap();
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(m.load_report.vertices_welded, 1);
+        assert_eq!(m.load_report.unused_vertices_dropped, 1);
+        assert_eq!(m.load_report.degenerate_triangles_dropped, 1);
+        let n = &m.corner_normals;
+        assert_eq!(n[0][0], DVec3::Z);
+        assert!((n[0][1] - DVec3::new(1.0, 0.0, 1.0) / 2f64.sqrt()).length() < 1e-16);
+        assert_eq!(n[0][2], DVec3::Z);
+        assert!((n[1][0] - DVec3::new(0.0, 0.6, 0.8)).length() < 1e-16);
+        assert!((n[1][1] - DVec3::new(0.0, s, s)).length() < 1e-16);
+        assert_eq!(n[1][2], DVec3::Z);
+    }
+
+    #[test]
+    fn bad_input_names_the_file_and_line() {
+        let v3 = "v 0 0 0 0 0 1\nv 1 0 0 0 0 1\nv 0 1 0 0 0 1\n";
+        let cases: Vec<(String, usize, &str)> = vec![
+            ("solid x\n".into(), 1, "first line must be 'g1tess-pn 1'"),
+            (
+                "g1tess-pn 2\ncounts 0 0 0\n".into(),
+                1,
+                "unsupported version",
+            ),
+            (format!("{HEADER}\n{v3}t 0 1 2\n"), 2, "before the 'counts"),
+            (format!("{HEADER}\n# no records\n"), 2, "no 'counts"),
+            (
+                format!("{HEADER}\ncounts 3 1\n"),
+                2,
+                "needs 3 fields, found 2",
+            ),
+            (
+                format!("{HEADER}\ncounts 3 1 0\ncounts 3 1 0\n"),
+                3,
+                "second 'counts'",
+            ),
+            (
+                format!("{HEADER}\ncounts 1 0 0\nv 0 0 0 0 1\n"),
+                3,
+                "needs 6 fields",
+            ),
+            (
+                format!("{HEADER}\ncounts 1 0 0\nv 0 x 0 0 0 1\n"),
+                3,
+                "'x' is not a number",
+            ),
+            (
+                format!("{HEADER}\ncounts 1 0 0\nv 0 nan 0 0 0 1\n"),
+                3,
+                "non-finite",
+            ),
+            (
+                format!("{HEADER}\ncounts 1 0 0\nv 0 0 inf 0 0 1\n"),
+                3,
+                "non-finite",
+            ),
+            (
+                format!("{HEADER}\ncounts 1 0 0\nv 0 0 0 0 0 0\n"),
+                3,
+                "zero-length normal",
+            ),
+            (
+                format!("{HEADER}\ncounts 3 1 0\n{v3}t 0 1 -2\n"),
+                6,
+                "'-2' is not an index",
+            ),
+            (
+                format!("{HEADER}\ncounts 3 1 0\n{v3}t 0 1 3\n"),
+                6,
+                "index 3 out of range",
+            ),
+            (
+                format!("{HEADER}\ncounts 3 1 1\n{v3}t 0 1 2\nc 0 3 0 0 1\n"),
+                7,
+                "corner 3 out of range",
+            ),
+            (
+                format!("{HEADER}\ncounts 3 1 1\n{v3}t 0 1 2\nc 1 0 0 0 1\n"),
+                7,
+                "triangle 1 out of range",
+            ),
+            (
+                format!("{HEADER}\ncounts 3 1 1\n{v3}t 0 1 2\nc 0 0 0 0 0\n"),
+                7,
+                "zero-length normal",
+            ),
+            (
+                format!("{HEADER}\ncounts 3 1 2\n{v3}t 0 1 2\nc 0 1 0 0 1\nc 0 1 1 0 0\n"),
+                8,
+                "corner 1 of triangle 0 given twice",
+            ),
+            (
+                format!("{HEADER}\ncounts 3 2 0\n{v3}t 0 1 2\n"),
+                6,
+                "declares 2 triangles, the file holds 1",
+            ),
+            (
+                format!("{HEADER}\ncounts 4 1 0\n{v3}t 0 1 2\n"),
+                6,
+                "declares 4 vertices",
+            ),
+            (
+                format!("{HEADER}\ncounts 3 1 0\n{v3}f 1 2 3\n"),
+                6,
+                "unknown record 'f'",
+            ),
+        ];
+        for (i, (text, line, what)) in cases.iter().enumerate() {
+            let name = format!("bad{i}.pn");
+            let e = load(&name, text).expect_err(text).to_string();
+            let want = format!("{name}:{line}: ");
+            assert!(
+                e.contains(&want) && e.contains(what),
+                "case {i}: got '{e}', want '{want}…{what}'"
+            );
+            assert!(!e.contains('\n'), "one line: {e}");
+        }
+        // No triangles at all: an error for the mesh, not a panic.
+        let e = load("empty.pn", &format!("{HEADER}\ncounts 3 0 0\n{v3}")).unwrap_err();
+        assert!(e.to_string().contains("empty mesh"), "{e}");
+        let e = load(
+            "degenerate.pn",
+            &format!("{HEADER}\ncounts 3 1 0\n{v3}t 0 1 1\n"),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("empty mesh"), "{e}");
+        // Not UTF-8.
+        let f = Scratch::new("binary.pn", b"g1tess-pn 1\ncounts 0 0 0\n\xff\n");
+        let e = Mesh::load(f.0.to_str().unwrap(), &LoadOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("binary.pn:3: not UTF-8"), "{e}");
+    }
+
+    #[test]
+    fn extension_dispatch_is_case_insensitive_and_obj_still_reads_as_obj() {
+        let v3 = "v 0 0 0 0 0 1\nv 1 0 0 0 0 1\nv 0 1 0 0 0 1\n";
+        let m = load(
+            "upper.PN",
+            &format!("{HEADER}\ncounts 3 1 0\n{v3}t 0 1 2\n"),
+        )
+        .unwrap();
+        assert_eq!(m.triangles.len(), 1);
+        let m = load("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert_eq!(m.triangles.len(), 1);
+    }
+}

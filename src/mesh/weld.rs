@@ -42,6 +42,7 @@ fn hash(k: [u64; 3]) -> u64 {
 pub enum Order {
     /// In the order of the input vertices.
     Input,
+    #[cfg(test)]
     /// In the order the triangles first use them.
     FirstUse,
 }
@@ -242,6 +243,7 @@ pub fn weld_with<P: Payload>(
                 }
             }
         }
+        #[cfg(test)]
         Order::FirstUse => {
             rep.fill(u32::MAX);
             for &v in triangles.iter().flatten() {
@@ -258,4 +260,82 @@ pub fn weld_with<P: Payload>(
     report.vertices_welded += welded;
     report.unused_vertices_dropped += n - out.len() - welded;
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::mesh::weld::{representatives, weld, Order};
+    use crate::LoadReport;
+    use glam::DVec3;
+
+    #[test]
+    fn signed_zeros_weld_and_counts_add_up() {
+        let p = [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(-0.0, 0.0, -0.0), // = vertex 0
+            DVec3::new(1.0, -0.0, 0.0),  // = vertex 1
+            DVec3::new(0.0, 1.0, -0.0),  // = vertex 2
+            DVec3::new(7.0, 7.0, 7.0),   // unused
+            DVec3::new(0.0, 0.0, 1.0),
+        ];
+        let mut tris = vec![[0, 1, 2], [3, 4, 7], [3, 0, 5], [5, 3, 7]];
+        let mut normals = vec!['a', 'b', 'c', 'd'];
+        let mut report = LoadReport::default();
+        let out = weld(&p, &mut tris, &mut normals, Order::Input, &mut report).unwrap();
+        assert_eq!(out.len(), 4);
+        assert_eq!(tris, vec![[0, 1, 2], [0, 1, 3], [2, 0, 3]]);
+        assert_eq!(normals, vec!['a', 'b', 'd']);
+        assert_eq!(report.degenerate_triangles_dropped, 1);
+        assert_eq!(report.vertices_welded, 3);
+        assert_eq!(report.unused_vertices_dropped, 1);
+        // Welded positions carry +0.0.
+        assert!(out
+            .iter()
+            .flat_map(|q| q.to_array())
+            .all(|x| x != 0.0 || x.is_sign_positive()));
+        // Numbered by first use: the last kept vertex (7) is used before vertex 2.
+        let (mut t1, mut n1, mut r1) = (
+            vec![[0, 1, 7], [3, 4, 2]],
+            vec![0, 1],
+            LoadReport::default(),
+        );
+        let out1 = weld(&p, &mut t1, &mut n1, Order::FirstUse, &mut r1).unwrap();
+        assert_eq!(t1, vec![[0, 1, 2], [0, 1, 3]]);
+        assert_eq!(out1[2], p[7]);
+        let mut bad = vec![[0, 1, 8]];
+        let e = weld(
+            &p,
+            &mut bad,
+            &mut Vec::<()>::new(),
+            Order::Input,
+            &mut report,
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("triangle 0 has vertex index 8"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn distinct_points_stay_distinct_under_collisions() {
+        // A 40×40×40 integer grid (hash-unfriendly: many equal high bits) plus a copy of it.
+        let mut p = Vec::new();
+        for i in 0..40 {
+            for j in 0..40 {
+                for k in 0..40 {
+                    p.push(DVec3::new(i as f64, j as f64, k as f64));
+                }
+            }
+        }
+        let n = p.len();
+        p.extend_from_within(..);
+        let rep = representatives(&p);
+        for v in 0..n {
+            assert_eq!(rep[v], v as u32);
+            assert_eq!(rep[v + n], v as u32);
+        }
+    }
 }

@@ -267,3 +267,32 @@ impl WeightMemo {
         self.scratch.insert(Box::new(w))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::patch::basis::{bezier, bezier_index, bezier_powers, g1};
+
+    #[test]
+    fn bezier_index_matches_order() {
+        for n in 1..=4 {
+            for (i, p) in bezier_powers(n).iter().enumerate() {
+                assert_eq!(bezier_index(n, *p), i);
+            }
+        }
+    }
+
+    #[test]
+    fn partitions_of_unity() {
+        for b in [[0.2, 0.3, 0.5], [1.0, 0.0, 0.0], [0.0, 0.25, 0.75]] {
+            for n in 1..=3 {
+                let w = bezier(n, b);
+                assert!((w.w[..w.n].iter().sum::<f64>() - 1.0).abs() < 1e-15);
+                assert!(w.ws[..w.n].iter().sum::<f64>().abs() < 1e-14);
+            }
+            let w = g1(b);
+            assert!((w.w.iter().sum::<f64>() - 1.0).abs() < 1e-15, "{b:?}");
+            assert!(w.ws.iter().sum::<f64>().abs() < 1e-14);
+            assert!(w.wt.iter().sum::<f64>().abs() < 1e-14);
+        }
+    }
+}

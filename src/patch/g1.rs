@@ -103,6 +103,7 @@ fn edge_data(v: [DVec3; 4], na: DVec3, nb: DVec3, fallbacks: &mut usize) -> Edge
     }
 }
 
+#[cfg(test)]
 /// The 18 control points of one triangle (layout of [`crate::patch::PatchKind::Gregory`]).
 /// `ids` are the global vertex ids: each boundary cubic is built in the direction of
 /// increasing id, so both neighbours of an edge compute bitwise the same curve.

@@ -511,14 +511,6 @@ impl<'a> PatchBuilder<'a> {
         self.mesh
     }
 
-    pub fn scheme(&self) -> Scheme {
-        self.scheme
-    }
-
-    pub fn kind(&self) -> PatchKind {
-        self.kind
-    }
-
     /// Fallbacks taken once for the whole mesh while preparing (counted in [`Self::table`]
     /// but in no [`Self::table_of`]).
     pub fn prepared_fallbacks(&self) -> usize {

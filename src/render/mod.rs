@@ -27,11 +27,10 @@ pub mod compose;
 #[cfg(feature = "gpu")]
 pub mod pipeline;
 
-pub use camera::Camera;
 #[cfg(feature = "cli")]
 pub use compose::{write_png, Row};
 #[cfg(feature = "gpu")]
-pub use pipeline::{render_panels, render_panels_on, render_tessellated, shader_source};
+pub use pipeline::{render_panels, render_tessellated};
 
 /// Background of the panels (white).
 pub const BACKGROUND: [u8; 3] = [255, 255, 255];
@@ -81,18 +80,21 @@ pub struct RenderOptions {
 }
 
 impl RenderOptions {
+    #[cfg(test)]
     /// Sets [`RenderOptions::panel`].
     pub fn with_panel(mut self, panel: u32) -> Self {
         self.panel = panel;
         self
     }
 
+    #[cfg(test)]
     /// Sets [`RenderOptions::view`].
     pub fn with_view(mut self, view: DVec3) -> Self {
         self.view = view;
         self
     }
 
+    #[cfg(test)]
     /// Sets [`RenderOptions::up`].
     pub fn with_up(mut self, up: DVec3) -> Self {
         self.up = up;

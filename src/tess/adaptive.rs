@@ -63,7 +63,7 @@ use crate::tess::layout::MAX_LEVEL;
 use crate::tess::stitch::{stitch_into, Needs, PatchOut, StitchPlan, StitchSink};
 use crate::{Error, Result};
 
-pub use crate::tess::levels::{patch_edges, EdgeInfo, InnerRule, Levels};
+pub use crate::tess::levels::{InnerRule, Levels};
 
 /// Interior points of an output triangle at which its deviation is measured: (a, b, c)/6
 /// with a, b, c ≥ 1 (10 points).

@@ -88,3 +88,43 @@ pub fn screen_levels(
     view.check()?;
     Levels::from_fn(mesh, adjacency, |e| edge_level(view, e.p[0], e.p[1]), rule)
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::tess::screen::edge_level;
+    use crate::ScreenView;
+    use glam::{DMat4, DVec3};
+
+    #[test]
+    fn projected_length_over_target() {
+        // Orthographic identity: x, y in [−1, 1] span the viewport.
+        let view = ScreenView {
+            view_proj: DMat4::IDENTITY,
+            viewport: [200.0, 100.0],
+            target_px: 10.0,
+            max_level: 64,
+        };
+        // 0.5 in x = 50 px: 5 segments; 0.51 = 51 px: 6.
+        assert_eq!(edge_level(&view, DVec3::ZERO, DVec3::new(0.5, 0.0, 0.0)), 5);
+        assert_eq!(
+            edge_level(&view, DVec3::ZERO, DVec3::new(0.51, 0.0, 0.0)),
+            6
+        );
+        // 0.5 in y = 25 px: 3 segments.
+        assert_eq!(edge_level(&view, DVec3::ZERO, DVec3::new(0.0, 0.5, 0.0)), 3);
+        assert_eq!(edge_level(&view, DVec3::ZERO, DVec3::ZERO), 1);
+        assert_eq!(
+            edge_level(&view, DVec3::ZERO, DVec3::new(100.0, 0.0, 0.0)),
+            64
+        );
+        // Behind the eye.
+        let mut back = view;
+        back.view_proj = DMat4::from_cols_array(&[
+            1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0,
+        ]);
+        // w = z.
+        let p = |z: f64| DVec3::new(0.1, 0.0, z);
+        assert_eq!(edge_level(&back, p(-1.0), p(-2.0)), 1);
+        assert_eq!(edge_level(&back, p(-1.0), p(2.0)), 64);
+    }
+}

@@ -683,6 +683,7 @@ pub struct StitchMemory {
 }
 
 impl StitchMemory {
+    #[cfg(test)]
     /// Everything together, bytes.
     pub fn total(&self) -> u64 {
         self.plan_bytes

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use g1tess::mesh::{LoadOptions, Mesh};
+use g1tess::{LoadOptions, Mesh};
 
 /// A mesh of `tests/data` (copies of the project's shared test meshes, provenance in
 /// `tests/data/PROVENANCE.md`), so the tests pass from a plain clone.

@@ -823,3 +823,17 @@ fn products_avx(a: &[f64], b: &[f64], lanes: usize, out: &mut [PairProducts]) {
 fn products_avx512(a: &[f64], b: &[f64], lanes: usize, out: &mut [PairProducts]) {
     products::<Avx8>(a, b, lanes, out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::min_len2;
+
+    /// `min_len2` is the exact threshold: its root is not above the minimum length, the
+    /// next f64's is.
+    #[test]
+    fn min_len2_is_the_square_root_threshold() {
+        let (t, m) = (min_len2(), crate::patch::MIN_NORMAL_LEN_F64);
+        let next = f64::from_bits(t.to_bits() + 1);
+        assert!(t > 0.0 && t.sqrt() <= m && next.sqrt() > m, "{t:e}");
+    }
+}

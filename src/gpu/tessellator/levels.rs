@@ -30,12 +30,10 @@ pub enum LevelSource<'a> {
     Host(&'a Levels),
 }
 
-/// Offsets (u32) in [`GpuTessellator::level_state`]: the totals (block samples, interior
-/// samples, patch samples, triangles).
-pub const LV_STATE_TOTALS: usize = 0;
 /// The `draw_indexed_indirect` arguments (also copied to [`GpuTessellator::indirect`]).
 pub const LV_STATE_DRAW: usize = 4;
 /// The vertex records written.
+#[cfg(test)]
 pub const LV_STATE_RECORDS: usize = 12;
 /// u32 at the head of the state buffer.
 const LV_STATE_HEAD: usize = 16;
@@ -516,7 +514,7 @@ impl GpuTessellator {
         }
     }
 
-    /// The state of the last per-edge tessellation (u32): totals at [`LV_STATE_TOTALS`],
+    /// The state of the last per-edge tessellation (u32): totals at offset 0,
     /// draw arguments at [`LV_STATE_DRAW`], vertex records at [`LV_STATE_RECORDS`]; `None`
     /// before the first.
     pub fn level_state(&self) -> Option<&wgpu::Buffer> {

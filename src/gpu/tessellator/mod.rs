@@ -69,11 +69,11 @@ use crate::{Error, Result};
 
 use super::Precision;
 
-pub use levels::{LevelCapacity, LevelSource, LV_STATE_DRAW, LV_STATE_RECORDS, LV_STATE_TOTALS};
-pub use shader::{
-    tess_header, tess_levels_module_source, tess_module_source, TESS_LEVELS_WGSL, TESS_WGSL,
-    TESS_WORKGROUP,
-};
+#[cfg(test)]
+pub use levels::LV_STATE_RECORDS;
+pub use levels::{LevelCapacity, LevelSource};
+#[cfg(test)]
+pub use shader::{tess_levels_module_source, tess_module_source, TESS_LEVELS_WGSL, TESS_WGSL};
 
 /// u32 per patch in the topology table.
 pub const TOPO_STRIDE: usize = 36;
@@ -450,8 +450,8 @@ mod tests {
 
     use super::*;
     use crate::mesh::LoadOptions;
-    use crate::tess::levels::Levels;
     use crate::tess::layout;
+    use crate::tess::levels::Levels;
     use crate::tess::stitch::StitchPlan;
 
     /// A unit box without its top, creases at 45°: 4 boundary edges, 8 creased box edges.

@@ -5,15 +5,15 @@
 
 use glam::DVec3;
 
-use g1tess::render::camera::{Camera, DEPTH_MARGIN, MARGIN};
+use crate::render::camera::{Camera, DEPTH_MARGIN, MARGIN};
 #[cfg(feature = "gpu")]
-use g1tess::render::pipeline::{Uniforms, RENDER_WGSL};
+use crate::render::pipeline::shader_source;
 #[cfg(feature = "gpu")]
-use g1tess::render::shader_source;
-use g1tess::render::{ramp, RAMP};
+use crate::render::pipeline::{Uniforms, RENDER_WGSL};
+use crate::render::{ramp, RAMP};
 
 #[cfg(feature = "gpu")]
-use crate::common;
+use crate::tests::common;
 
 #[cfg(feature = "gpu")]
 fn module() -> naga::Module {

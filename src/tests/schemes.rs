@@ -3,15 +3,19 @@
 //! interpolates them) at the corners, watertight shared edges, and the identities between
 //! schemes that `SCHEMES.md` states.
 
-use crate::common;
+use crate::tests::common;
 
+use crate::analysis::distance::{distance, Surface};
+use crate::analysis::stats::{EdgeStats, CHUNK_EDGES, SAMPLES_PER_EDGE};
+use crate::eval::{PatchPoint, PAIR_COS_TOLERANCE};
+use crate::mesh::generators;
+use crate::patch::{PatchBuilder, SCHEMES};
+use crate::CpuEvaluator;
+use crate::{continuity, Continuity};
+use crate::{Evaluator, Pattern};
+use crate::{LoadOptions, Mesh};
+use crate::{PatchKind, PatchTable, Scheme, SchemeOptions};
 use common::Rng;
-use g1tess::analysis::distance::{distance, Surface};
-use g1tess::analysis::stats::{continuity, Continuity, EdgeStats, CHUNK_EDGES, SAMPLES_PER_EDGE};
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::{Evaluator, PatchPoint, Pattern, PAIR_COS_TOLERANCE};
-use g1tess::mesh::{generators, LoadOptions, Mesh};
-use g1tess::patch::{PatchBuilder, PatchKind, PatchTable, Scheme, SchemeOptions, SCHEMES};
 use glam::DVec3;
 
 /// Meshes for the checks: exact, analytic and averaged normals, estimated normals on an
@@ -504,8 +508,8 @@ impl Evaluator for ViaPoints {
         &self,
         table: &PatchTable,
         pattern: &Pattern,
-        sink: &mut dyn FnMut(g1tess::eval::Chunk<'_>) -> g1tess::Result<()>,
-    ) -> g1tess::Result<()> {
+        sink: &mut dyn FnMut(crate::Chunk<'_>) -> crate::Result<()>,
+    ) -> crate::Result<()> {
         self.0.evaluate(table, pattern, sink)
     }
 }

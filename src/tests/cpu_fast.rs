@@ -11,7 +11,7 @@
 //! `PAIR_COS_TOLERANCE` of them (bitwise where they go through the points), bitwise the
 //! same with both lane widths.
 
-use crate::eval_cases;
+use crate::tests::eval_cases;
 use eval_cases::{
     angle, evaluators, load, normal_error, regular, tables, EPS32, MESHES, ROUNDING_FACTOR,
 };
@@ -19,13 +19,15 @@ use eval_cases::{
 use glam::DVec3;
 use rayon::prelude::*;
 
-use g1tess::analysis::stats::{edge_pairs, SAMPLES_PER_EDGE};
-use g1tess::eval::cpu::{grid_weights, CpuEvaluator, EdgeKernel, F32Kernel, GridWeightsF32};
-use g1tess::eval::{
-    grid_corners, grid_len, to_f32, Chunk, EdgePairs, EdgeSide, Evaluator, PairProducts,
-    PatchPoint, Pattern, PAIR_COS_TOLERANCE,
+use crate::analysis::stats::{edge_pairs, SAMPLES_PER_EDGE};
+use crate::eval::cpu::{grid_weights, EdgeKernel, F32Kernel, GridWeightsF32};
+use crate::eval::{
+    grid_corners, grid_len, to_f32, EdgePairs, EdgeSide, PairProducts, PatchPoint,
+    PAIR_COS_TOLERANCE,
 };
-use g1tess::patch::PatchTable;
+use crate::CpuEvaluator;
+use crate::PatchTable;
+use crate::{Chunk, Evaluator, Pattern};
 
 /// Normals are held to 1 − dot ≤ this (an angle of 4.5e-3 rad) where they are defined to
 /// f32 precision: the harness calls a sample regular when ROUNDING_FACTOR times its
@@ -202,8 +204,8 @@ fn f32_kernels_of_both_widths_give_the_same_bits() {
 #[test]
 fn f32_fast_path_refuses_weights_of_another_kind() {
     let mesh = load("sphere320");
-    let table = PatchTable::build(&mesh, g1tess::patch::Scheme::G1, &Default::default()).unwrap();
-    let g = GridWeightsF32::new(g1tess::patch::PatchKind::Bezier(1), 4);
+    let table = PatchTable::build(&mesh, crate::Scheme::G1, &Default::default()).unwrap();
+    let g = GridWeightsF32::new(crate::PatchKind::Bezier(1), 4);
     let e = CpuEvaluator::default()
         .grid_f32(&table, &g, &mut |_| Ok(()))
         .unwrap_err();
@@ -395,8 +397,8 @@ impl Evaluator for ViaPoints {
         &self,
         table: &PatchTable,
         pattern: &Pattern,
-        sink: &mut dyn FnMut(Chunk<'_>) -> g1tess::Result<()>,
-    ) -> g1tess::Result<()> {
+        sink: &mut dyn FnMut(Chunk<'_>) -> crate::Result<()>,
+    ) -> crate::Result<()> {
         self.0.evaluate(table, pattern, sink)
     }
 }
@@ -541,7 +543,7 @@ fn edge_pairs_are_bitwise_the_point_list_on_the_cpu() {
 #[test]
 fn edge_pairs_on_a_non_finite_patch_and_bad_input() {
     let mesh = load("spot.obj");
-    let built = PatchTable::build(&mesh, g1tess::patch::Scheme::G1, &Default::default()).unwrap();
+    let built = PatchTable::build(&mesh, crate::Scheme::G1, &Default::default()).unwrap();
     let bits = |v: &[DVec3]| -> Vec<[u64; 3]> {
         v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
     };
@@ -611,7 +613,7 @@ fn edge_pairs_on_a_non_finite_patch_and_bad_input() {
 #[test]
 fn edge_products_of_tiny_huge_and_collapsed_patches() {
     let mesh = load("spot.obj");
-    let built = PatchTable::build(&mesh, g1tess::patch::Scheme::G1, &Default::default()).unwrap();
+    let built = PatchTable::build(&mesh, crate::Scheme::G1, &Default::default()).unwrap();
     let edges = edge_pairs(&mesh, &mesh.adjacency());
     let points = |table: &PatchTable| {
         let (p, n, _) = run_edges(&CpuEvaluator::default(), table, &edges);
@@ -693,8 +695,8 @@ fn edge_pairs_agree_with_the_f64_reference_on_every_backend() {
 #[test]
 fn an_unallocatable_grid_is_an_error_not_an_abort() {
     // Level 10⁷: 5·10¹³ grid points, petabytes of basis tables on any machine.
-    let mesh = g1tess::mesh::Mesh::load("sphere320", &Default::default()).unwrap();
-    let table = PatchTable::build(&mesh, g1tess::patch::Scheme::G1, &Default::default()).unwrap();
+    let mesh = crate::Mesh::load("sphere320", &Default::default()).unwrap();
+    let table = PatchTable::build(&mesh, crate::Scheme::G1, &Default::default()).unwrap();
     let cpu = CpuEvaluator::default();
     let grid = Pattern::Grid { level: 10_000_000 };
     let err = cpu.evaluate(&table, &grid, &mut |_| Ok(())).unwrap_err();

@@ -3,16 +3,17 @@
 //! and non-manifold edges kept, streaming independent of the chunk size, and the f32 path
 //! (kernel → stitcher in f32) with the topology of the f64 one.
 
-use crate::common;
+use crate::tests::common;
 
 use std::collections::HashMap;
 
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::{grid_barycentrics, grid_len, to_f32};
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::tess::stitch::{stitch, stitch_in, stitch_into, CountingSink, StitchedMesh};
-use g1tess::NoProgress;
+use crate::eval::{grid_barycentrics, grid_len, to_f32};
+use crate::tess::stitch::{stitch_in, CountingSink};
+use crate::CpuEvaluator;
+use crate::NoProgress;
+use crate::{stitch, stitch_into, StitchedMesh};
+use crate::{LoadOptions, Mesh};
+use crate::{PatchTable, Scheme, SchemeOptions};
 
 fn load(spec: &str) -> Mesh {
     Mesh::load(spec, &LoadOptions::default()).unwrap()
@@ -125,7 +126,7 @@ fn shared_edge_samples_are_the_owners_evaluation() {
     let mesh = load("torus200");
     let level = 6;
     let (w, table, _) = stitch_mesh(&mesh, Scheme::G1, level);
-    let per = g1tess::eval::grid_len(level);
+    let per = crate::eval::grid_len(level);
     let bary = grid_barycentrics(level);
     // Key each position by (input triangle, grid point): collect the position id that
     // every patch's grid point maps to.
@@ -270,7 +271,7 @@ fn f32_stitching_matches_the_f64_topology() {
         // Corners: the position the plan gives each patch's corner grid points is the
         // input vertex rounded once, bit for bit.
         let (mut rec, mut pos) = (Vec::new(), Vec::new());
-        let corners = g1tess::eval::grid_corners(level);
+        let corners = crate::eval::grid_corners(level);
         for (t, tri) in mesh.triangles.iter().enumerate() {
             plan.local_ids(t, &mut rec, &mut pos);
             for (k, &vk) in tri.iter().enumerate() {
@@ -313,7 +314,7 @@ fn f32_stitching_matches_the_f64_topology() {
 fn counting_sink_sees_the_planned_counts() {
     let mesh = load(&common::shared_spec("suzanne.obj"));
     let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
-    let plan = g1tess::tess::stitch::StitchPlan::new(&mesh, &mesh.adjacency(), 6).unwrap();
+    let plan = crate::StitchPlan::new(&mesh, &mesh.adjacency(), 6).unwrap();
     let mut sink = CountingSink::default();
     stitch_into::<[f32; 3]>(
         &plan,
@@ -330,7 +331,8 @@ fn counting_sink_sees_the_planned_counts() {
 
 #[test]
 fn memory_estimate_counts_the_store_and_bounds_batches() {
-    use g1tess::tess::stitch::{batch_patches, memory_estimate, Needs};
+    use crate::tess::stitch::{batch_patches, memory_estimate};
+    use crate::Needs;
     let mesh = common::load("sphere320");
     let adjacency = mesh.adjacency();
     // The icosphere of 320 triangles: 162 vertices, 480 edges.
@@ -359,21 +361,18 @@ fn a_sink_error_stops_stitching_in_order() {
         seen: Vec<usize>,
         fail_at: usize,
     }
-    impl g1tess::tess::stitch::StitchSink<[f32; 3]> for Failing {
-        fn patch(
-            &mut self,
-            out: &g1tess::tess::stitch::PatchOut<'_, [f32; 3]>,
-        ) -> g1tess::Result<()> {
+    impl crate::StitchSink<[f32; 3]> for Failing {
+        fn patch(&mut self, out: &crate::PatchOut<'_, [f32; 3]>) -> crate::Result<()> {
             self.seen.push(out.patch);
             if out.patch == self.fail_at {
-                return Err(g1tess::Error::Invalid("sink full".into()));
+                return Err(crate::Error::Invalid("sink full".into()));
             }
             Ok(())
         }
     }
     let mesh = load("sphere320");
     let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
-    let plan = g1tess::tess::stitch::StitchPlan::new(&mesh, &mesh.adjacency(), 6).unwrap();
+    let plan = crate::StitchPlan::new(&mesh, &mesh.adjacency(), 6).unwrap();
     for (chunk_samples, fail_at) in [(1, 0), (grid_len(6) * 7, 100), (1 << 20, 319)] {
         let mut sink = Failing {
             seen: Vec::new(),

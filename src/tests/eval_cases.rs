@@ -10,14 +10,14 @@ use std::sync::Arc;
 use glam::DVec3;
 
 #[cfg(feature = "gpu")]
-use g1tess::gpu::shaders::{self, ShaderFile};
+use crate::gpu::shaders::{self, ShaderFile};
+use crate::patch::basis::Weights;
 #[cfg(feature = "gpu")]
-use g1tess::gpu::GpuContext;
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::basis::Weights;
-use g1tess::patch::{PatchKind, PatchTable, Scheme};
+use crate::GpuContext;
+use crate::{LoadOptions, Mesh};
+use crate::{PatchKind, PatchTable, Scheme};
 
-pub use crate::common::load;
+pub use crate::tests::common::load;
 
 pub const MESHES: [&str; 4] = ["sphere320", "torus200", "spot.obj", "fandisk.obj"];
 
@@ -109,9 +109,10 @@ pub fn ci() -> bool {
 /// Every backend a comparison runs on: the CPU with each f32 kernel and, with feature `gpu`
 /// where an adapter is present, the GPU in f32 and (with SHADER_F64) f64. With `CI=true` a
 /// missing adapter fails; otherwise the GPU entries are absent and a NOTE line says so.
-pub fn evaluators() -> Vec<(String, Box<dyn g1tess::eval::Evaluator>)> {
-    use g1tess::eval::cpu::{CpuEvaluator, F32Kernel};
-    let mut out: Vec<(String, Box<dyn g1tess::eval::Evaluator>)> = Vec::new();
+pub fn evaluators() -> Vec<(String, Box<dyn crate::Evaluator>)> {
+    use crate::eval::cpu::F32Kernel;
+    use crate::CpuEvaluator;
+    let mut out: Vec<(String, Box<dyn crate::Evaluator>)> = Vec::new();
     for kernel in [F32Kernel::Auto, F32Kernel::Portable] {
         out.push((
             format!("cpu ({})", kernel.name()),
@@ -128,9 +129,9 @@ pub fn evaluators() -> Vec<(String, Box<dyn g1tess::eval::Evaluator>)> {
 
 /// The GPU's entries of [`evaluators`].
 #[cfg(feature = "gpu")]
-fn gpu_evaluators(out: &mut Vec<(String, Box<dyn g1tess::eval::Evaluator>)>) {
-    use g1tess::gpu::eval::GpuEvaluator;
-    use g1tess::gpu::Precision;
+fn gpu_evaluators(out: &mut Vec<(String, Box<dyn crate::Evaluator>)>) {
+    use crate::GpuEvaluator;
+    use crate::Precision;
     match GpuContext::shared() {
         Ok(ctx) => {
             for precision in [Precision::F32, Precision::F64] {

@@ -3,15 +3,15 @@
 
 #![allow(clippy::needless_range_loop)]
 
-use crate::common;
+use crate::tests::common;
 
+use crate::continuity;
+use crate::patch::g1::{walton_meek, walton_meek_offsets};
+use crate::CpuEvaluator;
+use crate::Mesh;
+use crate::{Evaluator, Pattern};
+use crate::{PatchTable, Scheme, SchemeOptions};
 use common::{load, Rng};
-use g1tess::analysis::stats::continuity;
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::{Evaluator, Pattern};
-use g1tess::mesh::Mesh;
-use g1tess::patch::g1::{walton_meek, walton_meek_offsets};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
 use glam::DVec3;
 
 fn g1_table(mesh: &Mesh) -> PatchTable {
@@ -243,7 +243,7 @@ fn sphere320_accuracy() {
 fn g1_holds_on_randomly_perturbed_meshes() {
     let mut rng = Rng(3);
     for trial in 0..20 {
-        let mut mesh = g1tess::mesh::generators::icosphere(1);
+        let mut mesh = crate::mesh::generators::icosphere(1);
         for p in &mut mesh.positions {
             *p *= 1.0 + 0.2 * (rng.f64() - 0.5);
         }

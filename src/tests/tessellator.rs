@@ -9,50 +9,22 @@
 
 use glam::DVec3;
 
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::gpu::shaders::validate;
-use g1tess::gpu::tessellator::{
-    decode_bounds, record_of, tess_module_source, vertex_layout, GpuTessellator, Topology,
-    FLAG_COPY, FLAG_WRITE, TESS_WGSL, VERTEX_BYTES,
+use crate::gpu::read_buffer;
+use crate::gpu::shaders::validate;
+use crate::gpu::tessellator::{
+    decode_bounds, record_of, tess_module_source, Topology, FLAG_COPY, FLAG_WRITE, TESS_WGSL,
+    VERTEX_BYTES,
 };
-use g1tess::gpu::{read_buffer, GpuContext, Precision};
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
-use g1tess::tess::stitch::{stitch, StitchPlan, StitchedMesh};
+use crate::CpuEvaluator;
+use crate::{stitch, StitchPlan, StitchedMesh};
+use crate::{vertex_layout, GpuTessellator};
+use crate::{GpuContext, Precision};
+use crate::{LoadOptions, Mesh};
+use crate::{PatchKind, PatchTable, Scheme, SchemeOptions};
 
-use crate::common;
-use crate::docs;
-use crate::eval_cases;
+use crate::tests::common;
+use crate::tests::eval_cases;
 use eval_cases::{angle, context, load, normal_error, open_box, EPS32, EPS64, ROUNDING_FACTOR};
-
-/// The embedding sample of docs/gpu.md and ARCHITECTURE.md (the ```rust block after
-/// `heading`) is the module doctest of `src/gpu/tessellator/mod.rs` (compiled by `cargo test`)
-/// without its hidden `# ` lines, line for line: the documents show code that compiles.
-#[test]
-fn docs_samples_are_the_tessellator_doctest() {
-    let root = env!("CARGO_MANIFEST_DIR");
-    let read = |path: &str| std::fs::read_to_string(format!("{root}/{path}")).unwrap();
-    let doctest = docs::module_doctest(&read("src/gpu/tessellator/mod.rs"), "```no_run");
-    assert!(doctest.len() > 20 && doctest[0].starts_with("use g1tess::"));
-    for (path, heading) in [
-        ("docs/gpu.md", "## Tessellating on your own wgpu device"),
-        (
-            "ARCHITECTURE.md",
-            "## Embedding the GPU tessellator in a wgpu program",
-        ),
-    ] {
-        let text = read(path);
-        assert!(
-            text.lines().any(|l| l == heading),
-            "{path}: no heading {heading:?}"
-        );
-        assert_eq!(
-            docs::sample_after(&text, heading),
-            doctest,
-            "{path}: the sample under {heading:?}"
-        );
-    }
-}
 
 fn fandisk() -> Mesh {
     let opts = LoadOptions::default().with_crease_angle(Some(45.0));
@@ -119,7 +91,7 @@ fn tessellate_wgsl_names_rust_functions_it_mirrors_and_they_exist() {
 
 /// The triangles of a plan as record ids, and the position id of every record.
 fn plan_triangles(plan: &StitchPlan) -> Vec<[u32; 3]> {
-    let grid = g1tess::eval::grid_triangles(plan.level);
+    let grid = crate::eval::grid_triangles(plan.level);
     let mut scratch = (Vec::new(), Vec::new());
     let mut out = Vec::new();
     for p in 0..plan.patches() {
@@ -274,7 +246,7 @@ fn gpu_tessellation_matches_the_cpu_stitched_surface() {
                     Precision::F32 => EPS32,
                     Precision::F64 => EPS64,
                 };
-                let bary = g1tess::eval::grid_barycentrics(level);
+                let bary = crate::eval::grid_barycentrics(level);
                 for p in 0..mesh.triangles.len() {
                     for j in 0..=level {
                         for i in 0..=level - j {
@@ -282,7 +254,7 @@ fn gpu_tessellation_matches_the_cpu_stitched_surface() {
                             if r.flags & FLAG_WRITE == 0 {
                                 continue;
                             }
-                            let g = g1tess::eval::pattern::grid_index(level, i, j);
+                            let g = crate::eval::pattern::grid_index(level, i, j);
                             let weights = table.kind.weights(bary[g]);
                             let allowed =
                                 1e-6 + ROUNDING_FACTOR * normal_error(&table, p, &weights, eps);

@@ -13,22 +13,25 @@ use std::collections::HashMap;
 use glam::{DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::gpu::screen::{LevelParams, LevelPass};
-use g1tess::gpu::shaders::validate;
-use g1tess::gpu::tessellator::{
-    level_grid_base, tess_levels_module_source, GpuTessellator, LevelSource, LV_STATE_RECORDS,
-    TESS_LEVELS_WGSL, VERTEX_BYTES,
+use crate::gpu::read_buffer;
+use crate::gpu::screen::{LevelParams, LevelPass};
+use crate::gpu::shaders::validate;
+use crate::gpu::tessellator::{
+    level_grid_base, tess_levels_module_source, LevelSource, LV_STATE_RECORDS, TESS_LEVELS_WGSL,
+    VERTEX_BYTES,
 };
-use g1tess::gpu::{read_buffer, GpuContext, Precision};
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
-use g1tess::tess::adaptive::{InnerRule, Levels};
-use g1tess::tess::screen::ScreenView;
-use g1tess::tess::stitch::{stitch_plan, StitchPlan, StitchedMesh};
+use crate::tess::stitch::stitch_plan;
+use crate::CpuEvaluator;
+use crate::GpuTessellator;
+use crate::ScreenView;
+use crate::{GpuContext, Precision};
+use crate::{InnerRule, Levels};
+use crate::{LoadOptions, Mesh};
+use crate::{PatchKind, PatchTable, Scheme, SchemeOptions};
+use crate::{StitchPlan, StitchedMesh};
 
-use crate::common;
-use crate::eval_cases;
+use crate::tests::common;
+use crate::tests::eval_cases;
 use eval_cases::{angle, context, load, normal_error, open_box, EPS32, EPS64, ROUNDING_FACTOR};
 
 #[test]
@@ -66,10 +69,10 @@ fn level_grid_base_counts_the_smaller_grids() {
     let mut sum = 0u64;
     for l in 1..=200u32 {
         assert_eq!(level_grid_base(l), sum, "level {l}");
-        sum += g1tess::eval::grid_len(l) as u64;
+        sum += crate::eval::grid_len(l) as u64;
     }
     // Past 32-bit products: the cap's largest level.
-    let l = g1tess::tess::layout::MAX_LEVEL as u64 + 1;
+    let l = crate::MAX_LEVEL as u64 + 1;
     assert_eq!(level_grid_base(l as u32), l * (l + 1) * (l + 2) / 6 - 1);
 }
 
@@ -125,7 +128,7 @@ fn read_surface(ctx: &GpuContext, tess: &GpuTessellator) -> Surface {
 
 /// The plan's triangles as record ids.
 fn plan_triangles(plan: &StitchPlan) -> Vec<[u32; 3]> {
-    let grid = g1tess::eval::grid_triangles(plan.level);
+    let grid = crate::eval::grid_triangles(plan.level);
     let mut scratch = (Vec::new(), Vec::new());
     let mut out = Vec::new();
     for p in 0..plan.patches() {

@@ -1,26 +1,23 @@
 //! Creases: split normals from a file or from `--crease-angle`, one shared boundary curve
 //! per crease edge (no crack), G1 across every other edge, split output normals.
 
-use crate::common;
+use crate::tests::common;
 
 use std::collections::HashMap;
 use std::path::PathBuf;
 
 use glam::DVec3;
 
-use g1tess::analysis::stats::{continuity, Continuity};
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::mesh::creases::crease_edges;
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::g1::{crease_curve, patch_points, walton_meek};
-use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-use g1tess::tess::stitch::stitch;
+use crate::mesh::creases::crease_edges;
+use crate::patch::g1::{crease_curve, patch_points, walton_meek};
+use crate::stitch;
+use crate::CpuEvaluator;
+use crate::{continuity, Continuity};
+use crate::{LoadOptions, Mesh};
+use crate::{PatchTable, Scheme, SchemeOptions};
 
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("g1tess-creases-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    common::tmp_dir("creases").join(name)
 }
 
 fn stats(mesh: &Mesh, table: &PatchTable) -> Continuity {

@@ -5,17 +5,18 @@
 
 use std::collections::BTreeSet;
 
-use g1tess::gpu::shaders::{
+use crate::gpu::shaders::{
     ceiling_source, file_for, header, loop_bound_source, module_source, patch_vecs, stats_source,
     validate, variants, BEZIER, CEILING, COMMON, EXTRA_VECS, FILES, GREGORY, LOOP_BOUND,
     SLOT_CORNERS, SLOT_FLAT_NORMAL, SLOT_ORIGIN_LO, STATS, STATS_REALS, UNIFORM_TABLE_BYTES,
     WORKGROUP,
 };
-use g1tess::gpu::Precision;
-use g1tess::patch::basis::MAX_POINTS;
-use g1tess::patch::{PatchKind, PatchTable, Scheme, MIN_NORMAL_LEN_F32, MIN_NORMAL_LEN_F64};
+use crate::patch::basis::MAX_POINTS;
+use crate::patch::{MIN_NORMAL_LEN_F32, MIN_NORMAL_LEN_F64};
+use crate::Precision;
+use crate::{PatchKind, PatchTable, Scheme};
 
-use crate::common;
+use crate::tests::common;
 
 const PRECISIONS: [Precision; 2] = [Precision::F32, Precision::F64];
 
@@ -155,7 +156,7 @@ fn modules_are_chosen_by_patch_kind_not_by_scheme() {
     assert_eq!(file_for(PatchKind::PnNormals), BEZIER);
     // One module per kind: schemes of one kind (phong, nagata, nagata-guarded and nlsa all
     // build Bezier(2)) get the same source, so the same pipeline.
-    let mesh = g1tess::mesh::generators::icosphere(0);
+    let mesh = crate::mesh::generators::icosphere(0);
     let mut modules = BTreeSet::new();
     let mut kinds = Vec::new();
     for scheme in Scheme::all() {

@@ -10,17 +10,19 @@ use std::sync::{Arc, OnceLock};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use g1tess::analysis::stats::{continuity, edge_points};
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::eval::{grid_barycentrics, grid_len, Chunk, Evaluator, PatchPoint, Pattern};
-use g1tess::gpu::eval::GpuEvaluator;
-use g1tess::gpu::{GpuContext, Precision};
-use g1tess::mesh::Mesh;
-use g1tess::patch::basis::Weights;
-use g1tess::patch::{PatchKind, PatchTable, Scheme};
+use crate::analysis::stats::edge_points;
+use crate::continuity;
+use crate::eval::{grid_barycentrics, grid_len, PatchPoint};
+use crate::patch::basis::Weights;
+use crate::CpuEvaluator;
+use crate::GpuEvaluator;
+use crate::Mesh;
+use crate::{Chunk, Evaluator, Pattern};
+use crate::{GpuContext, Precision};
+use crate::{PatchKind, PatchTable, Scheme};
 
-use crate::common;
-use crate::eval_cases;
+use crate::tests::common;
+use crate::tests::eval_cases;
 use eval_cases::{
     angle, cases, load, normal_error, regular, EPS32, EPS64, MESHES, ROUNDING_FACTOR,
 };
@@ -571,7 +573,7 @@ fn patch_loop_and_double_buffering_give_identical_results() {
 /// it on these meshes, min cos > bound).
 #[test]
 fn gpu_statistics_agree_with_the_cpu_f64_statistics() {
-    use g1tess::analysis::stats::stats_report;
+    use crate::stats_report;
     for precision in [Precision::F32, Precision::F64] {
         let Some(gpu) = evaluator(precision) else {
             continue;
@@ -590,9 +592,9 @@ fn gpu_statistics_agree_with_the_cpu_f64_statistics() {
             let mut mesh = load(name);
             if name == "fandisk.obj" {
                 // Creases: 30° splits the normals along fandisk's sharp edges.
-                mesh = g1tess::mesh::Mesh::load(
+                mesh = crate::Mesh::load(
                     &common::shared_spec(name),
-                    &g1tess::mesh::LoadOptions::default().with_crease_angle(Some(30.0)),
+                    &crate::LoadOptions::default().with_crease_angle(Some(30.0)),
                 )
                 .unwrap();
             }
@@ -605,7 +607,7 @@ fn gpu_statistics_agree_with_the_cpu_f64_statistics() {
             let adjacency = mesh.adjacency();
             for scheme in [Scheme::G1, Scheme::Phong, Scheme::PnNormals] {
                 let table = PatchTable::build(&mesh, scheme, &Default::default()).unwrap();
-                let c = g1tess::gpu::stats::gpu_continuity(gpu, &mesh, &adjacency, &table).unwrap();
+                let c = crate::gpu::stats::gpu_continuity(gpu, &mesh, &adjacency, &table).unwrap();
                 let r = stats_report(&mesh, scheme, &Default::default(), &cpu).unwrap();
                 let what = format!("{precision} {name} {scheme}");
                 assert_eq!(c.samples, r.samples, "{what}");

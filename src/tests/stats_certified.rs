@@ -3,13 +3,15 @@
 //! (`validity::count_builder`), whatever the chunking, including triangles that no interior
 //! edge reaches.
 
-use crate::common;
+use crate::tests::common;
 
-use g1tess::analysis::stats::{stats_report, EdgeStats, CHUNK_EDGES};
-use g1tess::eval::cpu::CpuEvaluator;
-use g1tess::mesh::{LoadOptions, Mesh};
-use g1tess::patch::validity::count_builder;
-use g1tess::patch::{PatchBuilder, Scheme, SchemeOptions};
+use crate::analysis::stats::{EdgeStats, CHUNK_EDGES};
+use crate::patch::validity::count_builder;
+use crate::patch::PatchBuilder;
+use crate::stats_report;
+use crate::CpuEvaluator;
+use crate::{LoadOptions, Mesh};
+use crate::{Scheme, SchemeOptions};
 
 #[test]
 fn streamed_certificate_counts_every_patch_once() {
@@ -75,7 +77,7 @@ fn triangles_without_interior_edges_are_certified_too() {
 /// first boundary tangent vanishes (a fallback: the lanes hand it to the scalar path).
 #[test]
 fn g1_builds_are_bitwise_the_scalar_construction() {
-    use g1tess::patch::g1;
+    use crate::patch::g1;
     let check = |mesh: &Mesh| -> usize {
         assert!(!g1::any_split_normals(mesh), "{}", mesh.name);
         let builder = PatchBuilder::new(mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
