@@ -105,6 +105,7 @@ pub enum Error {
     Gpu(String),
 }
 
+/// The library's result: [`Error`] unless another error type is named.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {

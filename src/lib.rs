@@ -1,13 +1,14 @@
 //! g1tess: smooth curved surfaces from flat triangle meshes with vertex normals.
 //!
-//! The modules are layers, each using only those before it (see `ARCHITECTURE.md`; a test
-//! reads the `use` lines and checks it): [`error`] → [`mesh`] (load, weld, adjacency,
-//! normals, generators) → [`patch`] (one file per scheme, backend-agnostic f64
-//! control-point tables) → [`eval`] (the evaluator interface, the CPU backend, sample
-//! patterns) → [`tess`] (per-edge levels, stitching) → [`analysis`] (continuity
-//! statistics, the distance study, Table 1) → [`io`] (mesh writers, MSH, control nets,
-//! atomic files) → [`gpu`] (device, the GPU evaluator, statistics and tessellator) →
-//! [`render`] (the normal field drawn by a GPU render pass) → `cli`.
+//! Everything a program needs is named from the crate root (`use g1tess::{Mesh, PatchTable,
+//! Scheme};`); the modules behind it are private. They are layers, each using only those
+//! before it (see `ARCHITECTURE.md`; a test reads the `use` lines and checks it): `error` →
+//! `mesh` (load, weld, adjacency, normals, generators) → `patch` (one file per scheme,
+//! backend-agnostic f64 control-point tables) → `eval` (the evaluator interface, the CPU
+//! backend, sample patterns) → `tess` (per-edge levels, stitching) → `analysis` (continuity
+//! statistics, the distance study, Table 1) → `io` (mesh writers, MSH, control nets, atomic
+//! files) → `gpu` (device, the GPU evaluator, statistics and tessellator) → `render` (the
+//! normal field drawn by a GPU render pass) → `cli`.
 //!
 //! # Cargo features
 //!
@@ -94,12 +95,14 @@ mod tests;
 pub use error::{Error, Result};
 
 /// The mesh: loading (files or built-in generators), welding, adjacency and vertex normals.
+pub use mesh::adjacency::{EdgeCounts, EdgeUses, MeshEdge};
 pub use mesh::{
-    Adjacency, CornerAttributes, InputFormat, LoadOptions, LoadReport, Mesh, NormalWeighting,
+    Adjacency, CornerAttributes, EdgeUse, InputFormat, LoadOptions, LoadReport, Mesh,
+    NormalWeighting,
 };
 
 /// Schemes and their patch tables: the control points of every triangle's patch.
-pub use patch::{PatchKind, PatchTable, Scheme, SchemeOptions};
+pub use patch::{Layout, PatchKind, PatchTable, Scheme, SchemeOptions, SurfacePoint};
 
 /// The validity certificate of each patch (valid, folded or undecided), and the repair of
 /// folded patches with its report.
@@ -113,24 +116,25 @@ pub use mesh::normals::vertex_normals;
 
 /// Evaluators: where the patches are evaluated (CPU or GPU), on which samples, in which
 /// precision, and the chunks they stream.
-pub use eval::cpu::CpuEvaluator;
-pub use eval::pattern::grid_index;
+pub use eval::cpu::{CpuEvaluator, EdgeKernel, F32Kernel, GridWeightsF32};
+pub use eval::pattern::{grid_index, EdgePairs, EdgeSide, PatchPoint};
 pub use eval::{
     grid_barycentrics, grid_corners, grid_len, grid_triangles, Chunk, ChunkF32, Evaluator, Pattern,
     Precision, Vector,
 };
+pub use eval::{PairChunk, PairProducts};
 
 /// Tessellation levels: uniform, per edge from the screen, or from a tolerance.
-pub use tess::adaptive::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
+pub use tess::adaptive::{levels_for_tolerance, Deviation, ToleranceLevels, ToleranceOptions};
 pub use tess::layout::MAX_LEVEL;
-pub use tess::levels::{InnerRule, Levels};
+pub use tess::levels::{EdgeInfo, InnerRule, Levels};
 pub use tess::screen::{screen_levels, ScreenView};
 
 /// Tessellation: the welded numbering of a whole surface and the stitching of evaluated
 /// patches into it, into a mesh in memory or any sink.
 pub use tess::stitch::{
-    stitch, stitch_in, stitch_into, stitch_plan, Needs, PatchOut, StitchPlan, StitchReport,
-    StitchSink, StitchedMesh, VertexRecord,
+    stitch, stitch_in, stitch_into, stitch_plan, Needs, PatchOut, RecordAttributes, StitchPlan,
+    StitchReport, StitchSink, StitchedMesh, VertexRecord,
 };
 
 /// Statistics: the continuity of the surface across edges, and the statistics report.
@@ -147,7 +151,7 @@ pub use io::TempFiles;
 /// The GPU: a device, the GPU evaluator, and the tessellator writing straight into a host
 /// program's vertex and index buffers.
 #[cfg(feature = "gpu")]
-pub use gpu::eval::GpuEvaluator;
+pub use gpu::eval::{GpuEvaluator, GridTiming};
 /// Screen-space levels computed on the device, for [`LevelSource::Device`].
 #[cfg(feature = "gpu")]
 pub use gpu::screen::{gpu_screen_levels, LevelParams, LevelPass};
@@ -156,7 +160,7 @@ pub use gpu::tessellator::{
     vertex_layout, GpuTessellator, LevelCapacity, LevelSource, TessCounts, Topology,
 };
 #[cfg(feature = "gpu")]
-pub use gpu::{adapters as gpu_adapters, GpuContext};
+pub use gpu::{adapters as gpu_adapters, read_buffer, GpuContext};
 
 /// Drawing a tessellated surface with its normal field: the camera that frames it, and (with
 /// the `gpu` feature) the buffers and the render pass.

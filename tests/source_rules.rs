@@ -34,9 +34,33 @@ fn code(line: &str) -> &str {
     line.split("//").next().unwrap_or("")
 }
 
-/// The module paths a file names (see [`references_in`]).
+/// The module paths a file's library code names (see [`references_in`]). Test code is not
+/// part of the graph: the files of `src/tests/` and a file's `#[cfg(test)] mod` (its unit
+/// tests, which may use any layer to check it).
 fn references(file: &Path) -> Vec<Vec<String>> {
-    references_in(&std::fs::read_to_string(file).unwrap(), &module_of(file))
+    let here = module_of(file);
+    if here.first().is_some_and(|m| m == "tests") {
+        return Vec::new();
+    }
+    let text = std::fs::read_to_string(file).unwrap();
+    references_in(library_code(&text), &here)
+}
+
+/// `text` up to its first `#[cfg(test)]` line followed by a `mod` line.
+fn library_code(text: &str) -> &str {
+    let mut at = 0;
+    let mut lines = text.split_inclusive('\n').peekable();
+    while let Some(line) = lines.next() {
+        if line.trim() == "#[cfg(test)]"
+            && lines
+                .peek()
+                .is_some_and(|l| l.trim_start().starts_with("mod "))
+        {
+            return &text[..at];
+        }
+        at += line.len();
+    }
+    text
 }
 
 fn is_ident(c: char) -> bool {
@@ -218,6 +242,16 @@ fn names(path: &str) -> Vec<String> {
         .filter(|s| !s.is_empty())
         .map(String::from)
         .collect()
+}
+
+#[test]
+fn unit_tests_at_the_end_of_a_file_are_not_library_code() {
+    let text = "use crate::a;\n#[cfg(test)]\nuse crate::b;\n#[cfg(test)]\nmod tests {\n    use crate::c;\n}\n";
+    assert_eq!(
+        library_code(text),
+        "use crate::a;\n#[cfg(test)]\nuse crate::b;\n"
+    );
+    assert_eq!(library_code("fn f() {}\n"), "fn f() {}\n");
 }
 
 #[test]

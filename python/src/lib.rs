@@ -12,20 +12,12 @@
 use std::io::ErrorKind;
 use std::path::{Path, PathBuf};
 
-use g1tess::export_msh;
-use g1tess::generators;
-use g1tess::stats_report;
-use g1tess::CpuEvaluator;
-use g1tess::NoProgress;
-use g1tess::RepairOptions;
-use g1tess::RepairReport;
-use g1tess::TempFiles;
-use g1tess::MAX_LEVEL;
-use g1tess::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
-use g1tess::{stitch_into, StitchPlan, StitchedMesh};
-use g1tess::{write_stitched, MeshFormat};
-use g1tess::{LoadOptions, Mesh, NormalWeighting};
-use g1tess::{PatchTable, Scheme, SchemeOptions};
+use g1tess::{
+    export_msh, generators, levels_for_tolerance, stats_report, stitch_into, write_stitched,
+    CpuEvaluator, LoadOptions, Mesh, MeshFormat, NoProgress, NormalWeighting, PatchTable,
+    RepairOptions, RepairReport, Scheme, SchemeOptions, StitchPlan, StitchedMesh, TempFiles,
+    ToleranceLevels, ToleranceOptions, MAX_LEVEL,
+};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{

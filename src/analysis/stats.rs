@@ -44,8 +44,11 @@ pub const CHUNK_EDGES: usize = (1 << 18) / POINTS_PER_EDGE;
 /// all 1 and std 0; a cos below 0 is a folded patch.
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
 pub struct CosStats {
+    /// Smallest cos.
     pub min: f64,
+    /// Largest cos.
     pub max: f64,
+    /// Mean cos.
     pub mean: f64,
     /// Ordinary sample standard deviation (n − 1), as Table 1.
     pub std: f64,
@@ -56,6 +59,7 @@ pub struct CosStats {
 pub struct Continuity {
     /// Edge samples (each a pair of evaluations).
     pub samples: usize,
+    /// cos statistics over the edge samples.
     pub cos: CosStats,
     /// Largest 1 − |cos|: 0 when the tangent plane is shared (G1), even where folded.
     pub max_one_minus_abs_cos: f64,
@@ -181,7 +185,7 @@ pub struct Part {
 }
 
 impl Part {
-    // Public only for the integration tests (`internals`); an empty part is no default.
+    /// An empty part (no samples); not a `Default`, since an empty part is no default.
     #[allow(clippy::new_without_default)]
     pub fn new() -> Part {
         Part {
@@ -967,34 +971,49 @@ pub fn stats_report(
 #[derive(Clone, Debug, Serialize)]
 #[serde(into = "StatsJson")]
 pub struct StatsReport {
+    /// The mesh's name (the file name or the built-in spec).
     pub mesh: String,
+    /// The scheme's name.
     pub scheme: String,
+    /// Triangles of the mesh.
     pub triangles: usize,
+    /// Welded vertices (positions) of the mesh.
     pub vertices: usize,
+    /// Edges used by exactly two triangles, creases included.
     pub interior_edges: usize,
     /// Interior edges that are creases: left out of samples, cos, max_gap and folded.
     pub crease_edges: usize,
+    /// Edges used by one triangle.
     pub boundary_edges: usize,
+    /// Edges used by three or more triangles.
     pub nonmanifold_edges: usize,
     /// Interior edges whose two triangles disagree in orientation.
     pub misoriented_edges: usize,
+    /// Edge samples on non-crease interior edges (21 per edge, each a pair of evaluations).
     pub samples: usize,
+    /// cos of the angle between the two patches' normals over the samples.
     pub cos: CosStats,
+    /// Largest 1 − |cos|: 0 when the tangent plane is shared (G1), even where folded.
     pub max_one_minus_abs_cos: f64,
+    /// Largest distance between the two patches' positions (0 = watertight).
     pub max_gap: f64,
     /// max_gap divided by the bounding-box diagonal.
     pub max_gap_relative: f64,
+    /// Length of the mesh's bounding-box diagonal.
     pub diagonal: f64,
+    /// Samples with cos < 0 (folded patches).
     pub folded: usize,
     /// Edge samples on crease edges.
     pub crease_samples: usize,
     /// Largest position gap between the two patches on crease edges.
     pub crease_max_gap: f64,
+    /// Which evaluator ran, as its `describe` says ("cpu (2 threads)", the adapter's name, ...).
     pub backend: String,
     /// Edges where the construction took a documented fallback.
     pub fallbacks: usize,
+    /// What loading the mesh changed or found.
     pub load: LoadReport,
-    /// Verdicts of the patches' validity certificate ([`crate::patch::validity`]); all
+    /// Verdicts of the patches' validity certificate (`crate::patch::validity`); all
     /// zero where not computed ([`StatsReport::new`]).
     pub patches: PatchCounts,
     /// What the fold repair changed, where it was asked for.
@@ -1061,6 +1080,8 @@ impl From<StatsReport> for StatsJson {
 }
 
 impl StatsReport {
+    /// The report of `mesh` and `scheme` from its edge counts, the fallbacks, the continuity
+    /// `c` and the evaluator's description; no patch verdicts and no repair.
     pub fn new(
         mesh: &Mesh,
         counts: EdgeCounts,

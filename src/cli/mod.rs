@@ -293,6 +293,7 @@ fn default_sigpipe() {
     }
 }
 
+/// Runs the `g1tess` command line on this process's arguments and returns its exit code.
 pub fn main() -> ExitCode {
     default_sigpipe();
     quiet_vulkan_loader();

@@ -184,7 +184,7 @@ impl Evaluator for CpuEvaluator {
 
     /// The basis at every (from, to, sample) computed once per call (sparse, as
     /// [`PatchTable::eval_sparse`] takes it), then rayon over the pairs: bitwise the
-    /// values of [`Pattern::Points`] of [`EdgePairs::points`], with no per-point lookup.
+    /// values of [`Pattern::Points`] of `EdgePairs::points`, with no per-point lookup.
     /// Chunks hold whole pairs, about `chunk_samples` points.
     fn evaluate_edges(
         &self,
@@ -216,11 +216,11 @@ impl Evaluator for CpuEvaluator {
     /// [`Self::evaluate_edges`]'s kernel on both sides of each edge into small per-job
     /// lane buffers (in cache), in its products mode (cross products and their squared
     /// lengths instead of unit normals), the products computed from them at once, lane by
-    /// lane: gap² bitwise as [`PairProducts::of`], cos as the quotient of the cross
+    /// lane: gap² bitwise as `PairProducts::of`, cos as the quotient of the cross
     /// products' dot product by the root of their squared lengths' product, within 20u
-    /// (u = 2⁻⁵³) of [`PairProducts::of`] on the points (derivation at `products`). A side
+    /// (u = 2⁻⁵³) of `PairProducts::of` on the points (derivation at `products`). A side
     /// the lane kernel cannot take (no lane kernel, a normal field, a non-finite sum) goes
-    /// through the points and [`PairProducts::of`]. Chunks hold whole pairs, about
+    /// through the points and `PairProducts::of`. Chunks hold whole pairs, about
     /// `chunk_samples / 2` products.
     fn evaluate_edge_products(
         &self,
@@ -261,7 +261,7 @@ impl Evaluator for CpuEvaluator {
         result
     }
 
-    /// Grids run the f32 SIMD kernel (see [`GridWeightsF32`]): control points relative to
+    /// Grids run the f32 SIMD kernel (see `GridWeightsF32`): control points relative to
     /// each patch's first point, f32 weights computed once per call, corners overwritten
     /// with the input vertices rounded once. Point lists are evaluated in f64 and rounded.
     fn evaluate_f32(

@@ -35,6 +35,7 @@ impl Precision {
         }
     }
 
+    /// The name used on the command line and in reports ("f32", "f64").
     pub fn name(self) -> &'static str {
         match self {
             Precision::F32 => "f32",
@@ -54,12 +55,15 @@ impl std::fmt::Display for Precision {
 /// [`Evaluator::evaluate_f32`]).
 ///
 /// For [`Pattern::Grid`] `first` is the first patch of the chunk and the samples are
-/// `grid_len(level)` per patch in grid order; for [`Pattern::Points`] and [`EdgePairs`]
+/// `grid_len(level)` per patch in grid order; for [`Pattern::Points`] and `EdgePairs`
 /// `first` is the index of the first point. Corner samples (b = a unit vector) are the input vertices bit for
 /// bit, in either precision (f32: the input rounded once).
 pub struct Chunk<'a, V = DVec3> {
+    /// The first patch ([`Pattern::Grid`]) or the first point (the other patterns).
     pub first: usize,
+    /// Evaluated positions, one per sample.
     pub positions: &'a [V],
+    /// Unit normals, in step with `positions`.
     pub normals: &'a [V],
 }
 
@@ -73,7 +77,7 @@ pub fn to_f32(v: DVec3) -> [f32; 3] {
 }
 
 /// The precision of evaluated samples: `DVec3` (the f64 reference) or `[f32; 3]` (writers,
-/// GPUs, the CPU's SIMD kernel). Consumers generic over it ([`crate::tess::stitch`], the
+/// GPUs, the CPU's SIMD kernel). Consumers generic over it (`crate::tess::stitch`, the
 /// writers) pick the precision; [`Vector::evaluate`] calls the matching
 /// [`Evaluator`] method, so the samples never make a round trip through the other one.
 pub trait Vector: Copy + Send + Sync + PartialEq + std::fmt::Debug + 'static {
@@ -230,7 +234,9 @@ pub fn evaluate_edges_via_points(
 /// [`Evaluator::evaluate_edge_products`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PairProducts {
+    /// n0 · n1, the cosine of the angle between the two unit normals.
     pub cos: f64,
+    /// |p0 − p1|², the squared gap between the two points.
     pub gap2: f64,
 }
 
@@ -256,7 +262,9 @@ pub const PAIR_COS_TOLERANCE: f64 = 1.0 / (1u64 << 48) as f64;
 /// A run of [`PairProducts`] of an edge pattern: `first` is the index of its first sample
 /// (sample k is points 2k and 2k + 1 of [`EdgePairs::points`]).
 pub struct PairChunk<'a> {
+    /// Index of the run's first sample in the pattern.
     pub first: usize,
+    /// The products of the run's samples, in order.
     pub pairs: &'a [PairProducts],
 }
 
@@ -316,7 +324,7 @@ pub trait Evaluator {
     fn describe(&self) -> String;
 
     /// The working precision when this evaluator runs on a GPU (its device can then
-    /// tessellate in place, see [`crate::gpu::tessellator`]); `None` for the CPU, or a GPU
+    /// tessellate in place, see `crate::gpu::tessellator`); `None` for the CPU, or a GPU
     /// backend that could not open (its evaluation then reports why).
     fn gpu_precision(&self) -> Option<Precision> {
         None
@@ -344,8 +352,8 @@ pub trait Evaluator {
     }
 
     /// Evaluates the edge pattern `edges` on `table` (f64), chunk by chunk in its point
-    /// order: the same values as [`Pattern::Points`] of [`EdgePairs::points`]. The default
-    /// expands the points a bounded run at a time ([`EDGE_EXPAND_POINTS`]) and evaluates
+    /// order: the same values as [`Pattern::Points`] of `EdgePairs::points`. The default
+    /// expands the points a bounded run at a time (`EDGE_EXPAND_POINTS`) and evaluates
     /// those; the CPU backend evaluates the pattern directly.
     fn evaluate_edges(
         &self,
@@ -356,10 +364,10 @@ pub trait Evaluator {
         evaluate_edges_via_points(self, table, edges, sink)
     }
 
-    /// The [`PairProducts`] of every sample of `edges` on `table`, chunk by chunk in
+    /// The `PairProducts` of every sample of `edges` on `table`, chunk by chunk in
     /// sample order: those of the points [`Self::evaluate_edges`] gives, `gap2` bitwise
-    /// [`PairProducts::of`] and `cos` within [`PAIR_COS_TOLERANCE`] of it. The default
-    /// pairs those points ([`edge_products_via_points`], bitwise [`PairProducts::of`]); the
+    /// `PairProducts::of` and `cos` within `PAIR_COS_TOLERANCE` of it. The default
+    /// pairs those points (`edge_products_via_points`, bitwise `PairProducts::of`); the
     /// CPU backend computes each edge's products right after its points, while they are in
     /// cache, its cos from the cross products S_s × S_t without normalising them (one
     /// square root and one division per sample instead of two and six).

@@ -4,6 +4,7 @@
 /// One evaluation point on one patch.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PatchPoint {
+    /// The patch (triangle) index.
     pub patch: u32,
     /// Barycentric coordinates (b0 + b1 + b2 = 1).
     pub b: [f64; 3],
@@ -14,7 +15,10 @@ pub struct PatchPoint {
 pub enum Pattern {
     /// Every patch on the grid of level n: (n + 1)(n + 2)/2 points (see
     /// [`grid_barycentrics`]).
-    Grid { level: u32 },
+    Grid {
+        /// The level n: n segments along each patch edge.
+        level: u32,
+    },
     /// Explicit points.
     Points(Vec<PatchPoint>),
 }
@@ -28,6 +32,7 @@ impl Pattern {
         }
     }
 
+    /// Whether a table of `patches` patches has no sample.
     pub fn is_empty(&self, patches: usize) -> bool {
         self.len(patches) == 0
     }
@@ -38,8 +43,11 @@ impl Pattern {
 /// `b[from] = 1 − t`, `b[to] = t`, the third coordinate 0.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct EdgeSide {
+    /// The patch that uses the edge.
     pub patch: u32,
+    /// Barycentric slot of the edge's start vertex on the patch.
     pub from: u8,
+    /// Barycentric slot of the edge's end vertex on the patch.
     pub to: u8,
 }
 
@@ -58,6 +66,7 @@ pub struct EdgeSide {
 pub struct EdgePairs {
     /// Samples per edge, both ends included.
     pub samples: u32,
+    /// The two uses of each interior edge, walked from the same start vertex.
     pub pairs: Vec<[EdgeSide; 2]>,
 }
 
@@ -67,6 +76,7 @@ impl EdgePairs {
         2 * self.samples as usize * self.pairs.len()
     }
 
+    /// Whether the pattern has no evaluation point.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

@@ -737,7 +737,7 @@ impl<R: Real> Samples<R> {
 /// Timings of [`GpuEvaluator::time_grid`].
 #[derive(Clone, Copy, Debug)]
 pub struct GridTiming {
-    pub samples: usize,
+    /// Wall time from submission to the device's completion.
     pub elapsed: Duration,
 }
 
@@ -757,7 +757,7 @@ pub struct GpuEvaluator {
     /// or 0 here, compute the basis in the shader.
     pub max_grid_table_bytes: u64,
     /// Keep wgpu's runtime checks (bounds checks, loop bounding) in the shaders; off by
-    /// default: the shaders are the crate's own ([`shader_module`]).
+    /// default: the shaders are the crate's own (`shader_module`).
     pub shader_runtime_checks: bool,
     /// Grids run one thread per patch (`grid_patch_main`) instead of one per sample where
     /// the kind's basis fits the uniform table, and G1 grids at every level (their basis
@@ -802,17 +802,19 @@ impl GpuEvaluator {
         })
     }
 
+    /// The device this evaluator runs on.
     pub fn context(&self) -> &Arc<GpuContext> {
         &self.ctx
     }
 
+    /// The working precision of its kernels.
     pub fn precision(&self) -> Precision {
         self.precision
     }
 
     /// The pipelines of `kind` in this evaluator's precision (built once, then cached:
     /// every scheme of one kind shares them).
-    pub fn pipelines(&self, kind: PatchKind) -> Result<Arc<Pipelines>> {
+    pub(crate) fn pipelines(&self, kind: PatchKind) -> Result<Arc<Pipelines>> {
         let mut cache = self
             .pipelines
             .lock()
@@ -1238,7 +1240,6 @@ impl GpuEvaluator {
             Precision::F64 => self.grid::<f64>(&pipes, table, level, &mut Target::Discard)?,
         }
         Ok(GridTiming {
-            samples: grid_len(level.max(1)) * table.len(),
             elapsed: start.elapsed(),
         })
     }
@@ -1256,7 +1257,7 @@ impl GpuEvaluator {
     /// that loop runs faster. `None` where grids do not run the patch loop
     /// ([`Self::patch_loop`] off, as on GPUs) or the device has none. Time it with
     /// [`Self::time_loop_bound`].
-    pub fn loop_bound(&self, kind: PatchKind) -> Result<Option<LoopBound>> {
+    pub(crate) fn loop_bound(&self, kind: PatchKind) -> Result<Option<LoopBound>> {
         if !self.patch_loop {
             return Ok(None);
         }
@@ -1276,7 +1277,7 @@ impl GpuEvaluator {
     /// [`Self::time_grid`] times a grid. `None` where the grid does not run the patch loop
     /// (a GPU's, or [`Self::patch_loop`] off). Nothing is read back; the samples are
     /// meaningless.
-    pub fn time_loop_bound(
+    pub(crate) fn time_loop_bound(
         &self,
         bound: &LoopBound,
         table: &PatchTable,
@@ -1293,7 +1294,6 @@ impl GpuEvaluator {
             Precision::F64 => self.grid::<f64>(&bound.pipes, table, level, &mut Target::Discard)?,
         }
         Ok(Some(GridTiming {
-            samples: grid_len(level.max(1)) * table.len(),
             elapsed: start.elapsed(),
         }))
     }
@@ -1315,7 +1315,7 @@ impl GpuEvaluator {
     /// `shape`, dispatched in the chunks a grid uses (quads: rounded up to a multiple of 4
     /// samples), waiting for the device, nothing read back. The pipeline is built before the
     /// clock starts.
-    pub fn time_ceiling(&self, samples: usize, shape: CeilingShape) -> Result<GridTiming> {
+    pub(crate) fn time_ceiling(&self, samples: usize, shape: CeilingShape) -> Result<GridTiming> {
         let (device, queue) = (&self.ctx.device, &self.ctx.queue);
         let source = shaders::ceiling_source();
         shaders::validate(&source, Precision::F32)
@@ -1420,7 +1420,7 @@ impl GpuEvaluator {
         self.ctx.wait()?;
         let elapsed = start.elapsed();
         self.ctx.check()?;
-        Ok(GridTiming { samples, elapsed })
+        Ok(GridTiming { elapsed })
     }
 }
 

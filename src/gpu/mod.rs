@@ -7,7 +7,7 @@
 //! rendering) can reuse one context:
 //!
 //! ```no_run
-//! let ctx = g1tess::gpu::GpuContext::shared()?;
+//! let ctx = g1tess::GpuContext::shared()?;
 //! eprintln!("gpu: {}", ctx.describe());
 //! let (device, queue) = (&ctx.device, &ctx.queue);
 //! # let _ = (device, queue);
@@ -57,9 +57,13 @@ const DRIVER_HINT: &str =
 
 /// An open device (Vulkan, DX12 or Metal) with its queue, the adapter's description and limits.
 pub struct GpuContext {
+    /// The wgpu instance the adapter was found through.
     pub instance: wgpu::Instance,
+    /// The adapter (GPU or software rasteriser) the device was opened on.
     pub adapter: wgpu::Adapter,
+    /// The open device.
     pub device: wgpu::Device,
+    /// The device's queue.
     pub queue: wgpu::Queue,
     /// Name, driver and backend of the adapter.
     pub info: wgpu::AdapterInfo,
@@ -81,7 +85,7 @@ impl std::fmt::Debug for GpuContext {
 }
 
 impl GpuContext {
-    /// Opens the first adapter of [`BACKENDS`] (high-performance preference). Errors when
+    /// Opens the first adapter of `BACKENDS` (high-performance preference). Errors when
     /// there is none: callers decide whether falling back to the CPU is allowed.
     pub fn new() -> Result<GpuContext> {
         pollster::block_on(Self::new_async())
@@ -232,7 +236,7 @@ impl GpuContext {
     }
 }
 
-/// The adapters of [`BACKENDS`] this process can open (name, driver, device type), without
+/// The adapters of `BACKENDS` this process can open (name, driver, device type), without
 /// opening a device; empty where there is no driver. Callers choosing between the GPU and
 /// the CPU read `device_type`: [`wgpu::DeviceType::Cpu`] is a software rasteriser (lavapipe,
 /// WARP) running on the same cores as the CPU backend.

@@ -14,7 +14,7 @@ use crate::{Error, Result};
 ///
 /// ```no_run
 /// # fn demo(device: &wgpu::Device, staging: &wgpu::Buffer) -> g1tess::Result<()> {
-/// let floats: Vec<f32> = g1tess::gpu::read_buffer(device, staging, 64, |b| {
+/// let floats: Vec<f32> = g1tess::read_buffer(device, staging, 64, |b| {
 ///     bytemuck::cast_slice(b).to_vec()
 /// })?;
 /// # let _ = floats;

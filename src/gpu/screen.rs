@@ -21,13 +21,22 @@ pub const LEVELS_WORKGROUP: u32 = 64;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct LevelParams {
+    /// World → clip space, column after column (as [`ScreenView::view_proj`]), in f32.
     pub view_proj: [f32; 16],
+    /// Viewport width and height in pixels.
     pub viewport: [f32; 2],
+    /// Wanted length of an output segment, pixels.
     pub target_px: f32,
+    /// Cap on every level.
     pub max_level: u32,
+    /// Edges to level (threads past the last do nothing).
     pub edges: u32,
+    /// Clip-space w at or below which a point counts as behind the eye.
     pub w_min: f32,
+    /// Workgroups along x of the dispatch ([`LevelPass::groups`]), to number the edges of
+    /// a 2-D dispatch; 0 until the caller sets it.
     pub groups_x: u32,
+    /// Padding to 96 bytes (0).
     pub pad: u32,
 }
 
@@ -50,7 +59,9 @@ impl LevelParams {
 /// The level pass: its pipeline and bind group layout (0 params, 1 positions `vec4<f32>`,
 /// 2 edges `vec2<u32>`, 3 levels `u32`).
 pub struct LevelPass {
+    /// The bind group layout (bindings 0 to 3 above).
     pub layout: wgpu::BindGroupLayout,
+    /// The compute pipeline of `levels_main`.
     pub pipeline: wgpu::ComputePipeline,
 }
 

@@ -28,7 +28,7 @@ struct Registry {
 }
 
 /// The list of temporary files that atomic writes are writing now, owned by the caller and
-/// passed to every write ([`write_atomic`] and the writers built on it). Clones share one
+/// passed to every write (`write_atomic` and the writers built on it). Clones share one
 /// list: a program that handles signals keeps one handle, gives it to all its writes and
 /// calls [`TempFiles::remove_live_temp_files`] from its handler. A caller that does not
 /// handle signals passes a fresh one (`&TempFiles::default()`).

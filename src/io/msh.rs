@@ -86,6 +86,7 @@ pub struct ElementQuality {
 /// The curved mesh of one order, in memory.
 #[derive(Clone, Debug)]
 pub struct HighOrderMesh {
+    /// Order P of the elements (1..=[`MAX_ORDER`]).
     pub order: u32,
     /// Node positions; node tag = index + 1. The input vertices first (same order), then the
     /// edge nodes (P − 1 per edge, edges in the adjacency's order, from the lower vertex id;
@@ -426,26 +427,38 @@ fn measure(
 /// What [`export_msh`] wrote and measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct MshSummary {
+    /// The mesh's name.
     pub mesh: String,
+    /// The scheme's name.
     pub scheme: String,
+    /// Order P of the elements.
     pub order: u32,
+    /// Whether the file is binary MSH (ASCII otherwise).
     pub binary: bool,
+    /// Nodes written.
     pub nodes: usize,
+    /// Triangle elements: one per triangle of the mesh.
     pub triangles: usize,
-    /// Gmsh element types of the triangles and lines.
+    /// Gmsh element type of the triangles.
     pub triangle_type: i32,
+    /// Gmsh element type of the crease and boundary lines.
     pub line_type: i32,
+    /// Line elements on crease edges (physical group "creases").
     pub crease_lines: usize,
+    /// Line elements on boundary edges (physical group "boundary").
     pub boundary_lines: usize,
     /// The worst element's [`ElementQuality::min_scaled_jacobian`] and its element tag.
     pub min_scaled_jacobian: f64,
+    /// Tag of that element (triangle index + 1).
     pub min_scaled_jacobian_element: usize,
     /// Elements whose bound is ≤ 0 (may fold over).
     pub nonpositive_jacobian_elements: usize,
     /// The largest [`ElementQuality::max_distance`], its element tag, and it divided by the
     /// mesh's bounding-box diagonal.
     pub max_distance: f64,
+    /// Tag of that element (triangle index + 1).
     pub max_distance_element: usize,
+    /// That distance divided by the bounding-box diagonal (0 where the diagonal is 0).
     pub max_distance_relative: f64,
 }
 
@@ -510,9 +523,11 @@ pub fn export_msh(
 /// A physical group: (dimension, tag, name).
 pub type Group = (i32, i32, &'static str);
 
-/// The physical groups written.
+/// The physical group of the triangles.
 pub const SURFACE_GROUP: Group = (2, 1, "surface");
+/// The physical group of the crease lines.
 pub const CREASE_GROUP: Group = (1, 1, "creases");
+/// The physical group of the boundary lines.
 pub const BOUNDARY_GROUP: Group = (1, 2, "boundary");
 
 /// An `$ElementData` view: its name and the value it shows.

@@ -53,9 +53,13 @@ use crate::{Error, Result};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MeshFormat {
+    /// Wavefront OBJ, text.
     Obj,
+    /// PLY, binary little-endian.
     Ply,
+    /// STL, binary.
     Stl,
+    /// glTF 2.0, binary.
     Glb,
 }
 
@@ -112,11 +116,11 @@ impl MeshFormat {
     }
 
     /// Bytes the writer holds at `level` besides the stitcher's output, as (while the
-    /// patches stream in, afterwards): the file's blocks ([`PIPED_BYTES`]), OBJ's text
-    /// (flushed every [`TEXT_FLUSH`] bytes), STL's facets of one patch; PLY and glTF also
+    /// patches stream in, afterwards): the file's blocks (`PIPED_BYTES`), OBJ's text
+    /// (flushed every `TEXT_FLUSH` bytes), STL's facets of one patch; PLY and glTF also
     /// write their faces while the vertices stream (a second writer's blocks and one
     /// patch's triangles), or, where that writer cannot be had (standard output), encode
-    /// them per batch ([`face_batch`]) once every vertex is written.
+    /// them per batch (`face_batch`) once every vertex is written.
     pub fn buffer_bytes(self, level: u32, patches: usize) -> (u64, u64) {
         let n2 = level as u64 * level as u64;
         let file_buffer = PIPED_BYTES;

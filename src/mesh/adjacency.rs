@@ -17,7 +17,9 @@ use rayon::prelude::*;
 /// corner k+1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct EdgeUse {
+    /// The triangle.
     pub triangle: u32,
+    /// Its local edge, 0..3: from corner `local` to corner `local + 1` (mod 3).
     pub local: u8,
 }
 
@@ -55,6 +57,7 @@ const NO_USE: EdgeUse = EdgeUse {
 };
 
 impl EdgeUses {
+    /// The uses listed in `uses`, in that order.
     pub fn new(uses: &[EdgeUse]) -> EdgeUses {
         EdgeUses(match *uses {
             [] => UsesRepr::Inline(0, [NO_USE; 2]),
@@ -99,7 +102,9 @@ impl std::fmt::Debug for EdgeUses {
 /// An undirected edge between welded vertices `v[0] < v[1]` and its uses.
 #[derive(Clone, Debug)]
 pub struct MeshEdge {
+    /// Its welded vertices, the smaller first.
     pub v: [u32; 2],
+    /// The triangles that use it (two for an interior manifold edge).
     pub uses: EdgeUses,
 }
 
@@ -365,6 +370,7 @@ impl<'i> Iterator for Edges<'i> {
 /// Edges of a triangle mesh with the counts the statistics report.
 #[derive(Clone, Debug, Default)]
 pub struct Adjacency {
+    /// Every edge, ordered by lower vertex id, then upper.
     pub edges: Vec<MeshEdge>,
     /// Edges used by exactly two triangles.
     pub interior: usize,
@@ -378,6 +384,7 @@ pub struct Adjacency {
 }
 
 impl Adjacency {
+    /// The edges of `triangles` and their counts.
     pub fn new(triangles: &[[u32; 3]]) -> Adjacency {
         let index = EdgeIndex::new(triangles);
         let mut buf = Vec::new();

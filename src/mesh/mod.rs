@@ -27,6 +27,7 @@ use crate::{Error, Result};
 pub struct Mesh {
     /// Name shown in reports: the file name or the built-in spec.
     pub name: String,
+    /// Vertex positions, each unique and used by a triangle.
     pub positions: Vec<DVec3>,
     /// Counter-clockwise seen from the side the normals point to.
     pub triangles: Vec<[u32; 3]>,
@@ -307,10 +308,10 @@ impl Mesh {
     /// outside) and, optionally, one normal per position.
     ///
     /// The input is checked first: a non-finite coordinate or one above
-    /// [`normals::MAX_COORD`] in magnitude, a zero or non-finite normal, a
+    /// `normals::MAX_COORD` in magnitude, a zero or non-finite normal, a
     /// normal count that differs from the position count or a triangle index out of range is
     /// an error naming the element (`"NAME: vertex 12 has a non-finite coordinate"`). The soup
-    /// is then welded exactly like file input ([`weld::weld`]: equal coordinates, `-0.0`
+    /// is then welded exactly like file input (`weld::weld`: equal coordinates, `-0.0`
     /// equal to `0.0`, so a split-vertex mesh comes out closed); triangles that collapse or
     /// have no area (collinear corners) and
     /// unused vertices are dropped and counted in [`Mesh::load_report`]. Each corner keeps
@@ -319,9 +320,10 @@ impl Mesh {
     /// normal recomputation and crease angle apply as for [`Mesh::load`].
     ///
     /// ```
-    /// use g1tess::eval::{cpu::CpuEvaluator, Evaluator, Pattern};
-    /// use g1tess::mesh::{LoadOptions, Mesh};
-    /// use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
+    /// use g1tess::{Evaluator, Pattern};
+    /// use g1tess::CpuEvaluator;
+    /// use g1tess::{LoadOptions, Mesh};
+    /// use g1tess::{PatchTable, Scheme, SchemeOptions};
     ///
     /// // A tetrahedron, outward, without normals (they are estimated).
     /// let positions = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];

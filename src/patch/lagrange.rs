@@ -55,8 +55,11 @@ fn lagrange_factor(i: u32, p: u32, x: f64) -> (f64, f64) {
 /// Lagrange shape functions at one point: values, and derivatives by u and v.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Shapes {
+    /// Values, one per node.
     pub w: Vec<f64>,
+    /// Derivatives by u = b1, one per node.
     pub ws: Vec<f64>,
+    /// Derivatives by v = b2, one per node.
     pub wt: Vec<f64>,
 }
 

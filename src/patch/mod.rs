@@ -143,8 +143,8 @@ const _: () = {
 };
 
 impl Scheme {
-    /// Its line of [`SCHEMES`].
-    pub fn info(self) -> &'static SchemeInfo {
+    /// Its line of `SCHEMES`.
+    pub(crate) fn info(self) -> &'static SchemeInfo {
         &SCHEMES[self as usize]
     }
 
@@ -163,6 +163,7 @@ impl Scheme {
         self.info().kind
     }
 
+    /// The scheme named `s` ([`Scheme::name`]); an error listing the known names otherwise.
     pub fn parse(s: &str) -> Result<Scheme> {
         SCHEMES
             .iter()
@@ -216,7 +217,7 @@ impl Default for SchemeOptions {
 /// How a table's control points are evaluated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum PatchKind {
-    /// Bézier triangle of this degree; points in [`basis::bezier_powers`] order. The normal
+    /// Bézier triangle of this degree; points in `basis::bezier_powers` order. The normal
     /// is the exact normal S_s × S_t of the geometry.
     Bezier(u32),
     /// The G1 patch: 12 boundary points (edge k: L_{k,0..3}) then G_{0,1}, G_{0,2}, G_{1,1},
@@ -297,7 +298,7 @@ impl PatchKind {
         self.layout().stride
     }
 
-    /// Leading control points that are geometry (see [`Layout::geometry`]).
+    /// Leading control points that are geometry (see `Layout::geometry`).
     pub const fn geometry(self) -> usize {
         self.layout().geometry
     }
@@ -314,7 +315,7 @@ impl PatchKind {
     }
 
     /// Basis values and tangent derivatives at `b`.
-    pub fn weights(self, b: [f64; 3]) -> Weights {
+    pub(crate) fn weights(self, b: [f64; 3]) -> Weights {
         match self {
             PatchKind::Bezier(n) => basis::bezier(n, b),
             PatchKind::Gregory => basis::g1(b),
@@ -326,6 +327,7 @@ impl PatchKind {
 /// Position, tangents and unit normal of a patch at one point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfacePoint {
+    /// The position S.
     pub p: DVec3,
     /// ∂S/∂s along b = (1 − s − t, s, t).
     pub ds: DVec3,
@@ -351,7 +353,9 @@ pub fn unit_normal(ds: DVec3, dt: DVec3, fallback: DVec3) -> DVec3 {
 /// Control points of one scheme for every triangle of a mesh.
 #[derive(Clone, Debug)]
 pub struct PatchTable {
+    /// The scheme the table was built for.
     pub scheme: Scheme,
+    /// How its patches are evaluated (the scheme's kind).
     pub kind: PatchKind,
     /// Control points per patch (`kind.stride()`).
     pub stride: usize,
@@ -374,6 +378,7 @@ impl PatchTable {
         self.flat_normals.len()
     }
 
+    /// Whether the table has no patch.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -390,7 +395,7 @@ impl PatchTable {
 
     /// Evaluates patch `i` at barycentric `b` with precomputed weights.
     #[inline]
-    pub fn eval_weights(&self, i: usize, w: &Weights) -> SurfacePoint {
+    pub(crate) fn eval_weights(&self, i: usize, w: &Weights) -> SurfacePoint {
         let c = self.patch(i);
         let geometry = self.kind.geometry();
         let (mut p, mut ds, mut dt) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
@@ -409,10 +414,10 @@ impl PatchTable {
     }
 
     /// [`Self::eval_weights`] through the nonzero weights only: bitwise the same result
-    /// (see [`basis::SparseWeights`]; the AVX path multiplies and adds lane by lane, with
+    /// (see `basis::SparseWeights`; the AVX path multiplies and adds lane by lane, with
     /// no fused operations, in the same order), faster where weights vanish (edges).
     #[inline]
-    pub fn eval_sparse(&self, i: usize, s: &basis::SparseWeights) -> SurfacePoint {
+    pub(crate) fn eval_sparse(&self, i: usize, s: &basis::SparseWeights) -> SurfacePoint {
         let c = self.patch(i);
         #[cfg(target_arch = "x86_64")]
         let [p, ds, dt] = if std::arch::is_x86_feature_detected!("avx") {

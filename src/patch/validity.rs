@@ -67,16 +67,26 @@ pub enum Verdict {
     Valid,
     /// J < 0 at (s, t) (b = (1 − s − t, s, t)), by direct f64 evaluation of the patch:
     /// `jacobian` is J there.
-    Folded { s: f64, t: f64, jacobian: f64 },
-    /// Neither proved nor refuted within [`DEEP_DEPTH`] and [`DEEP_CELLS`].
+    Folded {
+        /// Barycentric coordinate b1 of the point.
+        s: f64,
+        /// Barycentric coordinate b2 of the point.
+        t: f64,
+        /// J at the point (negative).
+        jacobian: f64,
+    },
+    /// Neither proved nor refuted within `DEEP_DEPTH` and `DEEP_CELLS`.
     Undecided,
 }
 
 /// Verdicts counted over patches.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct PatchCounts {
+    /// Patches proved valid.
     pub valid: usize,
+    /// Patches found folded.
     pub folded: usize,
+    /// Patches left undecided.
     pub undecided: usize,
 }
 

@@ -24,9 +24,9 @@ pub struct Camera {
     /// Centre of the bounding box, in (right, up, towards) coordinates.
     pub centre: DVec3,
     /// Half side of the square view (half the larger extent across the view, with
-    /// [`MARGIN`]).
+    /// `MARGIN`).
     pub half_extent: f64,
-    /// Half of the depth range (with [`DEPTH_MARGIN`]).
+    /// Half of the depth range (with `DEPTH_MARGIN`).
     pub half_depth: f64,
 }
 

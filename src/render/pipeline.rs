@@ -66,8 +66,11 @@ pub enum IndexCount<'a> {
 /// What [`draw`] draws: vertices of [`vertex_layout`] and `u32` triangle indices.
 #[derive(Clone, Copy, Debug)]
 pub struct Geometry<'a> {
+    /// The vertex buffer.
     pub vertices: &'a wgpu::Buffer,
+    /// The index buffer.
     pub indices: &'a wgpu::Buffer,
+    /// How many indices to draw.
     pub count: IndexCount<'a>,
 }
 

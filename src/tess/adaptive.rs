@@ -6,11 +6,11 @@
 //! so the output is watertight by construction.
 //!
 //! ```
-//! use g1tess::eval::cpu::CpuEvaluator;
-//! use g1tess::mesh::{LoadOptions, Mesh};
-//! use g1tess::patch::{PatchTable, Scheme, SchemeOptions};
-//! use g1tess::tess::adaptive::{InnerRule, Levels};
-//! use g1tess::tess::stitch::{stitch_plan, StitchPlan};
+//! use g1tess::CpuEvaluator;
+//! use g1tess::{LoadOptions, Mesh};
+//! use g1tess::{PatchTable, Scheme, SchemeOptions};
+//! use g1tess::{InnerRule, Levels};
+//! use g1tess::{stitch_plan, StitchPlan};
 //!
 //! let mesh = Mesh::load("sphere320", &LoadOptions::default())?;
 //! let adjacency = mesh.adjacency();
@@ -264,6 +264,7 @@ impl ToleranceOptions {
 /// Levels chosen for a tolerance, with their measured deviation.
 #[derive(Clone, Debug)]
 pub struct ToleranceLevels {
+    /// The chosen edge and inner levels.
     pub levels: Levels,
     /// The measurement of the final levels.
     pub deviation: Deviation,

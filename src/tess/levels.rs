@@ -50,7 +50,9 @@ pub struct EdgeInfo {
 /// (triangle).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Levels {
+    /// Level of each edge, in 1..=[`MAX_LEVEL`].
     pub edges: Vec<u32>,
+    /// Inner level of each patch, in 1..=[`MAX_LEVEL`].
     pub inner: Vec<u32>,
 }
 

@@ -68,8 +68,11 @@ const NONE: u32 = u32::MAX;
 /// One vertex record of the stitched mesh: a shared position with the normal of one side.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VertexRecord<V = DVec3> {
+    /// The shared position.
     pub position: V,
+    /// The unit normal of the patch on this record's side.
     pub normal: V,
+    /// Index of the shared position.
     pub position_id: u32,
 }
 
@@ -77,14 +80,18 @@ pub struct VertexRecord<V = DVec3> {
 /// coordinates and colour (red, green, blue, alpha); the parts the input has not are 0.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RecordAttributes {
+    /// Texture coordinates (u, v).
     pub uv: [f32; 2],
+    /// Colour: red, green, blue, alpha.
     pub color: [f32; 4],
 }
 
 /// What stitching found in the input topology.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct StitchReport {
+    /// Edges used by one triangle.
     pub boundary_edges: usize,
+    /// Edges used by three or more triangles.
     pub nonmanifold_edges: usize,
     /// Edges whose triangles disagree on an end normal or an end's attributes (creases,
     /// UV seams): their samples get one record per triangle.
@@ -96,6 +103,7 @@ pub struct StitchReport {
 /// The numbering of a stitched grid output, from the topology alone.
 #[derive(Clone, Debug)]
 pub struct StitchPlan {
+    /// Grid level of every patch.
     pub level: u32,
     /// Shared positions.
     pub positions: usize,
@@ -103,6 +111,7 @@ pub struct StitchPlan {
     pub records: usize,
     /// Output triangles: level² per patch.
     pub triangles: usize,
+    /// What stitching found in the input topology.
     pub report: StitchReport,
     tris: Vec<[u32; 3]>,
     vertices: usize,
@@ -162,7 +171,7 @@ impl StitchPlan {
     }
 
     /// Plans the stitched output of `mesh` with a level per edge and an inner level per
-    /// patch ([`Levels`]; the pattern of each patch is [`layout`]'s). Where every edge and
+    /// patch ([`Levels`]; the pattern of each patch is `layout`'s). Where every edge and
     /// inner level are equal this is [`StitchPlan::new`] of that level: the same
     /// numbering, evaluated on the grid.
     pub fn with_levels(mesh: &Mesh, adjacency: &Adjacency, levels: &Levels) -> Result<StitchPlan> {
@@ -338,12 +347,12 @@ impl StitchPlan {
     }
 
     /// Whether the output records carry texture coordinates
-    /// ([`RecordAttributes::uv`]).
+    /// (`RecordAttributes::uv`).
     pub fn has_uvs(&self) -> bool {
         self.attrs.as_ref().is_some_and(|a| a.uvs.is_some())
     }
 
-    /// Whether the output records carry colours ([`RecordAttributes::color`]).
+    /// Whether the output records carry colours (`RecordAttributes::color`).
     pub fn has_colors(&self) -> bool {
         self.attrs.as_ref().is_some_and(|a| a.colors.is_some())
     }
@@ -365,7 +374,7 @@ impl StitchPlan {
 
     /// Whether every patch is the grid of [`level`](Self::level) (evaluated with
     /// [`Pattern::Grid`], samples in grid order); otherwise patches have their own
-    /// patterns, evaluated through [`Pattern::Points`] in [`layout`]'s local order.
+    /// patterns, evaluated through [`Pattern::Points`] in `layout`'s local order.
     pub fn is_uniform(&self) -> bool {
         self.adaptive.is_none()
     }
@@ -406,7 +415,7 @@ impl StitchPlan {
     }
 
     /// Barycentric coordinates of patch `p`'s samples in its sample order (grid order for a
-    /// uniform plan, [`layout`]'s local order otherwise), appended to `out`.
+    /// uniform plan, `layout`'s local order otherwise), appended to `out`.
     pub fn patch_points(&self, p: usize, out: &mut Vec<[f64; 3]>) {
         match &self.adaptive {
             Some(_) => {
@@ -579,6 +588,7 @@ struct LocalScratch {
 /// What the stitcher hands to a [`StitchSink`] for one patch. The fields a sink does not
 /// ask for in [`StitchSink::needs`] are empty.
 pub struct PatchOut<'a, V = DVec3> {
+    /// Index of the patch (its triangle in the mesh).
     pub patch: usize,
     /// Positions first appearing in this patch, in id order ([`Needs::positions`]).
     pub new_positions: &'a [V],
@@ -610,6 +620,7 @@ pub struct Needs {
 }
 
 impl Needs {
+    /// Every part.
     pub const ALL: Needs = Needs {
         positions: true,
         triangles: true,
@@ -629,6 +640,7 @@ pub trait StitchSink<V = DVec3> {
     fn needs(&self) -> Needs {
         Needs::ALL
     }
+    /// Takes the output of one patch; patches come in order.
     fn patch(&mut self, out: &PatchOut<'_, V>) -> Result<()>;
 }
 
@@ -1320,7 +1332,7 @@ impl<'a> PatchRuns<'a> {
 /// Evaluates `table` on the grid of `plan.level` (a uniform plan; the patterns of a
 /// non-uniform plan through [`Pattern::Points`], a run of patches at a time) with `evaluator` in the precision `V`
 /// ([`Vector::evaluate`]: f32 runs the evaluator's native f32 path) and stitches the result
-/// into `sink`; returns the largest snap distance ([`Stitcher::max_snap`]). `progress`
+/// into `sink`; returns the largest snap distance (`Stitcher::max_snap`). `progress`
 /// gets the phase "evaluating" over the patches, advanced chunk by chunk.
 pub fn stitch_into<V: Vector>(
     plan: &StitchPlan,

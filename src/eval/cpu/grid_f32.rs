@@ -33,7 +33,9 @@ pub const PIPELINE_SAMPLES: usize = 1 << 16;
 /// each block in two halves), else [`LANES`].
 #[derive(Clone, Debug)]
 pub struct GridWeightsF32 {
+    /// The patch kind the weights are for.
     pub kind: crate::patch::PatchKind,
+    /// The grid level.
     pub level: u32,
     /// Samples per patch.
     pub per: usize,

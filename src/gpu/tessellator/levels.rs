@@ -23,7 +23,9 @@ pub enum LevelSource<'a> {
     /// [`crate::gpu::screen::LevelPass`] writes it; inner levels by `rule`. Levels are
     /// clamped to 1..=max_level on the device.
     Device {
+        /// The level buffer: one u32 per edge.
         levels: &'a wgpu::Buffer,
+        /// How each patch's inner level follows from its three edge levels.
         rule: InnerRule,
     },
     /// Levels on the host (edge and inner levels in 1..=max_level), uploaded.
@@ -64,8 +66,9 @@ struct LvUniform {
 /// Upper bounds of one per-edge tessellation with levels up to `max_level`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LevelCapacity {
+    /// The level cap these bounds hold for.
     pub max_level: u32,
-    /// Vertex records at most (the exact count is at [`LV_STATE_RECORDS`] on the device).
+    /// Vertex records at most (the exact count is at `LV_STATE_RECORDS` on the device).
     pub vertices: u64,
     /// Indices at most (the exact count is in the indirect arguments).
     pub indices: u64,
@@ -339,7 +342,7 @@ impl GpuTessellator {
     /// Records the tessellation with a level per edge into `encoder`, with nothing read
     /// back: inner levels, the prefix sums that number the output
     /// ([`crate::tess::stitch::StitchPlan::with_levels`]'s numbering exactly), the
-    /// samples, the triangles ([`crate::tess::layout`]'s pattern) and the indirect draw
+    /// samples, the triangles (`crate::tess::layout`'s pattern) and the indirect draw
     /// arguments are all computed on the device. Buffers are sized for levels up to
     /// `max_level` (levels above it are clamped to it) and reused while large enough;
     /// call [`GpuTessellator::vertices`] and [`GpuTessellator::indices`] again after this.
@@ -353,7 +356,7 @@ impl GpuTessellator {
     /// # fn demo(
     /// #     device: &wgpu::Device,
     /// #     queue: &wgpu::Queue,
-    /// #     tess: &mut g1tess::gpu::tessellator::GpuTessellator,
+    /// #     tess: &mut g1tess::GpuTessellator,
     /// #     // LevelPass bindings: positions (vec4<f32> per vertex), edges (the two
     /// #     // vertex ids of each adjacency edge), levels (u32 per edge, STORAGE).
     /// #     positions: &wgpu::Buffer,
@@ -363,10 +366,10 @@ impl GpuTessellator {
     /// #     edge_count: u32,
     /// #     view_proj: glam::DMat4,
     /// # ) -> g1tess::Result<()> {
-    /// use g1tess::gpu::tessellator::LevelSource;
-    /// use g1tess::tess::adaptive::InnerRule;
-    /// use g1tess::tess::screen::ScreenView;
-    /// use g1tess::gpu::screen::{LevelParams, LevelPass};
+    /// use g1tess::LevelSource;
+    /// use g1tess::InnerRule;
+    /// use g1tess::ScreenView;
+    /// use g1tess::{LevelParams, LevelPass};
     ///
     /// let pass = LevelPass::new(device)?; // once
     /// let max_level = 16;
@@ -515,7 +518,7 @@ impl GpuTessellator {
     }
 
     /// The state of the last per-edge tessellation (u32): totals at offset 0,
-    /// draw arguments at [`LV_STATE_DRAW`], vertex records at [`LV_STATE_RECORDS`]; `None`
+    /// draw arguments at `LV_STATE_DRAW`, vertex records at `LV_STATE_RECORDS`; `None`
     /// before the first.
     pub fn level_state(&self) -> Option<&wgpu::Buffer> {
         self.levels.as_ref().map(|l| &l.state)

@@ -99,7 +99,7 @@ pub const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
     wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
 
 /// The layout of [`GpuTessellator::vertices`] for a render pipeline: stride 24 bytes, per
-/// vertex, [`VERTEX_ATTRIBUTES`].
+/// vertex, `VERTEX_ATTRIBUTES`.
 pub fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     wgpu::VertexBufferLayout {
         array_stride: VERTEX_BYTES,
@@ -111,7 +111,7 @@ pub fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
 /// The level-independent numbering of the stitched output (module documentation).
 #[derive(Clone, Debug)]
 pub struct Topology {
-    /// [`TOPO_STRIDE`] u32 per patch.
+    /// `TOPO_STRIDE` u32 per patch.
     pub table: Vec<u32>,
     /// Corner records (distinct (vertex, corner normal) pairs).
     pub corner_records: u32,
@@ -119,6 +119,7 @@ pub struct Topology {
     pub edge_blocks: u32,
     /// Blocks whose positions are copied from the owner's (split normals).
     pub copied_blocks: u32,
+    /// Patches (triangles of the mesh).
     pub patches: usize,
     /// Edge (index in the adjacency) of each record block, in creation order.
     pub block_edge: Vec<u32>,
@@ -140,7 +141,7 @@ pub struct Rec {
 impl Topology {
     /// The table of `mesh` (whose adjacency is `adjacency`), numbered as
     /// [`crate::tess::stitch::StitchPlan::new`] numbers the output: the same
-    /// [`Numbering`], without attributes (the vertices carry none).
+    /// `Numbering`, without attributes (the vertices carry none).
     pub fn new(mesh: &Mesh, adjacency: &Adjacency) -> Result<Topology> {
         let nf = mesh.triangles.len();
         if nf as u64 >= u32::MAX as u64 / 4 {
@@ -155,7 +156,7 @@ impl Topology {
 
     /// The table of `numbering` (of a mesh with `edges` adjacency edges): every item's
     /// (a, b, c) and flags, per patch.
-    pub fn from_numbering(numbering: &Numbering, edges: usize) -> Topology {
+    pub(crate) fn from_numbering(numbering: &Numbering, edges: usize) -> Topology {
         let rec = &numbering.records;
         let nf = numbering.patches();
         let abc = |item: Item| [item.a, item.b, item.c];
@@ -201,7 +202,7 @@ impl Topology {
     }
 
     /// The totals: every corner record, edge block and interior (the end of the order).
-    pub fn end(&self) -> Item {
+    pub(crate) fn end(&self) -> Item {
         Item {
             a: self.corner_records,
             b: self.edge_blocks,
@@ -234,7 +235,7 @@ impl Topology {
     }
 
     /// The triangles of every patch at `level` as record ids, in the order the GPU writes
-    /// them ([`grid_triangle_index`]); the CPU mirror of the index buffer.
+    /// them (`grid_triangle_index`); the CPU mirror of the index buffer.
     pub fn triangles(&self, level: u32) -> Vec<[u32; 3]> {
         let n = level.max(1);
         let mut out = vec![[0u32; 3]; self.patches * (n * n) as usize];
@@ -319,6 +320,7 @@ pub fn level_grid_base(l: u32) -> u64 {
 /// What one tessellation produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TessCounts {
+    /// The grid level of every patch.
     pub level: u32,
     /// Vertex records written (entries of [`GpuTessellator::vertices`]).
     pub vertices: u32,
@@ -327,6 +329,7 @@ pub struct TessCounts {
 }
 
 impl TessCounts {
+    /// Triangles written (indices / 3).
     pub fn triangles(&self) -> u32 {
         self.indices / 3
     }
@@ -418,10 +421,12 @@ impl GpuTessellator {
         &self.topology
     }
 
+    /// How the patches of its table are evaluated.
     pub fn kind(&self) -> PatchKind {
         self.kind
     }
 
+    /// The working precision of its evaluation.
     pub fn precision(&self) -> Precision {
         self.precision
     }

@@ -176,7 +176,7 @@ impl GpuTessellator {
     /// Records, after [`GpuTessellator::tessellate`] in the same submission, the extent of
     /// the surface along three directions into [`GpuTessellator::bounds`]: the largest
     /// `p · axes[k]` and the largest `−p · axes[k]` over the vertices, as order-preserving
-    /// keys ([`decode_bounds`]). An aggregate for fitting a camera (24 bytes).
+    /// keys (`decode_bounds`). An aggregate for fitting a camera (24 bytes).
     pub fn record_bounds(
         &mut self,
         queue: &wgpu::Queue,

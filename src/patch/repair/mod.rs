@@ -28,12 +28,11 @@
 //! measurements behind its constants are in `docs/repair.md`.
 //!
 //! ```
-//! use g1tess::patch::repair::{repair, RepairOptions};
-//! use g1tess::patch::{validity, PatchTable, Scheme, SchemeOptions};
-//! let mesh = g1tess::mesh::generators::icosphere(2);
+//! use g1tess::{check_table, generators, repair, RepairOptions, Verdict};
+//! use g1tess::{PatchTable, Scheme, SchemeOptions};
+//! let mesh = generators::icosphere(2);
 //! let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default())?;
-//! let counts = validity::count(&table);
-//! assert_eq!(counts.valid, mesh.triangles.len());
+//! assert!(check_table(&table).iter().all(|v| *v == Verdict::Valid));
 //! // Nothing folds, so the repair leaves the mesh bit for bit as it is.
 //! let (same, report) = repair(&mesh, Scheme::G1, &RepairOptions::default())?;
 //! assert_eq!(same.corner_normals, mesh.corner_normals);
@@ -62,8 +61,8 @@ use crate::Result;
 /// Options of [`repair`].
 ///
 /// ```
-/// use g1tess::patch::repair::RepairOptions;
-/// use g1tess::patch::SchemeOptions;
+/// use g1tess::RepairOptions;
+/// use g1tess::SchemeOptions;
 /// // The default: the schemes' default options (Phong's α = 3/4).
 /// assert_eq!(RepairOptions::default().scheme_options.phong_alpha, 0.75);
 /// let opts = RepairOptions::default().with_scheme_options(SchemeOptions { phong_alpha: 0.5 });
@@ -88,8 +87,9 @@ impl RepairOptions {
 /// What a repair changed.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct RepairReport {
-    /// Verdicts before and after.
+    /// Verdicts before.
     pub before: PatchCounts,
+    /// Verdicts after.
     pub after: PatchCounts,
     /// Vertices with at least one changed normal.
     pub vertices_touched: usize,
