@@ -17,7 +17,10 @@ const LEVEL: u32 = 16;
 fn kernels(c: &mut Criterion) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/spot.obj");
     let mesh = Mesh::load(path, &LoadOptions::default()).expect("spot.obj");
-    let gpu = match GpuContext::shared().and_then(|ctx| GpuEvaluator::new(ctx, Precision::F32)) {
+    let gpu = match GpuContext::new()
+        .map(std::sync::Arc::new)
+        .and_then(|ctx| GpuEvaluator::new(ctx, Precision::F32))
+    {
         Ok(g) => Some(g),
         Err(e) => {
             eprintln!("no GPU benches: {e}");

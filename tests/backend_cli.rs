@@ -60,7 +60,7 @@ fn gpu_without_a_driver_is_one_line_error() {
 #[test]
 fn gpu_backend_names_its_adapter_or_says_there_is_none() {
     let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
-    let precisions: &[&str] = match g1tess::GpuContext::shared() {
+    let precisions: &[&str] = match crate::common::shared_gpu() {
         Ok(_) => &["f32", "f64"],
         Err(e) => {
             assert!(!ci, "CI=true and no GPU adapter: {e}");
@@ -157,7 +157,7 @@ fn auto_prefers_the_cpu_to_a_software_adapter() {
 #[test]
 fn gpu_run_prints_no_error_line_without_xdg_runtime_dir() {
     let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
-    if let Err(e) = g1tess::GpuContext::shared() {
+    if let Err(e) = crate::common::shared_gpu() {
         assert!(!ci, "CI=true and no GPU adapter: {e}");
         eprintln!("expected: no GPU adapter ({e}); the no-adapter cases are tested above");
         return;

@@ -37,7 +37,7 @@ fn check_rate(r: &serde_json::Value, samples: f64, roofline: f64) {
 #[test]
 fn bench_json_rows_and_rates_are_consistent() {
     let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
-    let context = g1tess::GpuContext::shared();
+    let context = crate::common::shared_gpu();
     let gpu = context.is_ok();
     let software = context.is_ok_and(|c| c.info.device_type == wgpu::DeviceType::Cpu);
     assert!(gpu || !ci, "CI=true and no GPU adapter");
@@ -142,7 +142,7 @@ fn bench_gpu_check_rows_are_consistent() {
         "--json",
         "--quiet",
     ];
-    if let Err(e) = g1tess::GpuContext::shared() {
+    if let Err(e) = crate::common::shared_gpu() {
         assert!(!ci, "CI=true and no GPU adapter: {e}");
         let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
             .args(args)

@@ -16,7 +16,7 @@ use g1tess::{PatchTable, Scheme};
 
 /// The shared GPU context, or None (the test prints SKIP) without an adapter.
 fn context() -> Option<Arc<GpuContext>> {
-    match GpuContext::shared() {
+    match crate::common::shared_gpu() {
         Ok(c) => Some(c),
         Err(e) => {
             eprintln!("SKIP: no GPU adapter ({e})");

@@ -9,7 +9,7 @@ use std::process::Command;
 
 /// Whether a Vulkan device is there; fails under CI=true when it is not.
 fn gpu_or_skip(test: &str) -> bool {
-    match g1tess::GpuContext::shared() {
+    match crate::common::shared_gpu() {
         Ok(_) => true,
         Err(e) => {
             if std::env::var("CI").is_ok_and(|v| v == "true") {
@@ -160,7 +160,7 @@ fn render_refuses_what_the_device_cannot_draw() {
     if !gpu_or_skip("render_refuses_what_the_device_cannot_draw") {
         return;
     }
-    let gpu = g1tess::GpuContext::shared().unwrap();
+    let gpu = crate::common::shared_gpu().unwrap();
     // Three panels side by side in one texture row, and at most 4096 pixels a side.
     let max = (gpu.device.limits().max_texture_dimension_2d / 3).min(4096);
     let e = render_fails(&["sphere320", "--size", &(max + 1).to_string()]);

@@ -393,7 +393,7 @@ fn gpu_evaluator(a: &BenchArgs) -> (Option<GpuEvaluator>, Option<String>) {
     if a.no_gpu {
         return (None, Some("--no-gpu".to_string()));
     }
-    match GpuContext::shared().and_then(|c| GpuEvaluator::new(c, a.precision)) {
+    match crate::cli::common::shared_gpu().and_then(|c| GpuEvaluator::new(c, a.precision)) {
         Ok(mut g) => {
             g.shader_runtime_checks = a.gpu_runtime_checks;
             g.patch_loop &= !a.gpu_thread_per_sample;
@@ -846,7 +846,7 @@ pub fn run_gpu_check(a: &BenchArgs) -> anyhow::Result<()> {
         a.levels.iter().all(|&l| l >= 1),
         "--levels must be at least 1"
     );
-    let ctx = GpuContext::shared()?;
+    let ctx = crate::cli::common::shared_gpu()?;
     let mut gpu = GpuEvaluator::new(ctx.clone(), a.precision)?;
     gpu.shader_runtime_checks = a.gpu_runtime_checks;
     gpu.patch_loop &= !a.gpu_thread_per_sample;

@@ -1,6 +1,10 @@
 //! Arguments shared by every command that reads a mesh.
 
+#[cfg(feature = "gpu")]
+use crate::gpu::GpuContext;
 use clap::Args;
+#[cfg(feature = "gpu")]
+use std::sync::{Arc, OnceLock};
 
 use crate::mesh::{LoadOptions, Mesh, NormalWeighting};
 use crate::patch::repair::{repair, repair_line, RepairOptions, RepairReport};
@@ -169,9 +173,8 @@ impl LazyGpu {
     fn open(&self) -> crate::Result<Box<dyn crate::eval::Evaluator>> {
         use crate::eval::cpu::CpuEvaluator;
         use crate::gpu::eval::GpuEvaluator;
-        use crate::gpu::GpuContext;
         let gpu = || -> crate::Result<GpuEvaluator> {
-            let ctx = GpuContext::shared()?;
+            let ctx = crate::cli::common::shared_gpu()?;
             let ev = GpuEvaluator::new(ctx.clone(), self.precision)?;
             if !self.quiet {
                 eprintln!("gpu: {} ({})", ctx.describe(), self.precision);
@@ -577,6 +580,21 @@ impl Budget {
             need,
             &format!("{} triangles", human_count(t)),
         )
+    }
+}
+
+/// The command line's GPU: one context per process, opened on first use (device creation is
+/// slow on software drivers); the error, if any, is remembered and returned every time.
+#[cfg(feature = "gpu")]
+pub fn shared_gpu() -> crate::Result<Arc<GpuContext>> {
+    static SHARED: OnceLock<crate::Result<Arc<GpuContext>>> = OnceLock::new();
+    match SHARED.get_or_init(|| GpuContext::new().map(Arc::new)) {
+        Ok(ctx) => Ok(ctx.clone()),
+        Err(crate::Error::NoAdapter { detail, message }) => Err(crate::Error::NoAdapter {
+            detail: detail.clone(),
+            message: message.clone(),
+        }),
+        Err(e) => Err(crate::Error::Gpu(e.to_string())),
     }
 }
 

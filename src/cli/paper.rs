@@ -156,8 +156,8 @@ fn sweep(ctx: &PaperRun) -> anyhow::Result<()> {
 /// (`normals_<mesh>.png`). Without a Vulkan device the step says so and is skipped.
 fn normal_pictures(ctx: &PaperRun) -> anyhow::Result<()> {
     use crate::patch::Scheme;
-    use crate::render::{device, RenderOptions};
-    if let Err(e) = device() {
+    use crate::render::RenderOptions;
+    if let Err(e) = crate::cli::common::shared_gpu() {
         if !ctx.quiet {
             eprintln!("skipped the normal-field pictures: {e}");
         }

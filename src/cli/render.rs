@@ -19,8 +19,8 @@ use crate::mesh::Mesh;
 use crate::patch::repair::{repair, repair_line, RepairOptions};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 use crate::render::{
-    device, max_panel, render_panels, render_tessellated, write_png, RenderOptions, Row,
-    SurfaceSize, MIN_PANEL,
+    max_panel, render_panels, render_tessellated, write_png, RenderOptions, Row, SurfaceSize,
+    MIN_PANEL,
 };
 use crate::tess::stitch::stitch;
 
@@ -190,7 +190,7 @@ fn scheme_panels(
     evaluator: &dyn Evaluator,
 ) -> anyhow::Result<crate::render::Panels> {
     if let Some(precision) = evaluator.gpu_precision() {
-        let gpu = device()?;
+        let gpu = crate::cli::common::shared_gpu()?;
         let mut tess = GpuTessellator::new(&gpu.device, &gpu.queue, mesh, table, precision)?;
         // Levels whose buffers exceed the device's storage binding limit go the host way.
         if tess.check_level(level).is_ok() {
@@ -198,7 +198,11 @@ fn scheme_panels(
         }
     }
     let (surface, _, _) = stitch(mesh, table, evaluator, level)?;
-    Ok(render_panels(&surface, opts)?)
+    Ok(render_panels(
+        &*crate::cli::common::shared_gpu()?,
+        &surface,
+        opts,
+    )?)
 }
 
 /// Renders `schemes` of `mesh` (one row each), evaluated by `evaluator`, into `output`;
@@ -257,7 +261,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     );
     anyhow::ensure!(a.level != Some(0), "--level must be at least 1");
     // The render pass needs the device whatever the backend: open it before any work.
-    let gpu = device().map_err(|e| {
+    let gpu = crate::cli::common::shared_gpu().map_err(|e| {
         anyhow::anyhow!("render draws on a Vulkan device and none could be opened ({e})")
     })?;
     let max = max_panel(&gpu);

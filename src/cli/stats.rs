@@ -58,9 +58,8 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
     use crate::analysis::stats::{EdgeStats, StatsReport};
     use crate::eval::Evaluator;
     use crate::gpu::eval::GpuEvaluator;
-    use crate::gpu::GpuContext;
     let precision = a.backend.precision.unwrap_or(crate::gpu::Precision::F64);
-    let ctx = GpuContext::shared()?;
+    let ctx = crate::cli::common::shared_gpu()?;
     let gpu = GpuEvaluator::new(ctx.clone(), precision)?;
     if !(a.backend.quiet || a.quiet) {
         eprintln!("gpu: {} ({precision})", ctx.describe());

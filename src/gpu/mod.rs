@@ -3,11 +3,12 @@
 //! [`GpuContext`] opens an adapter of the platform's native backend ([`BACKENDS`]: Vulkan
 //! on Linux, Vulkan or DX12 on Windows, Metal on macOS; never silently GL), requests its full limits and [`wgpu::Features::SHADER_F64`] where offered, and records
 //! the adapter's name and driver for reports. Work is done by free functions taking
-//! `(&Device, &Queue, ...)` (see [`crate::gpu::eval`]), so tests and other modules (picture
-//! rendering) can reuse one context:
+//! `(&Device, &Queue, ...)`, so a program opens one context (device creation is slow on
+//! software drivers) and shares it, in an `Arc`, between the evaluator, the tessellator and
+//! its own work:
 //!
 //! ```no_run
-//! let ctx = g1tess::GpuContext::shared()?;
+//! let ctx = std::sync::Arc::new(g1tess::GpuContext::new()?);
 //! eprintln!("gpu: {}", ctx.describe());
 //! let (device, queue) = (&ctx.device, &ctx.queue);
 //! # let _ = (device, queue);
@@ -29,7 +30,7 @@ pub mod tessellator;
 pub use crate::eval::Precision;
 pub use readback::read_buffer;
 
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 
 use crate::{Error, Result};
 
@@ -153,21 +154,6 @@ impl GpuContext {
             errors,
             lost,
         })
-    }
-
-    /// One context per process, opened on first use (tests and commands share it; device
-    /// creation is slow on software drivers). The error, if any, is remembered.
-    pub fn shared() -> Result<Arc<GpuContext>> {
-        static SHARED: OnceLock<Result<Arc<GpuContext>>> = OnceLock::new();
-        match SHARED.get_or_init(|| GpuContext::new().map(Arc::new)) {
-            Ok(ctx) => Ok(ctx.clone()),
-            Err(Error::NoAdapter { detail, message }) => Err(Error::NoAdapter {
-                detail: detail.clone(),
-                message: message.clone(),
-            }),
-            Err(Error::Gpu(m)) => Err(Error::Gpu(m.clone())),
-            Err(other) => Err(Error::Gpu(other.to_string())),
-        }
     }
 
     /// "NAME (BACKEND, DRIVER DRIVER_INFO, TYPE)", for reports.

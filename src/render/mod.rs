@@ -12,8 +12,6 @@
 //! tests; see `crate::gpu`), opened once per process by `device`.
 
 #[cfg(feature = "gpu")]
-use std::sync::Arc;
-
 use glam::DVec3;
 
 #[cfg(feature = "gpu")]
@@ -127,13 +125,6 @@ impl Panels {
         let i = 4 * (y as usize * w + c * self.panel as usize + x as usize);
         [self.rgba[i], self.rgba[i + 1], self.rgba[i + 2]]
     }
-}
-
-/// The process's GPU (the shared [`GpuContext`]), opened on first use; an error such as
-/// no Vulkan driver is remembered and returned every time.
-#[cfg(feature = "gpu")]
-pub fn device() -> Result<Arc<GpuContext>> {
-    GpuContext::shared()
 }
 
 /// Smallest panel side drawn (smaller requests are drawn at this size).

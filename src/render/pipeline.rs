@@ -5,12 +5,12 @@
 //! ([`render_tessellated`]: nothing but a 24-byte extent comes back before drawing) or
 //! a CPU surface uploaded into buffers of the same layout ([`render_panels_on`]); both
 //! go through [`draw`]. Everything here works on a `wgpu::Device` and `Queue`;
-//! [`render_panels`] runs it on the process's shared [`GpuContext`].
+//! [`render_panels`] runs it on a [`GpuContext`] the caller opened.
 
 use wgpu::util::DeviceExt;
 
 use super::camera::Camera;
-use super::{device, Panels, RenderOptions, BACKGROUND, RAMP, RAMP_SEGMENTS};
+use super::{Panels, RenderOptions, BACKGROUND, RAMP, RAMP_SEGMENTS};
 use crate::gpu::tessellator::{decode_bounds, vertex_layout, GpuTessellator, VERTEX_BYTES};
 use crate::gpu::GpuContext;
 use crate::tess::stitch::StitchedMesh;
@@ -75,12 +75,16 @@ pub struct Geometry<'a> {
 }
 
 /// Draws `mesh` (welded, with its record normals) in three panels coloured by n_x, n_y,
-/// n_z, on the process's shared GPU ([`device`]).
-pub fn render_panels(mesh: &StitchedMesh, opts: &RenderOptions) -> Result<Panels> {
+/// n_z, on `gpu`.
+pub fn render_panels(
+    gpu: &GpuContext,
+    mesh: &StitchedMesh,
+    opts: &RenderOptions,
+) -> Result<Panels> {
     if mesh.triangles.is_empty() {
         return Err(Error::Invalid("render: no triangles".into()));
     }
-    render_panels_on(&*device()?, mesh, opts)
+    render_panels_on(gpu, mesh, opts)
 }
 
 /// [`render_panels`] on a given GPU context: the surface (computed on the host) is

@@ -420,7 +420,7 @@ fn ci() -> bool {
 /// The shared context, or None (SKIP) without an adapter; with CI=true no adapter panics.
 #[cfg(feature = "gpu")]
 fn context() -> Option<Arc<GpuContext>> {
-    match GpuContext::shared() {
+    match crate::tests::common::shared_gpu() {
         Ok(c) => Some(c),
         Err(e) => {
             assert!(!ci(), "CI=true and no GPU adapter: {e}");

@@ -172,3 +172,19 @@ pub fn rust_files(dir: &std::path::Path) -> Vec<PathBuf> {
     out.sort();
     out
 }
+
+/// The tests' GPU: one context per test process, opened on first use (device creation is
+/// slow on software drivers); the error, if any, is remembered.
+#[cfg(feature = "gpu")]
+pub fn shared_gpu() -> crate::Result<std::sync::Arc<crate::GpuContext>> {
+    static SHARED: std::sync::OnceLock<Result<std::sync::Arc<crate::GpuContext>, String>> =
+        std::sync::OnceLock::new();
+    SHARED
+        .get_or_init(|| {
+            crate::GpuContext::new()
+                .map(std::sync::Arc::new)
+                .map_err(|e| e.to_string())
+        })
+        .clone()
+        .map_err(crate::Error::Invalid)
+}

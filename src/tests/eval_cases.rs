@@ -132,7 +132,7 @@ pub fn evaluators() -> Vec<(String, Box<dyn crate::Evaluator>)> {
 fn gpu_evaluators(out: &mut Vec<(String, Box<dyn crate::Evaluator>)>) {
     use crate::GpuEvaluator;
     use crate::Precision;
-    match GpuContext::shared() {
+    match crate::tests::common::shared_gpu() {
         Ok(ctx) => {
             for precision in [Precision::F32, Precision::F64] {
                 match GpuEvaluator::new(ctx.clone(), precision) {
@@ -154,7 +154,7 @@ fn gpu_evaluators(out: &mut Vec<(String, Box<dyn crate::Evaluator>)>) {
 /// The shared context, or None (SKIP) without an adapter; with CI=true no adapter panics.
 #[cfg(feature = "gpu")]
 pub fn context(test: &str) -> Option<Arc<GpuContext>> {
-    match GpuContext::shared() {
+    match crate::tests::common::shared_gpu() {
         Ok(c) => Some(c),
         Err(e) => {
             assert!(!ci(), "{test}: CI=true and no GPU adapter: {e}");

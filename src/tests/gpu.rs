@@ -45,7 +45,7 @@ fn ci() -> bool {
 
 /// The shared context, or None (SKIP) without an adapter; with CI=true no adapter panics.
 fn context() -> Option<Arc<GpuContext>> {
-    match GpuContext::shared() {
+    match crate::tests::common::shared_gpu() {
         Ok(c) => {
             eprintln!(
                 "GPU test running on: {} ({})",

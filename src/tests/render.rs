@@ -7,9 +7,7 @@
 
 use glam::DVec3;
 
-use crate::render::{
-    device, ramp, render_panels, render_tessellated, Panels, RenderOptions, BACKGROUND,
-};
+use crate::render::{ramp, render_panels, render_tessellated, Panels, RenderOptions, BACKGROUND};
 
 use crate::stitch;
 
@@ -25,7 +23,7 @@ use crate::{PatchTable, Scheme, SchemeOptions};
 
 /// Whether a Vulkan device is there; fails under CI=true when it is not.
 fn gpu_or_skip(test: &str) -> bool {
-    match device() {
+    match crate::tests::common::shared_gpu() {
         Ok(_) => true,
         Err(e) => {
             if std::env::var("CI").is_ok_and(|v| v == "true") {
@@ -41,7 +39,12 @@ fn panels(spec: &str, scheme: Scheme, size: u32) -> Panels {
     let mesh = Mesh::load(spec, &LoadOptions::default()).unwrap();
     let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
     let (w, _, _) = stitch(&mesh, &table, &CpuEvaluator::default(), 6).unwrap();
-    render_panels(&w, &front(size)).unwrap()
+    render_panels(
+        &crate::tests::common::shared_gpu().unwrap(),
+        &w,
+        &front(size),
+    )
+    .unwrap()
 }
 
 fn front(size: u32) -> RenderOptions {
@@ -56,7 +59,7 @@ fn front(size: u32) -> RenderOptions {
 fn panels_gpu(spec: &str, scheme: Scheme, size: u32) -> Panels {
     let mesh = Mesh::load(spec, &LoadOptions::default()).unwrap();
     let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
-    let gpu = device().unwrap();
+    let gpu = crate::tests::common::shared_gpu().unwrap();
     let mut tess =
         GpuTessellator::new(&gpu.device, &gpu.queue, &mesh, &table, Precision::F32).unwrap();
     render_tessellated(&gpu, &mut tess, 6, &front(size)).unwrap()
