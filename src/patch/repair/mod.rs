@@ -65,7 +65,8 @@ use crate::Result;
 /// use g1tess::SchemeOptions;
 /// // The default: the schemes' default options (Phong's α = 3/4).
 /// assert_eq!(RepairOptions::default().scheme_options.phong_alpha, 0.75);
-/// let opts = RepairOptions::default().with_scheme_options(SchemeOptions { phong_alpha: 0.5 });
+/// let opts =
+///     RepairOptions::default().with_scheme_options(SchemeOptions::default().with_phong_alpha(0.5));
 /// assert_eq!(opts.scheme_options.phong_alpha, 0.5);
 /// ```
 #[derive(Clone, Copy, Debug, Default)]
