@@ -11,7 +11,6 @@
 //! The device is an adapter of the platform's native backend (Vulkan on Linux, lavapipe in
 //! tests; see `crate::gpu`), opened once per process by `device`.
 
-#[cfg(feature = "gpu")]
 use glam::DVec3;
 
 #[cfg(feature = "gpu")]
