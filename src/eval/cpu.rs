@@ -183,7 +183,7 @@ impl Evaluator for CpuEvaluator {
     }
 
     /// The basis at every (from, to, sample) computed once per call (sparse, as
-    /// [`PatchTable::eval_sparse`] takes it), then rayon over the pairs: bitwise the
+    /// `PatchTable::eval_sparse` takes it), then rayon over the pairs: bitwise the
     /// values of [`Pattern::Points`] of `EdgePairs::points`, with no per-point lookup.
     /// Chunks hold whole pairs, about `chunk_samples` points.
     fn evaluate_edges(

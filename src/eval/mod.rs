@@ -229,7 +229,7 @@ pub fn evaluate_edges_via_points(
 /// What the continuity statistics need of one sample of an edge pattern (the sample on its
 /// two patches, points `p0, p1` and unit normals `n0, n1`): `cos = n0 · n1` and
 /// `gap2 = |p0 − p1|²`. `gap2` is always bitwise [`PairProducts::of`] (glam's
-/// `length_squared`, unfused, in its order); `cos` is within [`PAIR_COS_TOLERANCE`] of
+/// `length_squared`, unfused, in its order); `cos` is within `PAIR_COS_TOLERANCE` of
 /// [`PairProducts::of`] (a backend may compute it from the unnormalised normals, see
 /// [`Evaluator::evaluate_edge_products`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -333,7 +333,7 @@ pub struct SurfacePoint {
     pub ds: DVec3,
     /// ∂S/∂t.
     pub dt: DVec3,
-    /// Unit normal S_s × S_t / |S_s × S_t|, or the fallback described at [`unit_normal`].
+    /// Unit normal S_s × S_t / |S_s × S_t|, or the fallback described at `unit_normal`.
     pub n: DVec3,
 }
 

@@ -84,7 +84,7 @@ pub const DEVIATION_POINTS: [[f64; 3]; 10] = {
     out
 };
 
-/// Measured deviation of a stitched surface from its patches ([`measure_deviation`]).
+/// Measured deviation of a stitched surface from its patches (`measure_deviation`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Deviation {
     /// Largest over every measured point.

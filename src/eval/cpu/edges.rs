@@ -13,7 +13,7 @@ use crate::patch::PatchTable;
 
 /// Instruction set of the f64 edge kernel ([`Evaluator::evaluate_edges`] and
 /// [`Evaluator::evaluate_edge_products`]). Points are bitwise the same with every choice
-/// (each is bitwise [`PatchTable::eval_sparse`]); products are bitwise the same between the
+/// (each is bitwise `PatchTable::eval_sparse`); products are bitwise the same between the
 /// two lane kernels, and within the bound of [`Evaluator::evaluate_edge_products`] of
 /// those without lanes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -30,7 +30,7 @@ pub const PIPELINE_SAMPLES: usize = 1 << 16;
 /// Basis values of a grid level in f32, laid out for the fast path: for each block of
 /// `width` samples and each control point, `width` values of w, ∂w/∂s, ∂w/∂t (padding
 /// samples have weight 0), `width` 16 where the CPU has AVX-512F (the 8-lane kernels take
-/// each block in two halves), else [`LANES`].
+/// each block in two halves), else `LANES`.
 #[derive(Clone, Debug)]
 pub struct GridWeightsF32 {
     /// The patch kind the weights are for.
