@@ -2,15 +2,20 @@
 # Long fuzzing campaign: the in-process reader fuzzers of tests/fuzz.rs (OBJ, .pn, PLY, STL,
 # glTF, built-in specs, soups) with many more cases, and optionally more command lines.
 #
-#   scripts/fuzz.sh [EXECUTIONS] [CLI_CASES]
+#   scripts/fuzz.sh [EXECUTIONS] [CLI_CASES] [OUTPUT_PATH_CASES]
 #
 # EXECUTIONS (default 1000000) is split over the reader tests in the proportions of the
 # normal suite (OBJ 30 %, .pn 20 %, PLY 10 %, STL 8 %, glTF 7 %, specs 15 %, soups 10 %); CLI_CASES (default 1000) command lines are spawned.
+# OUTPUT_PATH_CASES (default 500) runs of the writing commands (tessellate to each format,
+# export-net, export-msh) take hostile output paths (tests/hardening_cli.rs): names with
+# newlines, escape sequences, bidi overrides or a byte that is not UTF-8, names of 1 to 400
+# bytes, symlinks to a file, a directory or nothing, directories, a path below a file.
 # Prints the executions per second. A failure prints the minimal failing input.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 total=${1:-1000000}
 cli=${2:-1000}
+paths=${3:-500}
 cargo test --release --no-run --quiet --test suite
 run() { # TEST CASES VAR
     local start end
@@ -32,3 +37,9 @@ end=$(date +%s.%N)
 awk -v n="$total" -v s="$start" -v e="$end" \
     'BEGIN { d = e - s; printf "readers: %d executions in %.1f s: %.0f /s\n", n, d, n / d }'
 run command_lines "$cli" FUZZ_CLI_CASES
+start=$(date +%s.%N)
+FUZZ_OUTPUT_CASES="$paths" cargo test --release --quiet --test suite -- --exact \
+    hardening_cli::output_path_mutants >/dev/null
+end=$(date +%s.%N)
+awk -v n="$paths" -v s="$start" -v e="$end" \
+    'BEGIN { d = e - s; printf "%-15s %9d cases %8.1f s %9.0f /s\n", "output_paths", n, d, n / d }'

@@ -31,6 +31,7 @@ use crate::patch::{PatchTable, Scheme, SchemeOptions};
 
 mod end_to_end;
 use super::common::whole_number;
+use super::out;
 use end_to_end::run_end_to_end;
 
 /// Bytes one sample writes: f32 position + f32 normal.
@@ -291,6 +292,9 @@ fn load_mesh(spec: &str) -> anyhow::Result<Mesh> {
 
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     if a.end_to_end {
+        if let Some(dir) = &a.dir {
+            check_dir(dir)?;
+        }
         return run_end_to_end(a);
     }
     if a.gpu_check {
@@ -321,7 +325,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
 
     let (mut gpu, gpu_note) = gpu_evaluator(a);
     if let Some(note) = &gpu_note {
-        bar.suspend(|| eprintln!("note: no GPU figures: {note}"));
+        bar.suspend(|| out::stderr_line(&format!("note: no GPU figures: {note}")));
     }
     let machine = Machine {
         cpu: cpu_model(),
@@ -353,7 +357,10 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         for &scheme in &schemes {
             let (table, build_s) = build_table(&mesh, scheme)?;
             for &level in &a.levels {
-                bar.set_message(format!("{} {scheme} level {level}", mesh.name));
+                bar.set_message(format!(
+                    "{} {scheme} level {level}",
+                    out::escape(&mesh.name)
+                ));
                 let times = bench.times(&table, level, gpu.as_mut())?;
                 rows.push(bench.row(&mesh, scheme, &table, build_s, level, times));
                 bar.inc(1);
@@ -363,11 +370,24 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let report = BenchReport { machine, rows };
     if a.json {
-        println!("{}", serde_json::to_string(&report)?);
+        out::stdout_json(&serde_json::to_string(&report)?)?;
     } else {
-        println!("{}", to_text(&report));
+        let mut report = report;
+        for row in &mut report.rows {
+            row.mesh = out::escape(&row.mesh).into_owned();
+        }
+        out::stdout_line(&to_text(&report))?;
     }
     Ok(())
+}
+
+/// Refuses a `--dir` that is not an existing directory, naming it, before any work.
+fn check_dir(dir: &std::path::Path) -> anyhow::Result<()> {
+    match std::fs::metadata(dir) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(_) => anyhow::bail!("--dir {}: not a directory", dir.display()),
+        Err(e) => anyhow::bail!("--dir {}: {e}", dir.display()),
+    }
 }
 
 /// A bar of `steps` steps on standard error, hidden when `quiet` or not a terminal.
@@ -851,7 +871,7 @@ pub fn run_gpu_check(a: &BenchArgs) -> anyhow::Result<()> {
     gpu.shader_runtime_checks = a.gpu_runtime_checks;
     gpu.patch_loop &= !a.gpu_thread_per_sample;
     if !a.quiet {
-        eprintln!("gpu: {}", ctx.describe());
+        out::stderr_line(&format!("gpu: {}", ctx.describe()));
     }
     let spec = a.meshes.first().map_or(DEFAULT_MESH, |m| m.as_str());
     let scheme = a.schemes.first().copied().unwrap_or(Scheme::G1);
@@ -881,7 +901,7 @@ pub fn run_gpu_check(a: &BenchArgs) -> anyhow::Result<()> {
     for &level in &a.levels {
         let samples = (grid_len(level) * table.len()) as u64;
         if !a.quiet {
-            eprintln!("bench: level {level}, {samples} samples");
+            out::stderr_line(&format!("bench: level {level}, {samples} samples"));
         }
         let d = best_time(min, || {
             gpu.time_grid(&table, level)?;
@@ -952,9 +972,11 @@ pub fn run_gpu_check(a: &BenchArgs) -> anyhow::Result<()> {
         rows,
     };
     if a.json {
-        println!("{}", serde_json::to_string(&report)?);
+        out::stdout_json(&serde_json::to_string(&report)?)?;
     } else {
-        println!("{}", gpu_check_text(&report));
+        let mut report = report;
+        report.mesh = out::escape(&report.mesh).into_owned();
+        out::stdout_line(&gpu_check_text(&report))?;
     }
     Ok(())
 }

@@ -3,6 +3,8 @@
 #[cfg(feature = "gpu")]
 use crate::gpu::GpuContext;
 use clap::Args;
+
+use super::out;
 #[cfg(feature = "gpu")]
 use std::sync::{Arc, OnceLock};
 
@@ -75,14 +77,9 @@ impl InputArgs {
     pub fn load_mesh(&self) -> anyhow::Result<Mesh> {
         let mesh = Mesh::load(&self.mesh, &self.load_options())?;
         for note in &mesh.load_report.notes {
-            eprintln!("note: {}: {note}", mesh.name);
+            out::stderr_line(&format!("note: {}: {note}", mesh.name));
         }
         Ok(mesh)
-    }
-
-    /// Loads the mesh ([`InputArgs::load_mesh`]) and builds the scheme's patch table.
-    pub fn load(&self) -> anyhow::Result<(Mesh, PatchTable, Option<String>)> {
-        self.prepare(self.load_mesh()?)
     }
 
     /// The mesh to work on (with `--repair-folds` the repaired one: its new creases are
@@ -98,6 +95,46 @@ impl InputArgs {
         };
         Ok((mesh, table, line))
     }
+}
+
+/// Significant decimal digits of an f32 in its normal range: 24 bits, log10(2^24).
+const F32_DIGITS: f64 = 7.224_719_895_935_548;
+
+/// Checks that f32 output (tessellate's files, render's surface) can hold `mesh`'s
+/// coordinates. Below f32's normal range (largest coordinate under 2^-126 ≈ 1.2e-38), f32
+/// keeps a fixed step of 2^-149 ≈ 1.4e-45 and loses relative precision: the returned note
+/// (one line, "note: NAME: ...") says how much. A mesh whose every coordinate rounds to 0 in
+/// f32 (all under about 7e-46) is refused: every vertex would be written as 0 0 0. Larger
+/// coordinates than f32 holds are refused where the samples are made (a non-finite f32).
+pub fn f32_range(mesh: &Mesh) -> anyhow::Result<Option<String>> {
+    let largest = mesh
+        .positions
+        .iter()
+        .flat_map(|p| p.to_array())
+        .fold(0.0f64, |m, c| m.max(c.abs()));
+    let step = f64::from(f32::from_bits(1)); // 2^-149, the smallest f32 step
+    let name = &mesh.name;
+    if largest == 0.0 || largest >= f64::from(f32::MIN_POSITIVE) {
+        return Ok(None);
+    }
+    anyhow::ensure!(
+        largest as f32 != 0.0,
+        "{name}: every coordinate rounds to 0 in f32 (the largest is {largest:.1e}; f32's \
+         smallest number is {step:.1e}), so every vertex would be written as 0 0 0; scale \
+         the mesh up"
+    );
+    let relative = step / largest;
+    // At the smallest subnormal one step is the whole value: no digit is left.
+    let digits = -relative.log10();
+    let digits = if digits > 0.0 { digits } else { 0.0 };
+    Ok(Some(format!(
+        "note: {name}: coordinates are at most {largest:.1e}, below f32's normal range \
+         ({:.1e}): f32 keeps steps of {step:.1e}, {relative:.1e} of the largest coordinate \
+         (about {:.1} significant digits instead of {F32_DIGITS:.1}); scale the mesh up for \
+         full precision",
+        f32::MIN_POSITIVE,
+        digits,
+    )))
 }
 
 /// Which evaluator runs.
@@ -177,7 +214,7 @@ impl LazyGpu {
             let ctx = crate::cli::common::shared_gpu()?;
             let ev = GpuEvaluator::new(ctx.clone(), self.precision)?;
             if !self.quiet {
-                eprintln!("gpu: {} ({})", ctx.describe(), self.precision);
+                out::stderr_line(&format!("gpu: {} ({})", ctx.describe(), self.precision));
             }
             Ok(ev)
         };
@@ -213,7 +250,7 @@ impl LazyGpu {
     fn note(&self, message: &str) {
         static SAID: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
         if !self.quiet && !SAID.swap(true, std::sync::atomic::Ordering::Relaxed) {
-            eprintln!("note: {message}");
+            out::stderr_line(&format!("note: {message}"));
         }
     }
 

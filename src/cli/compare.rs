@@ -2,6 +2,7 @@
 
 use clap::Args;
 
+use super::out;
 use super::BackendArgs;
 use crate::analysis::table1;
 use crate::mesh::{LoadOptions, NormalWeighting};
@@ -95,9 +96,14 @@ impl CompareArgs {
 pub fn run(a: &CompareArgs) -> anyhow::Result<()> {
     let reports = a.reports()?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&reports)?);
+        out::stdout_json(&serde_json::to_string_pretty(&reports)?)?;
     } else {
-        print!("{}", table1::to_markdown(&reports));
+        // The names as they are shown: escaped ([`out::escape`]).
+        let mut reports = reports;
+        for r in &mut reports {
+            r.mesh = out::escape(&r.mesh).into_owned();
+        }
+        out::stdout(&table1::to_markdown(&reports))?;
     }
     Ok(())
 }

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::common::{whole_number, MemoryArgs};
+use super::out;
 use super::progress;
 use super::InputArgs;
 use super::TEMP_FILES;
@@ -83,7 +84,7 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
     let repair = a.input.repair_folds;
     let (mesh, table, folds) = a.input.prepare(mesh)?;
     if let Some(line) = folds {
-        eprintln!("{line}");
+        out::stderr_line(&line);
     }
     let bar = progress::bar(nt, "placing nodes", "triangles", a.quiet);
     let summary = export_msh(
@@ -97,7 +98,7 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
     )?;
     bar.finish();
     if summary.nonpositive_jacobian_elements > 0 {
-        eprintln!(
+        out::stderr_line(&format!(
             "warning: {}: {} of {} elements of order {} may fold (their Jacobian bound is not \
              positive){}",
             mesh.name,
@@ -109,14 +110,14 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
             } else {
                 ""
             }
-        );
+        ));
     }
     if a.json {
         let mut v = serde_json::to_value(&summary)?;
         v["output"] = a.output.display().to_string().into();
-        println!("{v}");
+        out::stdout_json(&v.to_string())?;
     } else if !a.quiet {
-        eprintln!(
+        out::stderr_line(&format!(
             "wrote {}: {} triangles of order {} ({} nodes, {} crease and {} boundary lines); \
              min scaled Jacobian {:.4} (element {}), max distance to the surface {:.3e} \
              (element {})",
@@ -130,7 +131,7 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
             summary.min_scaled_jacobian_element,
             summary.max_distance,
             summary.max_distance_element
-        );
+        ));
     }
     Ok(())
 }

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::common::MemoryArgs;
+use super::out;
 use super::InputArgs;
 use super::TEMP_FILES;
 use crate::io::atomic;
@@ -47,13 +48,13 @@ pub fn run(a: &ExportNetArgs) -> anyhow::Result<()> {
     let table = crate::patch::PatchTable::build(&mesh, a.input.scheme, &a.input.scheme_options())?;
     write_nets(&a.output, &TEMP_FILES, &mesh, &table)?;
     if !a.quiet {
-        eprintln!(
+        out::stderr_line(&format!(
             "wrote {}: {} patches of {} control points ({})",
             a.output.display(),
             table.len(),
             table.stride,
             table.scheme
-        );
+        ));
     }
     Ok(())
 }

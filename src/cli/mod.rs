@@ -6,6 +6,7 @@ pub(crate) mod common;
 mod compare;
 mod export_msh;
 mod export_net;
+pub(crate) mod out;
 pub mod paper;
 mod progress;
 mod render;
@@ -233,11 +234,18 @@ fn usage_error(e: clap::Error) -> ExitCode {
             | ErrorKind::DisplayVersion
             | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
     ) {
-        let _ = e.print();
-        return if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
-            ExitCode::from(2)
-        } else {
-            ExitCode::SUCCESS
+        if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+            // On stderr: a failed write there is ignored.
+            let _ = e.print();
+            return ExitCode::from(2);
+        }
+        // Help and version on stdout: a failed write ends the run as any other does.
+        let printed = e
+            .print()
+            .and_then(|()| std::io::Write::flush(&mut std::io::stdout()));
+        return match printed {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(cause) => fail(&out::StdoutError(cause).into()),
         };
     }
     // clap's first paragraph: the message and what it lists (missing arguments, possible
@@ -265,9 +273,11 @@ fn usage_error(e: clap::Error) -> ExitCode {
     // clap quotes the argument as given: escape control characters (an argument must not
     // drive the terminal) and cut what it echoes (a 5 MB argument gives a short line).
     let first = quote_quoted(&format!("{first}{tips}"));
-    let sub = std::env::args()
+    // The arguments as the system gives them: one that is not UTF-8 is no command name.
+    let sub = std::env::args_os()
         .skip(1)
-        .find(|a| !a.starts_with('-'))
+        .find(|a| !a.as_encoded_bytes().starts_with(b"-"))
+        .and_then(|a| a.into_string().ok())
         .filter(|a| {
             <Cli as clap::CommandFactory>::command()
                 .get_subcommands()
@@ -277,7 +287,7 @@ fn usage_error(e: clap::Error) -> ExitCode {
         Some(sub) => format!("g1tess {sub}"),
         None => "g1tess".into(),
     };
-    eprintln!("error: {first} (see '{usage} --help')");
+    out::stderr_line(&format!("error: {first} (see '{usage} --help')"));
     ExitCode::from(2)
 }
 
@@ -304,10 +314,20 @@ pub fn main() -> ExitCode {
     };
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            let chain: Vec<String> = e.chain().map(|c| c.to_string()).collect();
-            eprintln!("error: {}", chain.join(": "));
-            ExitCode::FAILURE
-        }
+        Err(e) => fail(&e),
     }
+}
+
+/// The failed run's one line on stderr, "error: " and the chain of causes, its control
+/// characters escaped (names in library messages too); exit status 1. A reader of
+/// standard output that went away (broken pipe) ends the run quietly.
+fn fail(e: &anyhow::Error) -> ExitCode {
+    let broken_pipe = e
+        .downcast_ref::<out::StdoutError>()
+        .is_some_and(out::StdoutError::is_broken_pipe);
+    if !broken_pipe {
+        let chain: Vec<String> = e.chain().map(|c| c.to_string()).collect();
+        out::stderr_line(&format!("error: {}", chain.join(": ")));
+    }
+    ExitCode::FAILURE
 }

@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use super::out;
 use super::TEMP_FILES;
 use crate::analysis::distance::SweepPlan;
 use crate::analysis::table1;
@@ -102,7 +103,11 @@ pub fn run(ctx: &PaperRun) -> anyhow::Result<()> {
         let t = std::time::Instant::now();
         (step.run)(ctx).map_err(|e| e.context(step.name))?;
         if !ctx.quiet {
-            eprintln!("{}: {:.1} s", step.name, t.elapsed().as_secs_f64());
+            out::stderr_line(&format!(
+                "{}: {:.1} s",
+                step.name,
+                t.elapsed().as_secs_f64()
+            ));
         }
     }
     Ok(())
@@ -119,7 +124,7 @@ fn table(ctx: &PaperRun) -> anyhow::Result<()> {
         ctx.evaluator.as_ref(),
     )?;
     let md = table1::to_markdown(&reports);
-    println!("{md}");
+    out::stdout_line(&md)?;
     let md_path = ctx.out.join("table1.md");
     write_atomic(&md_path, &TEMP_FILES, |w| {
         std::io::Write::write_all(w, md.as_bytes())
@@ -130,7 +135,11 @@ fn table(ctx: &PaperRun) -> anyhow::Result<()> {
         std::io::Write::write_all(w, json.as_bytes())
     })?;
     if !ctx.quiet {
-        eprintln!("wrote {} and {}", md_path.display(), json_path.display());
+        out::stderr_line(&format!(
+            "wrote {} and {}",
+            md_path.display(),
+            json_path.display()
+        ));
     }
     Ok(())
 }
@@ -143,10 +152,10 @@ fn sweep(ctx: &PaperRun) -> anyhow::Result<()> {
         ctx.evaluator.as_ref(),
         ctx.quiet,
     )?;
-    print!("{}", super::sweep::summary(&out.rows));
+    out::stdout(&super::sweep::summary(&out.rows))?;
     if !ctx.quiet {
         for f in &out.files {
-            eprintln!("wrote {}", f.display());
+            out::stderr_line(&format!("wrote {}", f.display()));
         }
     }
     Ok(())
@@ -159,7 +168,7 @@ fn normal_pictures(ctx: &PaperRun) -> anyhow::Result<()> {
     use crate::render::RenderOptions;
     if let Err(e) = crate::cli::common::shared_gpu() {
         if !ctx.quiet {
-            eprintln!("skipped the normal-field pictures: {e}");
+            out::stderr_line(&format!("skipped the normal-field pictures: {e}"));
         }
         return Ok(());
     }
@@ -184,7 +193,7 @@ fn normal_pictures(ctx: &PaperRun) -> anyhow::Result<()> {
             &path,
         )?;
         if !ctx.quiet {
-            eprintln!("wrote {}", path.display());
+            out::stderr_line(&format!("wrote {}", path.display()));
         }
     }
     Ok(())

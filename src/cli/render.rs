@@ -10,6 +10,7 @@ use clap::Args;
 use glam::DVec3;
 
 use super::common::whole_number;
+use super::out;
 use super::TEMP_FILES;
 use super::{BackendArgs, Budget, InputArgs, MemoryArgs};
 use crate::eval::Evaluator;
@@ -73,8 +74,14 @@ pub struct RenderArgs {
 /// Refuses a view direction parallel to the up direction (the picture's orientation would
 /// be arbitrary).
 pub fn check_view_up(view: DVec3, up: DVec3) -> anyhow::Result<()> {
-    // Both are finite and nonzero (parse_vec); the sine of the angle between them below
-    // 1e-6 (0.2 arc seconds) leaves no usable up direction after projection.
+    // Both can be normalised (parse_vec refuses the others; checked again here, so that an
+    // overflow is not taken for parallel directions); the sine of the angle between them
+    // below 1e-6 (0.2 arc seconds) leaves no usable up direction after projection.
+    for (name, v) in [("--view", view), ("--up", up)] {
+        if let Some(why) = not_a_direction(v) {
+            anyhow::bail!("{name} {:?},{:?},{:?}: {why}", v.x, v.y, v.z);
+        }
+    }
     let sine = view.normalize().cross(up.normalize()).length();
     anyhow::ensure!(
         sine >= 1e-6,
@@ -156,6 +163,16 @@ fn check_level(
     }
 }
 
+/// Why `v` is no direction: it cannot be normalised, because its squared length overflows
+/// f64 (a component above about 1e154) or underflows to 0 (every component below about
+/// 1e-162).
+fn not_a_direction(v: DVec3) -> Option<&'static str> {
+    v.try_normalize().is_none().then_some(
+        "too large or too small to normalise (its squared length overflows or underflows \
+         f64); give components of moderate size, such as 1,1,1",
+    )
+}
+
 fn parse_vec(s: &str) -> Result<DVec3, String> {
     let v: Vec<f64> = s
         .split(',')
@@ -164,7 +181,11 @@ fn parse_vec(s: &str) -> Result<DVec3, String> {
         .map_err(|_| format!("'{s}': expected three numbers x,y,z"))?;
     match v[..] {
         [x, y, z] if v.iter().all(|c| c.is_finite()) && (x, y, z) != (0.0, 0.0, 0.0) => {
-            Ok(DVec3::new(x, y, z))
+            let d = DVec3::new(x, y, z);
+            match not_a_direction(d) {
+                Some(why) => Err(format!("'{s}': {why}")),
+                None => Ok(d),
+            }
         }
         _ => Err(format!(
             "'{s}': expected three finite numbers x,y,z, not all 0"
@@ -230,7 +251,7 @@ pub fn render_schemes(
         };
         let table = PatchTable::build(&m, scheme, scheme_opts)?;
         if let Some(w) = repair_line(&mesh.name, &table, report.as_ref()) {
-            eprintln!("{w}");
+            out::stderr_line(&w);
         }
         rows.push(Row {
             label: scheme.to_string(),
@@ -239,7 +260,10 @@ pub fn render_schemes(
     }
     let caption = format!(
         "{}, level {level}: unit normal components, view {:.2},{:.2},{:.2}",
-        mesh.name, opts.view.x, opts.view.y, opts.view.z
+        out::escape(&mesh.name),
+        opts.view.x,
+        opts.view.y,
+        opts.view.z
     );
     write_png(output, &TEMP_FILES, &caption, &rows)?;
     Ok(())
@@ -271,6 +295,10 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         a.size
     );
     let mesh = a.input.load_mesh()?;
+    // The surface is drawn in f32.
+    if let Some(note) = super::common::f32_range(&mesh)? {
+        out::stderr_line(&note);
+    }
     let level = a.level.unwrap_or_else(|| auto_level(mesh.triangles.len()));
     check_level(&gpu, &mesh, level, a.level.is_some(), &a.memory.budget())?;
     let mut backend = a.backend.clone();
@@ -295,7 +323,45 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         &a.output,
     )?;
     if !a.quiet {
-        eprintln!("wrote {}", a.output.display());
+        out::stderr_line(&format!("wrote {}", a.output.display()));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{check_view_up, parse_vec};
+    use glam::DVec3;
+
+    #[test]
+    fn directions_that_cannot_be_normalised() {
+        // The squared length overflows above about 1.3e154 and underflows below 1e-162.
+        for s in ["1e308,1e308,1e308", "1e200,0,0", "0,-1e160,0", "1e-170,0,0"] {
+            let e = parse_vec(s).unwrap_err();
+            assert!(
+                e.contains("too large or too small to normalise"),
+                "{s}: {e}"
+            );
+        }
+        for s in ["1,1,1", "1e150,0,0", "1e-150,0,0", "0,0,-3"] {
+            assert!(parse_vec(s).is_ok(), "{s}");
+        }
+        // Given directly, not through the parser: named as such, not as parallel.
+        let e = check_view_up(DVec3::splat(1e308), DVec3::Y)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("--view 1e308,1e308,1e308: too large"), "{e}");
+        let e = check_view_up(DVec3::Z, DVec3::new(0.0, 1e-200, 0.0))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("--up 0.0,1e-200,0.0: too large"), "{e}");
+        // A parallel pair is still called parallel, in the same words.
+        let e = check_view_up(DVec3::Y, DVec3::new(0.0, 2.0, 0.0))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "--view 0,1,0 is parallel to --up 0,2,0: give an up direction across the view"
+        );
+    }
 }

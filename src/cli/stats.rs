@@ -2,7 +2,7 @@
 
 use clap::Args;
 
-use super::{BackendArgs, InputArgs};
+use super::{out, BackendArgs, InputArgs};
 use crate::analysis::stats::stats_report;
 use crate::mesh::Mesh;
 
@@ -44,12 +44,7 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
         evaluator.as_ref(),
     )?;
     report.repair = repair;
-    if a.json {
-        println!("{}", serde_json::to_string(&report)?);
-    } else {
-        println!("{}\n", report.to_text());
-    }
-    Ok(())
+    print_report(a, report)
 }
 
 /// `stats --backend gpu`: the edge samples evaluated and reduced on the device
@@ -62,7 +57,7 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
     let ctx = crate::cli::common::shared_gpu()?;
     let gpu = GpuEvaluator::new(ctx.clone(), precision)?;
     if !(a.backend.quiet || a.quiet) {
-        eprintln!("gpu: {} ({precision})", ctx.describe());
+        out::stderr_line(&format!("gpu: {} ({precision})", ctx.describe()));
     }
     let stride = a.input.scheme.kind().layout().stride as u64;
     let patches = mesh.triangles.len() as u64;
@@ -88,10 +83,20 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
     );
     report.patches = crate::patch::validity::count(&table);
     report.repair = repair;
+    print_report(a, report)
+}
+
+/// The report on stdout: JSON, or text whose mesh name is escaped ([`out::escape`]), then
+/// an empty line.
+fn print_report(
+    a: &StatsArgs,
+    mut report: crate::analysis::stats::StatsReport,
+) -> anyhow::Result<()> {
     if a.json {
-        println!("{}", serde_json::to_string(&report)?);
+        out::stdout_json(&serde_json::to_string(&report)?)?;
     } else {
-        println!("{}\n", report.to_text());
+        report.mesh = out::escape(&report.mesh).into_owned();
+        out::stdout_line(&format!("{}\n", report.to_text()))?;
     }
     Ok(())
 }

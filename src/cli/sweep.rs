@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
+use super::out;
 use super::BackendArgs;
 use super::TEMP_FILES;
 use crate::analysis::distance::{self, Series, SweepPlan, SweepRow};
@@ -219,13 +220,13 @@ pub fn run(a: &SweepArgs) -> anyhow::Result<()> {
     let evaluator = backend.evaluator(crate::gpu::Precision::F64)?;
     let out = sweep_into(&a.output, &plan, evaluator.as_ref(), a.quiet)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&out.json)?);
+        out::stdout_json(&serde_json::to_string_pretty(&out.json)?)?;
     } else {
-        print!("{}", summary(&out.rows));
+        out::stdout(&summary(&out.rows))?;
     }
     if !a.quiet {
         for f in &out.files {
-            eprintln!("wrote {}", f.display());
+            out::stderr_line(&format!("wrote {}", f.display()));
         }
     }
     Ok(())

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::common::{human_bytes, human_count, tessellation_need, whole_number, MemoryArgs};
+use super::out;
 use super::progress;
 use super::TEMP_FILES;
 use super::{BackendArgs, InputArgs};
@@ -106,9 +107,13 @@ pub struct TessellateArgs {
 pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     let format = output_format(a)?;
     let cap = check_levels(a)?;
-    let (mesh, table, folds) = a.input.load()?;
+    let mesh = a.input.load_mesh()?;
+    if let Some(note) = super::common::f32_range(&mesh)? {
+        out::stderr_line(&note);
+    }
+    let (mesh, table, folds) = a.input.prepare(mesh)?;
     if let Some(line) = folds {
-        eprintln!("{line}");
+        out::stderr_line(&line);
     }
     let adjacency = mesh.adjacency();
     let eps = match (a.tolerance, a.tolerance_rel) {
@@ -154,15 +159,12 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         ..a.backend.clone()
     };
     let evaluator = backend.evaluator(crate::gpu::Precision::F32)?;
+    // The file's comment names the mesh escaped: a newline in the name would start a line
+    // of its own in an OBJ (a forged vertex or face).
+    let name = out::escape(&mesh.name);
     let title = match &chosen {
-        Some((_, eps)) => format!(
-            "g1tess: {}, scheme {}, tolerance {eps:e}",
-            mesh.name, table.scheme
-        ),
-        None => format!(
-            "g1tess: {}, scheme {}, level {}",
-            mesh.name, table.scheme, a.level
-        ),
+        Some((_, eps)) => format!("g1tess: {name}, scheme {}, tolerance {eps:e}", table.scheme),
+        None => format!("g1tess: {name}, scheme {}, level {}", table.scheme, a.level),
     };
     let bar = progress::bar(plan.patches() as u64, "evaluating", "patches", a.quiet);
     let mut snap = 0.0;
@@ -438,9 +440,9 @@ fn report(
                 "inner_levels": range(&t.levels.inner),
             });
         }
-        println!("{summary}");
+        out::stdout_json(&summary.to_string())?;
     } else if !a.quiet {
-        eprintln!(
+        out::stderr_line(&format!(
             "wrote {}: {} vertices ({} vertex records), {} triangles; {} boundary, {} \
              non-manifold, {} crease edges, {} {} edges; max stitch snap {:.3e}",
             a.output.display(),
@@ -453,9 +455,9 @@ fn report(
             d.edges.seams,
             d.seam_kind,
             d.snap
-        );
+        ));
         if let Some((t, eps)) = chosen {
-            eprintln!(
+            out::stderr_line(&format!(
                 "tolerance {eps:.3e}: measured deviation {:.3e} at {} points of {} triangles, \
                  edge levels {}..{}, {} measurement(s)",
                 t.deviation.max,
@@ -464,7 +466,7 @@ fn report(
                 t.levels.edges.iter().min().unwrap_or(&1),
                 t.levels.edges.iter().max().unwrap_or(&1),
                 t.rounds + 1
-            );
+            ));
         }
     }
     if let Some((t, eps)) = chosen {

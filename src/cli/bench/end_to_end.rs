@@ -216,7 +216,7 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
     };
     let say = |what: &str| {
         if !a.quiet {
-            eprintln!("bench: {what}");
+            crate::cli::out::stderr_line(&format!("bench: {what}"));
         }
     };
     let cpu = CpuEvaluator::with_chunk_samples(a.cpu_chunk_samples.max(1));
@@ -328,9 +328,9 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
         rows: rows.0,
     };
     if a.json {
-        println!("{}", serde_json::to_string(&report)?);
+        crate::cli::out::stdout_json(&serde_json::to_string(&report)?)?;
     } else {
-        println!("{}", end_to_end_text(&report));
+        crate::cli::out::stdout_line(&end_to_end_text(&report))?;
     }
     Ok(())
 }

@@ -88,3 +88,55 @@ fn memory_budget_refusal_is_over_budget_with_the_sizes() {
         other => panic!("expected OverBudget, got {other:?}"),
     }
 }
+
+/// `icosphere:0` (vertices on the unit sphere, largest coordinate 0.85) scaled so that its
+/// largest coordinate is `largest`.
+fn scaled_icosahedron(largest: f64) -> crate::mesh::Mesh {
+    let mut m = crate::mesh::Mesh::load("icosphere:0", &Default::default()).unwrap();
+    let now = m
+        .positions
+        .iter()
+        .flat_map(|p| p.to_array())
+        .fold(0.0f64, |a, c| a.max(c.abs()));
+    for p in &mut m.positions {
+        *p *= largest / now;
+    }
+    m
+}
+
+#[test]
+fn f32_range_bounds() {
+    use super::f32_range;
+    let normal = f64::from(f32::MIN_POSITIVE); // 2^-126
+                                               // In f32's normal range, down to its smallest normal number: nothing to say.
+    for largest in [1.0, 1e30, 1e-30, normal] {
+        assert!(
+            f32_range(&scaled_icosahedron(largest)).unwrap().is_none(),
+            "{largest:e}"
+        );
+    }
+    // Just below it: a note, and the relative step is 2^-149 / largest = 2^-23 / 0.75 (1.6e-7).
+    let note = f32_range(&scaled_icosahedron(normal * 0.75))
+        .unwrap()
+        .unwrap();
+    assert!(
+        note.contains("below f32's normal range (1.2e-38)"),
+        "{note}"
+    );
+    assert!(note.contains("1.6e-7 of the largest coordinate"), "{note}");
+    // The smallest subnormal, 2^-149, is still held (one step: no digit left).
+    let note = f32_range(&scaled_icosahedron(2f64.powi(-149)))
+        .unwrap()
+        .unwrap();
+    assert!(
+        note.contains("1.0e0 of the largest coordinate (about 0.0 significant digits"),
+        "{note}"
+    );
+    // 2^-150 rounds to 0 (ties to even): refused.
+    let e = f32_range(&scaled_icosahedron(2f64.powi(-150))).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("every coordinate rounds to 0 in f32"),
+        "{e}"
+    );
+}
