@@ -32,6 +32,7 @@ mod errors;
 mod export_net;
 mod formats;
 mod fuzz;
+mod hardening_readers;
 mod mesh_input;
 mod msh;
 mod obj_fuzz;
