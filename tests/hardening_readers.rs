@@ -320,9 +320,9 @@ fn gltf_buffer_uris_stay_inside_the_gltf_folder() {
 
 #[test]
 fn gltf_buffers_are_read_to_their_declared_length_only() {
-    // A sparse file of 4 GiB + 120 bytes starting with the tetrahedron: reading it whole
-    // would take 4 GiB; exactly byteLength (120) is read.
-    let s = scene_folder("lengths", (4 << 30) + 120);
+    // A sparse file of 1 TiB starting with the tetrahedron: reading it whole could not even
+    // be allocated (it would fail, or exhaust memory); exactly byteLength (120) is read.
+    let s = scene_folder("lengths", 1 << 40);
     let p = s.join("big.gltf");
     std::fs::write(&p, tetra_json("big.bin", 120, json!([{"mesh": 0}]))).unwrap();
     let m = load(&p).unwrap();
@@ -345,40 +345,6 @@ fn gltf_buffers_are_read_to_their_declared_length_only() {
     std::fs::remove_file(s.join("big.bin")).unwrap();
 }
 
-/// The peak resident memory of `g1tess ARGS` in bytes, its exit code and its stderr
-/// (`wait4` gives the child's own peak, not the test process's).
-#[cfg(feature = "cli")]
-#[allow(clippy::zombie_processes)] // wait4 below reaps the child.
-fn peak_memory(args: &[&str]) -> (u64, i32, String) {
-    use std::io::Read;
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_g1tess"))
-        .args(args)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut status = 0;
-    // SAFETY: rusage is plain data; wait4 fills it and reaps the child we spawned.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    let pid = child.id() as libc::pid_t;
-    let r = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
-    assert_eq!(r, pid);
-    let mut err = String::new();
-    child
-        .stderr
-        .take()
-        .unwrap()
-        .read_to_string(&mut err)
-        .unwrap();
-    let code = if libc::WIFEXITED(status) {
-        libc::WEXITSTATUS(status)
-    } else {
-        -1
-    };
-    // ru_maxrss is in KiB on Linux.
-    (usage.ru_maxrss as u64 * 1024, code, err)
-}
-
 #[cfg(feature = "cli")]
 #[test]
 fn gltf_buffer_lengths_count_in_the_memory_budget() {
@@ -390,26 +356,32 @@ fn gltf_buffer_lengths_count_in_the_memory_budget() {
         tetra_json("big.bin", (1 << 30) + 120, json!([{"mesh": 0}])),
     )
     .unwrap();
-    let spec = p.to_str().unwrap();
-    // Declared whole: over a 64 MiB budget, refused before anything is read.
-    let (peak, code, err) =
-        peak_memory(&["stats", spec, "--max-memory", "64M", "--backend", "cpu"]);
-    assert_eq!(code, 1, "{err}");
+    let stats = |p: &Path, extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_g1tess"))
+            .args(["stats", p.to_str().unwrap(), "--backend", "cpu"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    // Declared whole: over a 64 MiB budget, refused before the load (which would read it).
+    let out = stats(&p, &["--max-memory", "64M"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
         err.contains(
             "whole.gltf needs about 1.0 GiB (estimated), over the memory budget of 64.0 MiB"
         ),
         "{err}"
     );
-    // 200 MiB: the CPU backend's run of a tetrahedron takes under 10 MiB (measured: 7 MiB),
-    // reading the buffer 1 GiB.
-    assert!(peak < 200 << 20, "peak {peak} bytes");
-    // Declared as its first 120 bytes: only those are read, within the same bound.
+    // Declared as its first 120 bytes: within the budget, read.
     let p = s.join("head.gltf");
     std::fs::write(&p, tetra_json("big.bin", 120, json!([{"mesh": 0}]))).unwrap();
-    let (peak, code, err) = peak_memory(&["stats", p.to_str().unwrap(), "--backend", "cpu"]);
-    assert_eq!(code, 0, "{err}");
-    assert!(peak < 200 << 20, "peak {peak} bytes");
+    let out = stats(&p, &["--max-memory", "64M"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     std::fs::remove_file(s.join("big.bin")).unwrap();
 }
 
