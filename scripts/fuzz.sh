@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # Long fuzzing campaign: the in-process reader fuzzers of tests/fuzz.rs (OBJ, .pn, PLY, STL,
-# glTF, built-in specs, soups) with many more cases, and optionally more command lines.
+# glTF, built-in specs, soups) and the glTF buffer URI mutator of tests/hardening_readers.rs
+# (traversal, absolute paths, devices, FIFOs, links out of the folder, huge byteLength) with
+# many more cases, and optionally more command lines.
 #
 #   scripts/fuzz.sh [EXECUTIONS] [CLI_CASES] [OUTPUT_PATH_CASES]
 #
 # EXECUTIONS (default 1000000) is split over the reader tests in the proportions of the
-# normal suite (OBJ 30 %, .pn 20 %, PLY 10 %, STL 8 %, glTF 7 %, specs 15 %, soups 10 %); CLI_CASES (default 1000) command lines are spawned.
+# normal suite (OBJ 30 %, .pn 20 %, PLY 10 %, STL 8 %, glTF 7 %, specs 15 %, soups 10 %),
+# plus 1 % more for glTF URIs; CLI_CASES (default 1000) command lines are spawned.
 # OUTPUT_PATH_CASES (default 500) runs of the writing commands (tessellate to each format,
 # export-net, export-msh) take hostile output paths (tests/hardening_cli.rs): names with
 # newlines, escape sequences, bidi overrides or a byte that is not UTF-8, names of 1 to 400
@@ -17,10 +20,11 @@ total=${1:-1000000}
 cli=${2:-1000}
 paths=${3:-500}
 cargo test --release --no-run --quiet --test suite
-run() { # TEST CASES VAR
-    local start end
+run() { # TEST CASES VAR (TEST in tests/fuzz.rs, or MODULE::TEST)
+    local start end name="$1"
+    [[ $name == *::* ]] || name="fuzz::$name"
     start=$(date +%s.%N)
-    env "$3=$2" cargo test --release --quiet --test suite -- --exact "fuzz::$1" >/dev/null
+    env "$3=$2" cargo test --release --quiet --test suite -- --exact "$name" >/dev/null
     end=$(date +%s.%N)
     awk -v t="$1" -v n="$2" -v s="$start" -v e="$end" \
         'BEGIN { d = e - s; printf "%-15s %9d cases %8.1f s %9.0f /s\n", t, n, d, n / d }'
@@ -33,8 +37,9 @@ run stl_mutants $((total * 800 / 10000)) PROPTEST_CASES
 run gltf_mutants $((total * 700 / 10000)) PROPTEST_CASES
 run spec_strings $((total * 1500 / 10000)) PROPTEST_CASES
 run soups $((total * 1000 / 10000)) PROPTEST_CASES
+run hardening_readers::gltf_uri_mutants $((total * 100 / 10000)) PROPTEST_CASES
 end=$(date +%s.%N)
-awk -v n="$total" -v s="$start" -v e="$end" \
+awk -v n="$((total + total * 100 / 10000))" -v s="$start" -v e="$end" \
     'BEGIN { d = e - s; printf "readers: %d executions in %.1f s: %.0f /s\n", n, d, n / d }'
 run command_lines "$cli" FUZZ_CLI_CASES
 start=$(date +%s.%N)

@@ -34,6 +34,7 @@ mod formats;
 mod fuzz;
 #[cfg(feature = "cli")]
 mod hardening_cli;
+mod hardening_readers;
 mod mesh_input;
 mod msh;
 mod obj_fuzz;

@@ -546,11 +546,13 @@ pub fn load_need(spec: &str) -> u64 {
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"));
     if gltf {
-        // Nodes may instance one mesh many times: count what the scene holds.
-        if let Some((vertices, corners)) = crate::mesh::gltf::scene_size(path) {
-            let need = vertices
+        // Nodes may instance one mesh many times, and buffer files are held whole.
+        if let Some(s) = crate::mesh::gltf::scene_size(path) {
+            let need = s
+                .vertices
                 .saturating_mul(GLTF_BYTES_PER_VERTEX)
-                .saturating_add(corners.saturating_mul(GLTF_BYTES_PER_CORNER))
+                .saturating_add(s.corners.saturating_mul(GLTF_BYTES_PER_CORNER))
+                .saturating_add(s.file_buffers)
                 .saturating_add(LOAD_OVERHEAD);
             return by_size.max(need);
         }

@@ -11,7 +11,15 @@
 //! determinant) reverses the triangles' winding, as glTF specifies. Indexed and
 //! non-indexed primitives, triangle strips and fans; `NORMAL`, `TEXCOORD_0` and `COLOR_0`
 //! (float, or normalised unsigned bytes and shorts). Points and lines are skipped with a
-//! note; sparse accessors are refused. Primitives are joined and welded by exact position.
+//! note; sparse accessors, a triangle list whose corner count is not a multiple of 3 and a
+//! mesh placed by a singular transform (a scale of 0) are refused. Primitives are joined and
+//! welded by exact position.
+//!
+//! A buffer URI is a base64 data URI or a file inside the glTF file's folder, as glTF
+//! validators require: absolute paths, `..` climbing out of the folder and symbolic links
+//! leading out of it are refused, and so is anything but a regular file (checked before it
+//! is opened). Exactly the `byteLength` the buffer declares is read, never the file to its
+//! end; a caller with a memory budget checks the declared lengths first ([`scene_size`]).
 
 use std::path::Path;
 
@@ -30,7 +38,7 @@ const MAX_DEPTH: usize = 256;
 pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
     let file = path.display().to_string();
     let err = |m: String| Error::mesh(&file, m);
-    let data = super::stl::read_regular(path)?;
+    let data = super::read_regular(path)?;
     let (json, blob) = if data.starts_with(b"glTF") {
         let (j, b) = glb(&data).map_err(err)?;
         (j, b)
@@ -44,11 +52,14 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| err("no scene to read".into()))?;
     let mut gathered = Gathered::default();
-    walk_nodes(&scene, doc.nodes().count(), |node, world| {
+    walk_nodes(&scene, doc.nodes().count(), |node, world, origin| {
         let Some(mesh) = node.mesh() else {
             return Ok(());
         };
         let placement = Placement::new(world);
+        if placement.singular {
+            return Err(singular(node.index(), mesh.index(), origin));
+        }
         for prim in mesh.primitives() {
             let what = format!("mesh {} primitive {}", mesh.index(), prim.index());
             gathered
@@ -87,7 +98,8 @@ fn document(json: &[u8]) -> std::result::Result<::gltf::Document, String> {
         .map_err(|e| format!("not valid glTF: {}", one_line(&e.to_string())))
 }
 
-/// The bytes of every buffer: the GLB binary chunk or the URI's contents, each checked to
+/// The bytes of every buffer: the GLB binary chunk, a data URI's contents, or exactly the
+/// declared `byteLength` of a file inside the glTF's folder ([`load_file`]); each checked to
 /// hold at least its declared length.
 fn load_buffers(
     path: &Path,
@@ -102,7 +114,7 @@ fn load_buffers(
                 format!("buffer {i} refers to a GLB binary chunk the file does not have")
             })?,
             ::gltf::buffer::Source::Uri(uri) => {
-                load_uri(path, uri).map_err(|m| format!("buffer {i}: {m}"))?
+                load_uri(path, uri, b.length()).map_err(|m| format!("buffer {i}: {m}"))?
             }
         };
         if bytes.len() < b.length() {
@@ -117,19 +129,22 @@ fn load_buffers(
     Ok(buffers)
 }
 
-/// Visits the scene's nodes depth first, children in order, each with its world matrix.
-/// glTF nodes form a forest: a node reached twice (a cycle, or two parents) is refused,
-/// which also bounds the walk by the number of nodes (`node_count`).
+/// Visits the scene's nodes depth first, children in order, each with its world matrix and
+/// the first node on its path (itself or an ancestor) whose own transform is singular, if
+/// any. glTF nodes form a forest: a node reached twice (a cycle, or two parents) is
+/// refused, which also bounds the walk by the number of nodes (`node_count`).
 fn walk_nodes(
     scene: &::gltf::Scene,
     node_count: usize,
-    mut visit: impl FnMut(&::gltf::Node, DMat4) -> std::result::Result<(), String>,
+    mut visit: impl FnMut(&::gltf::Node, DMat4, Option<usize>) -> std::result::Result<(), String>,
 ) -> std::result::Result<(), String> {
-    let mut stack: Vec<(::gltf::Node, DMat4, usize)> =
-        scene.nodes().map(|n| (n, DMat4::IDENTITY, 0)).collect();
+    let mut stack: Vec<(::gltf::Node, DMat4, usize, Option<usize>)> = scene
+        .nodes()
+        .map(|n| (n, DMat4::IDENTITY, 0, None))
+        .collect();
     stack.reverse();
     let mut seen = vec![false; node_count];
-    while let Some((node, parent, depth)) = stack.pop() {
+    while let Some((node, parent, depth, origin)) = stack.pop() {
         if depth > MAX_DEPTH {
             return Err(format!(
                 "node {}: nested more than {MAX_DEPTH} deep",
@@ -147,10 +162,11 @@ fn walk_nodes(
         if !world.is_finite() {
             return Err(format!("node {}: non-finite transform", node.index()));
         }
+        let origin = origin.or(Placement::new(local).singular.then_some(node.index()));
         for c in node.children().collect::<Vec<_>>().into_iter().rev() {
-            stack.push((c, world, depth + 1));
+            stack.push((c, world, depth + 1, origin));
         }
-        visit(&node, world)?;
+        visit(&node, world, origin)?;
     }
     Ok(())
 }
@@ -164,18 +180,39 @@ struct Placement {
     mirror: bool,
     /// The transform is the identity (the points and normals are kept as read).
     identity: bool,
+    /// The linear part is singular (a scale of 0, or a matrix of rank below 3): it flattens
+    /// the mesh, and normals have no transform.
+    singular: bool,
 }
 
 impl Placement {
     fn new(world: DMat4) -> Self {
         let lin = DMat3::from_mat4(world);
+        let det = lin.determinant();
+        let normal_m = lin.inverse().transpose();
         Placement {
             world,
-            normal_m: lin.inverse().transpose(),
-            mirror: lin.determinant() < 0.0,
+            normal_m,
+            mirror: det < 0.0,
             identity: world == DMat4::IDENTITY,
+            singular: det == 0.0 || !det.is_finite() || !normal_m.is_finite(),
         }
     }
+}
+
+/// The error for node `node` placing mesh `mesh` by a singular world transform, which
+/// comes from the own transform of node `origin` (itself or an ancestor) when that one is
+/// singular alone, else from the product of its ancestors' transforms.
+fn singular(node: usize, mesh: usize, origin: Option<usize>) -> String {
+    let from = match origin {
+        Some(k) if k == node => "its own scale or matrix".to_string(),
+        Some(k) => format!("the scale or matrix of its ancestor node {k}"),
+        None => "the product of its ancestors' transforms".to_string(),
+    };
+    format!(
+        "node {node}: singular transform (from {from}): it flattens mesh {mesh}, whose \
+         normals then have no transform"
+    )
 }
 
 /// The primitives read so far, joined: the soup and the optional per-vertex attributes.
@@ -235,6 +272,18 @@ impl Gathered {
         }
         self.attributes(buffers, prim, place, base, n)?;
         let idx = corners(buffers, prim, n)?;
+        if mode == Mode::Triangles && idx.len() % 3 != 0 {
+            return Err(format!(
+                "{} {} for TRIANGLES, not a multiple of 3 (the last {} would be dropped)",
+                idx.len(),
+                if prim.indices().is_some() {
+                    "indices"
+                } else {
+                    "vertices"
+                },
+                idx.len() % 3
+            ));
+        }
         push_triangles(
             &mut self.soup.triangles,
             mode,
@@ -421,21 +470,30 @@ fn push_triangles(triangles: &mut Vec<[u32; 3]>, mode: Mode, idx: &[u32], base: 
     }
 }
 
+/// What loading a glTF file will hold, counted from its JSON alone ([`scene_size`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SceneSize {
+    /// Vertices of the default scene (node instances of one mesh count once each).
+    pub vertices: u64,
+    /// Corners: index entries, or vertices for non-indexed primitives.
+    pub corners: u64,
+    /// Bytes of the buffers read from files: their declared `byteLength`, each read whole
+    /// (and no more) before the scene is built.
+    pub file_buffers: u64,
+}
+
 /// What loading a glTF file's default scene will hold, counted from its JSON alone (node
-/// instances of one mesh count once each): `(vertices, corners)`, corners being index
-/// entries (or vertices, for non-indexed primitives). A mesh instanced by many nodes makes
-/// a small file a large mesh, so a caller with a memory budget checks this before
-/// [`load_gltf`]. `None` when the JSON cannot be read or is inconsistent; the load itself
-/// then says what is wrong.
-pub fn scene_size(path: &Path) -> Option<(u64, u64)> {
+/// instances of one mesh count once each): vertices, corners (index entries, or vertices
+/// for non-indexed primitives) and the bytes of its buffer files. A mesh instanced by many
+/// nodes makes a small file a large mesh, and a small file may declare a huge buffer, so a
+/// caller with a memory budget checks this before [`load_gltf`]. `None` when the JSON
+/// cannot be read (the load then says what is wrong); a scene that is inconsistent counts
+/// its buffers only (the load fails on it after reading them).
+pub fn scene_size(path: &Path) -> Option<SceneSize> {
     use std::io::Read;
+    // A device or pipe is not opened here (the load refuses it with its own error).
+    let len = super::regular_file(path).ok()?.len();
     let mut f = std::fs::File::open(path).ok()?;
-    let meta = f.metadata().ok()?;
-    // A device or pipe is not read here (the load refuses it with its own error).
-    if !meta.is_file() {
-        return None;
-    }
-    let len = meta.len();
     let mut head = [0u8; 20];
     let n = f.read(&mut head).ok()?;
     let json = if n >= 4 && &head[..4] == b"glTF" {
@@ -456,6 +514,22 @@ pub fn scene_size(path: &Path) -> Option<(u64, u64)> {
         j
     };
     let root: ::gltf::json::Root = serde_json::from_slice(&json).ok()?;
+    let file_buffers = root
+        .buffers
+        .iter()
+        .filter(|b| b.uri.as_deref().is_some_and(|u| !u.starts_with("data:")))
+        .fold(0u64, |sum, b| sum.saturating_add(b.byte_length.0));
+    let (vertices, corners) = scene_counts(&root).unwrap_or((0, 0));
+    Some(SceneSize {
+        vertices,
+        corners,
+        file_buffers,
+    })
+}
+
+/// The vertices and corners of the default scene of `root` ([`scene_size`]), `None` when
+/// the scene is inconsistent.
+fn scene_counts(root: &::gltf::json::Root) -> Option<(u64, u64)> {
     let scene = match root.scene {
         Some(i) => root.scenes.get(i.value())?,
         None => root.scenes.first()?,
@@ -557,8 +631,9 @@ fn glb(data: &[u8]) -> std::result::Result<(&[u8], Option<&[u8]>), String> {
     }
 }
 
-/// The bytes of a buffer URI: a base64 data URI, or a file relative to the glTF file.
-fn load_uri(path: &Path, uri: &str) -> std::result::Result<Vec<u8>, String> {
+/// The bytes of a buffer URI declaring `length` bytes: a base64 data URI, or a file inside
+/// the glTF file's folder ([`load_file`]).
+fn load_uri(path: &Path, uri: &str, length: usize) -> std::result::Result<Vec<u8>, String> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (meta, payload) = rest
             .split_once(',')
@@ -568,16 +643,86 @@ fn load_uri(path: &Path, uri: &str) -> std::result::Result<Vec<u8>, String> {
         }
         return base64(payload).ok_or_else(|| "data URI: invalid base64".to_string());
     }
+    let shown = super::text::echo(uri);
     if uri.contains("://") {
         return Err(format!(
-            "URI '{}' is not a relative file (only files next to the glTF and data URIs are read)",
-            super::text::echo(uri)
+            "URI '{shown}' is not a relative file (only files inside the glTF's folder and data \
+             URIs are read)"
         ));
     }
-    let rel = percent_decode(uri)
-        .ok_or_else(|| format!("URI '{}' is malformed", super::text::echo(uri)))?;
-    let file = path.parent().unwrap_or(Path::new("")).join(rel);
-    std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))
+    let rel = percent_decode(uri).ok_or_else(|| format!("URI '{shown}' is malformed"))?;
+    let file = confined(path, &rel).map_err(|m| format!("URI '{shown}' {m}"))?;
+    load_file(&file, length).map_err(|m| format!("URI '{shown}' {m}"))
+}
+
+/// The file a relative URI names, inside the folder of the glTF file `path`, as glTF
+/// validators require: an absolute path, a `..` that climbs out of the folder, or a
+/// symbolic link leading out of it (the canonical path outside the folder's) is refused.
+/// The error completes "URI 'X' ...".
+fn confined(path: &Path, rel: &str) -> std::result::Result<std::path::PathBuf, String> {
+    use std::path::Component;
+    const ONLY: &str = "(only files inside the glTF's folder and data URIs are read)";
+    let mut depth = 0usize;
+    for c in Path::new(rel).components() {
+        match c {
+            Component::Prefix(_) | Component::RootDir => {
+                return Err(format!("is an absolute path {ONLY}"));
+            }
+            Component::ParentDir => {
+                depth = depth
+                    .checked_sub(1)
+                    .ok_or_else(|| format!("climbs out of the glTF's folder with '..' {ONLY}"))?;
+            }
+            Component::Normal(_) => depth += 1,
+            Component::CurDir => {}
+        }
+    }
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let file = folder.join(rel);
+    let canon_folder = folder
+        .canonicalize()
+        .map_err(|e| format!("cannot be resolved: the glTF's folder: {e}"))?;
+    let canon = file
+        .canonicalize()
+        .map_err(|e| format!("cannot be read: {e}"))?;
+    if !canon.starts_with(&canon_folder) {
+        return Err(format!(
+            "leads out of the glTF's folder through a symbolic link {ONLY}"
+        ));
+    }
+    Ok(file)
+}
+
+/// Exactly the first `length` bytes of `file`, which must be a regular file (checked before
+/// it is opened: a FIFO would block, a device never end) holding at least that many: a
+/// buffer is never read to the end of its file, so a huge or endless file costs only what
+/// the glTF declares (which a caller with a memory budget checks first, see [`scene_size`]).
+/// The error completes "URI 'X' ...".
+fn load_file(file: &Path, length: usize) -> std::result::Result<Vec<u8>, String> {
+    use std::io::Read;
+    let meta = std::fs::metadata(file).map_err(|e| format!("cannot be read: {e}"))?;
+    if !meta.is_file() {
+        return Err(format!(
+            "names {}, not a regular file",
+            super::kind_of(&meta)
+        ));
+    }
+    if meta.len() < length as u64 {
+        return Err(format!(
+            "names a file of {} bytes, {length} declared (truncated)",
+            meta.len()
+        ));
+    }
+    let mut out = Vec::new();
+    out.try_reserve_exact(length)
+        .map_err(|_| format!("declares {length} bytes, more than can be allocated"))?;
+    std::fs::File::open(file)
+        .and_then(|f| f.take(length as u64).read_to_end(&mut out))
+        .map_err(|e| format!("cannot be read: {e}"))?;
+    Ok(out)
 }
 
 fn percent_decode(s: &str) -> Option<String> {

@@ -152,8 +152,8 @@ impl InputFormat {
     /// The format by content.
     fn sniff(path: &Path) -> Result<InputFormat> {
         use std::io::Read;
+        let len = regular_file(path)?.len();
         let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-        let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
         let mut head = Vec::with_capacity(256);
         file.take(256)
             .read_to_end(&mut head)
@@ -174,7 +174,7 @@ impl InputFormat {
         if stl::is_binary_size(head, len) {
             return Ok(InputFormat::Stl);
         }
-        if text_start.starts_with(b"solid") {
+        if stl::starts_solid(text_start) {
             return Ok(InputFormat::Stl);
         }
         if head.starts_with(pn_file::HEADER.as_bytes()) {
@@ -250,6 +250,55 @@ impl Default for LoadOptions {
     }
 }
 
+/// What `path` is, links followed, refusing anything but a regular file before it is
+/// opened: opening a FIFO blocks until a writer comes, and a device such as `/dev/zero`
+/// never ends. Every reader's path to a file goes through here (the input itself, the
+/// format sniffing, a glTF's external buffers); the error names the path and what it is.
+pub(crate) fn regular_file(path: &Path) -> Result<std::fs::Metadata> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if meta.is_file() {
+        return Ok(meta);
+    }
+    let kind = kind_of(&meta);
+    let hint = if meta.is_dir() {
+        ""
+    } else {
+        " (save what it gives to a file first)"
+    };
+    Err(Error::Invalid(format!(
+        "{}: not a regular file but {kind}{hint}",
+        path.display()
+    )))
+}
+
+/// What a file that is not a regular file is, in words.
+pub(crate) fn kind_of(meta: &std::fs::Metadata) -> &'static str {
+    let t = meta.file_type();
+    if t.is_dir() {
+        return "a directory";
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "a FIFO";
+        } else if t.is_char_device() {
+            return "a character device";
+        } else if t.is_block_device() {
+            return "a block device";
+        } else if t.is_socket() {
+            return "a socket";
+        }
+    }
+    "a special file"
+}
+
+/// Reads a file whole after [`regular_file`] has checked what it is.
+pub(crate) fn read_regular(path: &Path) -> Result<Vec<u8>> {
+    regular_file(path)?;
+    std::fs::read(path).map_err(|e| Error::io(path, e))
+}
+
 /// The name a mesh read from `path` carries in reports: its file name.
 pub(crate) fn display_name(path: &Path) -> String {
     path.file_name()
@@ -274,6 +323,8 @@ impl Mesh {
                     generators::BUILTIN_HELP
                 )));
             }
+            // Before anything opens it (the format sniffing does): a FIFO would block.
+            regular_file(path)?;
             match InputFormat::detect(path)? {
                 InputFormat::Obj => obj::load_obj(path, opts)?,
                 InputFormat::Pn => pn_file::load_pn(path)?,
@@ -754,24 +805,18 @@ pub(crate) mod text {
     /// the start dropped), and hands each to `f` in order with the number of its first line;
     /// `f` returns how many lines the chunk holds. The next chunk is read while `f` works.
     ///
-    /// Only regular files are read: the readers read a file a second time to name the line
-    /// of a defect, which a pipe or device cannot give, and a device such as `/dev/zero`
-    /// never ends. A statement longer than [`MAX_LINE`] is an error naming its line, so
+    /// Only regular files are read, checked before opening ([`super::regular_file`]): the
+    /// readers read a file a second time to name the line of a defect, which a pipe or
+    /// device cannot give, opening a FIFO blocks, and a device such as `/dev/zero` never
+    /// ends. A statement longer than [`MAX_LINE`] is an error naming its line, so
     /// memory stays bounded whatever the file holds.
     pub fn for_each_chunk<F>(path: &Path, mut f: F) -> Result<()>
     where
         F: FnMut(&[u8], usize) -> Result<usize> + Send,
     {
         let io = |e| Error::io(path, e);
+        super::regular_file(path)?;
         let mut file = std::fs::File::open(path).map_err(io)?;
-        let meta = file.metadata().map_err(io)?;
-        if !meta.is_file() {
-            return Err(Error::Invalid(format!(
-                "{}: not a regular file (a mesh is read from a file, which is read twice \
-                 when it holds an error; save a pipe or device to a file first)",
-                path.display()
-            )));
-        }
         let mut cur = Vec::new();
         let mut eof = fill(&mut file, &mut cur, CHUNK).map_err(io)?;
         if cur.starts_with(b"\xef\xbb\xbf") {

@@ -16,7 +16,8 @@
 //!
 //! Counts in the header are checked against the file size before anything is allocated
 //! for them; errors name the header line (ASCII body: the line) or the element and its
-//! index (binary body).
+//! index (binary body). The body must end with the last record the header declares: a
+//! non-blank line (ASCII) or bytes (binary) after it are an error, not data dropped.
 
 use std::path::Path;
 
@@ -418,7 +419,7 @@ struct Body {
 
 /// Reads a PLY file; see the module documentation.
 pub fn load_ply(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let data = super::stl::read_regular(path)?;
+    let data = super::read_regular(path)?;
     let mut report = LoadReport::default();
     let h = header(path, &data, &mut report)?;
     let vertex = h.elements.iter().find(|e| e.name == "vertex").cloned();
@@ -784,7 +785,31 @@ fn binary(
             rec.finish(el, &tys, want, body, &err)?;
         }
     }
+    if pos < data.len() {
+        return Err(Error::mesh(
+            &file,
+            format!(
+                "{} bytes after the last record the header declares ({}): more records \
+                 than declared, or data that is not part of the mesh",
+                data.len() - pos,
+                last_counts(elements)
+            ),
+        ));
+    }
     Ok(())
+}
+
+/// The declared count of the last element with properties, for the errors about data past
+/// the body: "element 'face' counts 2 records".
+fn last_counts(elements: &[Element]) -> String {
+    elements
+        .iter()
+        .rev()
+        .find(|e| !e.props.is_empty())
+        .map_or_else(
+            || "no element has properties".to_string(),
+            |e| format!("element '{}' counts {} records", echo(&e.name), e.count),
+        )
 }
 
 fn ascii(
@@ -885,6 +910,17 @@ fn ascii(
             }
             rec.finish(el, &tys, want, body, &err)?;
         }
+    }
+    if let Some((line, _)) = lines.find(|(_, l)| !l.trim_ascii().is_empty()) {
+        return Err(Error::parse(
+            path,
+            line,
+            format!(
+                "a line after the last record the header declares ({}): more records than \
+                 declared, or data that is not part of the mesh",
+                last_counts(elements)
+            ),
+        ));
     }
     Ok(())
 }

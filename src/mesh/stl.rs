@@ -7,7 +7,9 @@
 //!
 //! A file whose size is `84 + 50 × count` (the count at byte 80) is binary, even when its
 //! header starts with `solid` (as some exporters write); otherwise a file starting with
-//! `solid` is ASCII. Errors name the facet (binary) or the line (ASCII).
+//! `solid` (in any case) and without a NUL byte in its first 84 bytes is ASCII, its
+//! keywords read in any case. Errors name the facet (binary) or the line (ASCII); a vertex
+//! line with more than 3 numbers is an error, not a vertex with its rest dropped.
 
 use std::path::Path;
 
@@ -30,32 +32,13 @@ pub(crate) fn is_binary_size(head: &[u8], len: u64) -> bool {
     }
 }
 
-/// Reads a file whole, refusing what is not a regular file.
-pub(crate) fn read_regular(path: &Path) -> Result<Vec<u8>> {
-    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
-    if !meta.is_file() {
-        return Err(Error::Invalid(format!(
-            "{}: not a regular file (save a pipe or device to a file first)",
-            path.display()
-        )));
-    }
-    std::fs::read(path).map_err(|e| Error::io(path, e))
-}
-
 /// Reads an STL file (ASCII or binary): corners welded by exact position, degenerate
 /// facets dropped and counted, vertex normals estimated with `opts.weighting`.
 pub fn load_stl(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let data = read_regular(path)?;
+    let data = super::read_regular(path)?;
     let name = super::display_name(path);
-    let starts_solid = {
-        let t = data
-            .iter()
-            .position(|b| !b.is_ascii_whitespace())
-            .map_or(&data[..0], |i| &data[i..]);
-        t.starts_with(b"solid")
-    };
     let len = data.len() as u64;
-    let corners = if is_binary_size(&data, len) || !starts_solid {
+    let corners = if is_binary_size(&data, len) || !is_ascii(&data) {
         binary(path, &data)?
     } else {
         ascii(path, &data)?
@@ -76,6 +59,24 @@ pub fn load_stl(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
         ..Soup::default()
     }
     .build(name, opts)
+}
+
+/// Whether `data` starts with `solid` in any case (after blanks).
+pub(crate) fn starts_solid(data: &[u8]) -> bool {
+    let t = data
+        .iter()
+        .position(|b| !b.is_ascii_whitespace())
+        .map_or(&data[..0], |i| &data[i..]);
+    t.get(..5).is_some_and(|w| w.eq_ignore_ascii_case(b"solid"))
+}
+
+/// Whether a file that is not binary by its size is read as ASCII: it starts with `solid`
+/// (in any case) and its first 84 bytes hold no NUL. A binary header may start with
+/// `solid` too; its facet count at byte 80 has a zero byte below 2^24 facets (and the
+/// header is often padded with zeros), which ASCII text never holds: such a file is a
+/// binary STL whose size does not match its count, and is named so.
+fn is_ascii(data: &[u8]) -> bool {
+    starts_solid(data) && !data[..data.len().min(HEADER as usize)].contains(&0)
 }
 
 /// Checks one corner coordinate.
@@ -158,6 +159,21 @@ enum State {
     EndLoop,
 }
 
+/// The keywords of ASCII STL, read in any case (`SOLID`, `Facet`, ... as some exporters
+/// write them).
+const KEYWORDS: [&str; 7] = [
+    "solid", "endsolid", "facet", "endfacet", "outer", "vertex", "endloop",
+];
+
+/// `kw` as the lower-case keyword it spells, or itself.
+fn keyword(kw: &str) -> &str {
+    KEYWORDS
+        .iter()
+        .find(|k| k.eq_ignore_ascii_case(kw))
+        .copied()
+        .unwrap_or(kw)
+}
+
 /// The corners of an ASCII STL, three per facet.
 fn ascii(path: &Path, data: &[u8]) -> Result<Vec<DVec3>> {
     let text = text::utf8(path, data, 1)?;
@@ -174,7 +190,7 @@ fn ascii(path: &Path, data: &[u8]) -> Result<Vec<DVec3>> {
             return Ok(());
         };
         let expected = |what: &str| err(format!("'{}' where {what} was expected", echo(kw)));
-        state = match (state, kw) {
+        state = match (state, keyword(kw)) {
             (State::Outside, "solid") => State::Solid,
             (State::Outside, _) => return Err(expected("'solid'")),
             (State::Solid, "facet") => State::Facet,
@@ -199,6 +215,12 @@ fn ascii(path: &Path, data: &[u8]) -> Result<Vec<DVec3>> {
                     let v = text::parse_f64(t)
                         .ok_or_else(|| err(format!("vertex: '{}' is not a number", echo(t))))?;
                     *x = coordinate(v).map_err(|m| err(format!("vertex: {m} '{}'", echo(t))))?;
+                }
+                if let Some(t) = tok.next() {
+                    return Err(err(format!(
+                        "vertex: a fourth value '{}' (a vertex has 3 coordinates)",
+                        echo(t)
+                    )));
                 }
                 out.push(DVec3::from_array(p));
                 corners += 1;
