@@ -34,6 +34,8 @@ mod formats;
 mod fuzz;
 #[cfg(feature = "cli")]
 mod hardening_cli;
+#[cfg(feature = "cli")]
+mod hardening_files;
 mod hardening_readers;
 mod mesh_input;
 mod msh;

@@ -57,7 +57,7 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
     );
     if !stdout {
         atomic::resolve_output(&a.output)?;
-        atomic::refuse_same_file(&a.output, std::path::Path::new(&a.input.mesh))?;
+        atomic::refuse_input_files(&a.output, std::path::Path::new(&a.input.mesh))?;
     }
     let mesh = a.input.load_mesh()?;
     // Held at once: the patch table, the nodes (24 bytes each), the connectivity, and the

@@ -30,7 +30,7 @@ pub struct ExportNetArgs {
 pub fn run(a: &ExportNetArgs) -> anyhow::Result<()> {
     if !atomic::is_stdout(&a.output) {
         atomic::resolve_output(&a.output)?;
-        atomic::refuse_same_file(&a.output, std::path::Path::new(&a.input.mesh))?;
+        atomic::refuse_input_files(&a.output, std::path::Path::new(&a.input.mesh))?;
     }
     let mesh = a.input.load_mesh()?;
     // The patch table (stride × 3 f64 per patch) is what grows with the input; writing

@@ -277,6 +277,9 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         "{}: render writes PNG pictures (.png)",
         a.output.display()
     );
+    // Refuse a directory, device or FIFO, and a file the input is read from, before any work.
+    crate::io::atomic::resolve_output(&a.output)?;
+    crate::io::atomic::refuse_input_files(&a.output, std::path::Path::new(&a.input.mesh))?;
     check_view_up(a.view, a.up)?;
     anyhow::ensure!(
         a.size >= MIN_PANEL,

@@ -233,7 +233,7 @@ fn output_format(a: &TessellateArgs) -> anyhow::Result<MeshFormat> {
     } else {
         // Refuse a directory, device or FIFO, and the input itself, before any work.
         atomic::resolve_output(&a.output)?;
-        atomic::refuse_same_file(&a.output, std::path::Path::new(&a.input.mesh))?;
+        atomic::refuse_input_files(&a.output, std::path::Path::new(&a.input.mesh))?;
     }
     Ok(format)
 }

@@ -1,12 +1,19 @@
 //! Atomic file output: write to a temporary file beside the target, then rename, so an
 //! interrupted run never leaves a truncated file.
 //!
-//! - The temporary file is `.NAME.tmp-PID` in the target's folder (NAME the target's file
-//!   name, PID the writing process). Every live temporary file is listed in the
-//!   [`TempFiles`] the caller passes ([`TempFiles::live_temp_files`]); a program that
-//!   handles signals removes them with [`TempFiles::remove_live_temp_files`] before it
-//!   exits (the command line does, on SIGINT and SIGTERM). A process killed outright
-//!   (SIGKILL, power loss) leaves its `.NAME.tmp-PID` behind; the target is then untouched.
+//! - The temporary file is `.NAME.RANDOM.tmp` in the target's folder (NAME the target's
+//!   file name, cut to [`TEMP_NAME_PART`] bytes so that any legal name leaves a legal
+//!   temporary name; RANDOM 16 hexadecimal digits no other process can guess). It is
+//!   created new (`O_CREAT | O_EXCL`: never an existing file, never through a symbolic
+//!   link planted at its name), and another name is tried when one is taken. Every live
+//!   temporary file is listed in the [`TempFiles`] the caller passes
+//!   ([`TempFiles::live_temp_files`]); a program that handles signals removes them with
+//!   [`TempFiles::remove_live_temp_files`] before it exits (the command line does, on
+//!   SIGINT and SIGTERM). A process killed outright (SIGKILL, power loss) leaves its
+//!   `.NAME.RANDOM.tmp` behind; the target is then untouched.
+//! - A replaced file keeps its permission bits (read, write and execute for owner, group
+//!   and others; on Unix): the temporary file gets them before anything is written into
+//!   it. A new file gets the default (0666 less the umask).
 //! - Only regular files are replaced: a target that is a directory, a device, a FIFO or a
 //!   socket is refused ([`resolve_output`]).
 //! - A symbolic link is written through: the temporary file goes beside the link's final
@@ -57,18 +64,134 @@ impl TempFiles {
             .collect()
     }
 
-    fn register(&self, tmp: &Path) -> bool {
+    /// Creates a new file `dir/PREFIX` + 16 random hexadecimal digits + `SUFFIX` (see
+    /// [`create_unique`]) and lists it here, under the list's lock, so that a signal's
+    /// [`TempFiles::remove_live_temp_files`] either finds it or refuses to let it be
+    /// created. `mode`: the permission bits it gets (Unix), else the default. The error
+    /// names the temporary file; after [`TempFiles::remove_live_temp_files`] it says that
+    /// the process is exiting.
+    pub(crate) fn create_listed(
+        &self,
+        dir: &Path,
+        prefix: &str,
+        suffix: &str,
+        mode: Option<u32>,
+    ) -> std::io::Result<(PathBuf, File)> {
         let mut r = self.registry();
         if r.closed {
-            return false;
+            return Err(std::io::Error::other(
+                "not written (the process is exiting)",
+            ));
         }
-        r.live.push(tmp.to_path_buf());
-        true
+        let (tmp, file) = create_unique(dir, prefix, suffix, mode, random_names())?;
+        r.live.push(tmp.clone());
+        Ok((tmp, file))
     }
 
-    fn unregister(&self, tmp: &Path) {
+    /// Takes `tmp` off the list (once it is renamed or removed).
+    pub(crate) fn unlist(&self, tmp: &Path) {
         self.registry().live.retain(|p| p != tmp);
     }
+}
+
+/// Bytes of the target's name that its temporary name repeats at most: with the dot, the
+/// random part and `.tmp`, a temporary name has at most 122 bytes, well within the 255 of
+/// common file systems whatever the target's name.
+pub const TEMP_NAME_PART: usize = 100;
+
+/// Names tried at most for one temporary file: each is 64 random bits, so a taken name
+/// is a file planted by someone who guessed it (or a squatter on every name).
+const TEMP_TRIES: usize = 32;
+
+/// Endless unpredictable 64-bit numbers: SipHash, under the keys std draws from the
+/// operating system's random source for each [`RandomState`], of the process, the
+/// thread, the time and a counter (no crate and no global state needed).
+///
+/// [`RandomState`]: std::collections::hash_map::RandomState
+fn random_names() -> impl Iterator<Item = u64> {
+    use std::hash::{BuildHasher, Hash, Hasher};
+    let state = std::collections::hash_map::RandomState::new();
+    (0u64..).map(move |n| {
+        let mut h = state.build_hasher();
+        std::process::id().hash(&mut h);
+        std::thread::current().id().hash(&mut h);
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos())
+            .hash(&mut h);
+        n.hash(&mut h);
+        h.finish()
+    })
+}
+
+/// Creates a new file `dir/PREFIX` + `name` (16 hexadecimal digits) + `SUFFIX` for the
+/// first of `names` that is free, with `O_CREAT | O_EXCL` (`create_new`): an existing file,
+/// directory or symbolic link at that name is never opened or followed, the next name is
+/// tried instead, [`TEMP_TRIES`] at most. `mode` (Unix): the permission bits the file gets
+/// exactly (set after creating it, which the umask would narrow), before anything is
+/// written. Errors name the temporary file and say what failed, on one line.
+fn create_unique(
+    dir: &Path,
+    prefix: &str,
+    suffix: &str,
+    mode: Option<u32>,
+    names: impl Iterator<Item = u64>,
+) -> std::io::Result<(PathBuf, File)> {
+    let mut last = None;
+    for name in names.take(TEMP_TRIES) {
+        let tmp = dir.join(format!("{prefix}{name:016x}{suffix}"));
+        let mut options = std::fs::OpenOptions::new();
+        options.write(true).create_new(true);
+        #[cfg(unix)]
+        if let Some(mode) = mode {
+            use std::os::unix::fs::OpenOptionsExt;
+            // Never wider than the final bits while the file is being filled.
+            options.mode(mode);
+        }
+        match options.open(&tmp) {
+            Ok(file) => {
+                #[cfg(unix)]
+                if let Some(mode) = mode {
+                    use std::os::unix::fs::PermissionsExt;
+                    if let Err(e) = file.set_permissions(std::fs::Permissions::from_mode(mode)) {
+                        drop(file);
+                        let _ = std::fs::remove_file(&tmp);
+                        return Err(temp_error(&tmp, "cannot set the mode of", e));
+                    }
+                }
+                #[cfg(not(unix))]
+                let _ = mode;
+                return Ok((tmp, file));
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => last = Some(tmp),
+            Err(e) => return Err(temp_error(&tmp, "cannot create", e)),
+        }
+    }
+    let taken = last.map_or_else(|| dir.display().to_string(), |t| t.display().to_string());
+    Err(std::io::Error::new(
+        std::io::ErrorKind::AlreadyExists,
+        format!("cannot create a temporary file: {TEMP_TRIES} random names in a row were taken (the last {taken})"),
+    ))
+}
+
+/// An I/O error of a temporary file, naming it: "cannot create the temporary file
+/// DIR/.NAME.RANDOM.tmp: Permission denied (os error 13)".
+fn temp_error(tmp: &Path, what: &str, e: std::io::Error) -> std::io::Error {
+    std::io::Error::new(
+        e.kind(),
+        format!("{what} the temporary file {}: {e}", tmp.display()),
+    )
+}
+
+/// The temporary name's copy of a target's file name: its first [`TEMP_NAME_PART`]
+/// bytes at most, cut at a character (names that are not UTF-8 are shown lossily).
+fn temp_name_part(name: &std::ffi::OsStr) -> String {
+    let name = name.to_string_lossy();
+    let mut end = name.len().min(TEMP_NAME_PART);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    name[..end].to_string()
 }
 
 /// Whether `path` names standard output (`-`).
@@ -147,17 +270,14 @@ pub fn resolve_output(path: &Path) -> Result<PathBuf> {
     )))
 }
 
-/// Fails when `output` is the same file as `input` (same device and inode when both exist,
-/// or the same canonical path, symbolic links followed): writing would replace the input.
-pub fn refuse_same_file(output: &Path, input: &Path) -> Result<()> {
-    if is_stdout(output) {
-        return Ok(());
-    }
-    let inode = match (std::fs::metadata(output), std::fs::metadata(input)) {
+/// Whether `a` and `b` are the same file: the same device and inode when both exist, or
+/// the same canonical path (symbolic links followed; the file itself may not exist yet).
+fn same_file(a: &Path, b: &Path) -> bool {
+    let inode = match (std::fs::metadata(a), std::fs::metadata(b)) {
         (Ok(a), Ok(b)) => same_inode(&a, &b),
         _ => false,
     };
-    let same = inode || {
+    inode || {
         let canon = |p: &Path| -> Option<PathBuf> {
             let target = resolve_output(p).ok()?;
             let dir = match target.parent() {
@@ -166,9 +286,14 @@ pub fn refuse_same_file(output: &Path, input: &Path) -> Result<()> {
             };
             Some(std::fs::canonicalize(dir).ok()?.join(target.file_name()?))
         };
-        matches!((canon(output), canon(input)), (Some(a), Some(b)) if a == b)
-    };
-    if same {
+        matches!((canon(a), canon(b)), (Some(a), Some(b)) if a == b)
+    }
+}
+
+/// Fails when `output` is the same file as `input` (same device and inode when both exist,
+/// or the same canonical path, symbolic links followed): writing would replace the input.
+pub fn refuse_same_file(output: &Path, input: &Path) -> Result<()> {
+    if !is_stdout(output) && same_file(output, input) {
         return Err(Error::Invalid(format!(
             "{}: is the input {}; refusing to overwrite the input",
             output.display(),
@@ -176,6 +301,32 @@ pub fn refuse_same_file(output: &Path, input: &Path) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+/// Fails when writing `output` would replace a file the input mesh `input` is read from:
+/// the input itself ([`refuse_same_file`]) or, for a glTF file, one of the external
+/// buffer files it names (under any name, through links too).
+pub fn refuse_input_files(output: &Path, input: &Path) -> Result<()> {
+    use crate::mesh::InputFormat;
+    refuse_same_file(output, input)?;
+    // The format by name, or by content for a regular file only (opening a FIFO blocks).
+    let gltf = std::fs::metadata(input).is_ok_and(|m| m.is_file())
+        && InputFormat::detect(input).is_ok_and(|f| f == InputFormat::Gltf);
+    if is_stdout(output) || !gltf {
+        return Ok(());
+    }
+    match crate::mesh::gltf::buffer_files(input)
+        .into_iter()
+        .find(|buffer| same_file(output, buffer))
+    {
+        Some(buffer) => Err(Error::Invalid(format!(
+            "{}: is the buffer file {} of the input {}; refusing to overwrite the input",
+            output.display(),
+            buffer.display(),
+            input.display()
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// Writes `path` atomically through `f`, which receives a buffered writer; the temporary
@@ -265,32 +416,52 @@ fn replace_atomically(
     let name = target
         .file_name()
         .ok_or_else(|| Error::Invalid(format!("{}: not a file path", path.display())))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp-{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    if !temp.register(&tmp) {
-        return Err(Error::Invalid(format!(
-            "{}: not written (the process is exiting)",
-            path.display()
-        )));
-    }
+    let (tmp, file) = temp
+        .create_listed(
+            &dir,
+            &format!(".{}.", temp_name_part(name)),
+            ".tmp",
+            replaced_mode(&target),
+        )
+        .map_err(io)?;
     let result = (|| {
-        let file = File::create(&tmp).map_err(io)?;
         let writeback = EarlyWriteback::start(&file);
         let written = write(file);
         drop(writeback);
         let file = written?;
         file.sync_all().map_err(io)?;
         drop(file);
-        std::fs::rename(&tmp, &target).map_err(io)
+        std::fs::rename(&tmp, &target).map_err(|e| {
+            io(std::io::Error::new(
+                e.kind(),
+                format!(
+                    "cannot rename the temporary file {} to it: {e}",
+                    tmp.display()
+                ),
+            ))
+        })
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
-    temp.unregister(&tmp);
+    temp.unlist(&tmp);
     result
+}
+
+/// The permission bits of the regular file `target` that a write replaces (None where it
+/// does not exist yet, or off Unix).
+fn replaced_mode(target: &Path) -> Option<u32> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let meta = std::fs::metadata(target).ok()?;
+        meta.is_file().then_some(meta.permissions().mode() & 0o777)
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = target;
+        None
+    }
 }
 
 /// Bytes per block a [`PipedWriter`] hands to its thread (one `write` each) when the file
@@ -841,19 +1012,31 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let target = dir.join("out.txt");
         let _ = std::fs::remove_file(&target);
-        let tmp = dir.join(format!(".out.txt.tmp-{}", std::process::id()));
         let (temp, other) = (TempFiles::default(), TempFiles::default());
         let handle = temp.clone();
+        let mut seen = None;
         let result = write_atomic(&target, &temp, |w| {
             w.write_all(b"partial")?;
             w.flush()?;
-            assert_eq!(handle.live_temp_files(), vec![tmp.clone()]);
+            let live = handle.live_temp_files();
+            assert_eq!(live.len(), 1, "{live:?}");
+            let tmp = live[0].clone();
+            seen = Some(tmp.clone());
+            // `.NAME.` + 16 hexadecimal digits + `.tmp`, beside the target.
+            assert_eq!(tmp.parent(), Some(dir.as_path()));
+            let name = tmp.file_name().unwrap().to_str().unwrap();
+            let random = name
+                .strip_prefix(".out.txt.")
+                .and_then(|r| r.strip_suffix(".tmp"))
+                .unwrap_or_else(|| panic!("temporary name {name}"));
+            assert!(random.len() == 16 && random.bytes().all(|b| b.is_ascii_hexdigit()));
             assert!(other.live_temp_files().is_empty());
             assert!(tmp.is_file());
             assert_eq!(handle.remove_live_temp_files(), vec![tmp.clone()]);
             Ok(())
         });
         assert!(result.is_err(), "the rename of a removed file must fail");
+        let tmp = seen.unwrap();
         assert!(!tmp.exists() && !target.exists());
         assert!(temp.live_temp_files().is_empty());
         let refused = write_atomic(&target, &temp, |w| w.write_all(b"late")).unwrap_err();
@@ -866,6 +1049,131 @@ mod tests {
         assert_eq!(std::fs::read(&target).unwrap(), b"whole");
         assert!(other.live_temp_files().is_empty());
         std::fs::remove_file(&target).unwrap();
+    }
+
+    /// Names already taken (a directory squatting on one, a symbolic link planted at the
+    /// next, a plain file) are skipped, never opened or followed: the file gets the first
+    /// free name. With every name taken the error says so, on one line naming the folder's
+    /// last name tried; a failure to create names the temporary file and the cause.
+    #[test]
+    fn taken_temporary_names_are_skipped_and_errors_name_the_file() {
+        use super::{create_unique, TEMP_TRIES};
+        let dir = crate::tests::common::tmp_dir("unit_output_taken_names");
+        let victim = dir.join("victim");
+        std::fs::write(&victim, b"victim").unwrap();
+        let name = |n: u64| dir.join(format!(".t.{n:016x}.tmp"));
+        std::fs::create_dir_all(name(1)).unwrap();
+        let _ = std::fs::remove_file(name(2));
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(&victim, name(2)).unwrap();
+        std::fs::write(name(3), b"other").unwrap();
+        let (tmp, mut file) = create_unique(&dir, ".t.", ".tmp", None, 1..).unwrap();
+        assert_eq!(tmp, name(4));
+        file.write_all(b"new").unwrap();
+        drop(file);
+        assert_eq!(std::fs::read(&victim).unwrap(), b"victim");
+        assert_eq!(std::fs::read(name(3)).unwrap(), b"other");
+        assert!(name(1).is_dir());
+        // Every name taken: name 4 again and again.
+        let e = create_unique(&dir, ".t.", ".tmp", None, std::iter::repeat(4)).unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains(&format!("{TEMP_TRIES} random names in a row were taken"))
+                && msg.contains(&name(4).display().to_string())
+                && !msg.contains('\n'),
+            "{msg}"
+        );
+        // A folder that does not exist: the temporary file is named.
+        let missing = dir.join("missing");
+        let e = create_unique(&missing, ".t.", ".tmp", None, 7..).unwrap_err();
+        let want = format!(
+            "cannot create the temporary file {}: ",
+            missing.join(format!(".t.{:016x}.tmp", 7)).display()
+        );
+        assert!(e.to_string().starts_with(&want), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The temporary name of a 250-byte target name (255 is the usual limit) keeps its
+    /// first 100 bytes, cut at a character, so the write goes through; the name part of a
+    /// short name is the whole name.
+    #[test]
+    fn long_target_names_leave_short_temporary_names() {
+        use super::{temp_name_part, TEMP_NAME_PART};
+        use std::ffi::OsStr;
+        assert_eq!(temp_name_part(OsStr::new("out.ply")), "out.ply");
+        // 'é' is 2 bytes: 99 of 'a' then 'é' would end at byte 101, so it is left out.
+        let accented = format!("{}é{}", "a".repeat(99), "b".repeat(10));
+        assert_eq!(temp_name_part(OsStr::new(&accented)), "a".repeat(99));
+        let dir = crate::tests::common::tmp_dir("unit_output_long_name");
+        let long = format!("{}.obj", "n".repeat(246));
+        assert_eq!(long.len(), 250);
+        assert_eq!(temp_name_part(OsStr::new(&long)).len(), TEMP_NAME_PART);
+        let target = dir.join(&long);
+        write_atomic(&target, &TempFiles::default(), |w| w.write_all(b"long")).unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"long");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A replaced file keeps its permission bits (0600, 0755, 0400: still writable through
+    /// the open file); a new one gets the default, as `File::create` gives it here.
+    #[cfg(unix)]
+    #[test]
+    fn replaced_files_keep_their_mode() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = crate::tests::common::tmp_dir("unit_output_mode");
+        let mode =
+            |p: &std::path::Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o7777;
+        for bits in [0o600, 0o755, 0o400, 0o640] {
+            let target = dir.join(format!("m{bits:o}.txt"));
+            std::fs::write(&target, b"old").unwrap();
+            std::fs::set_permissions(&target, std::fs::Permissions::from_mode(bits)).unwrap();
+            write_atomic(&target, &TempFiles::default(), |w| w.write_all(b"new")).unwrap();
+            assert_eq!(std::fs::read(&target).unwrap(), b"new");
+            assert_eq!(mode(&target), bits, "{}", target.display());
+        }
+        let reference = dir.join("reference");
+        drop(File::create(&reference).unwrap());
+        let fresh = dir.join("fresh.txt");
+        write_atomic(&fresh, &TempFiles::default(), |w| w.write_all(b"new")).unwrap();
+        assert_eq!(mode(&fresh), mode(&reference));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A glTF's external buffer files are inputs: an output on one of them (by its name,
+    /// another spelling or a link) is refused naming it; data URIs and other names pass,
+    /// and so does anything for an input that is not glTF.
+    #[cfg(unix)]
+    #[test]
+    fn outputs_on_a_gltf_buffer_are_refused() {
+        use super::refuse_input_files;
+        let dir = crate::tests::common::tmp_dir("unit_output_gltf_buffers");
+        let gltf = dir.join("scene.gltf");
+        std::fs::write(
+            &gltf,
+            r#"{"asset":{"version":"2.0"},"buffers":[{"byteLength":4,"uri":"data:application/octet-stream;base64,AAAAAA=="},{"byteLength":4,"uri":"scene%20buf.bin"}]}"#,
+        )
+        .unwrap();
+        let buffer = dir.join("scene buf.bin");
+        std::fs::write(&buffer, [0u8; 4]).unwrap();
+        let link = dir.join("link.glb");
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink("scene buf.bin", &link).unwrap();
+        for out in [buffer.clone(), dir.join("sub/../scene buf.bin"), link] {
+            std::fs::create_dir_all(dir.join("sub")).unwrap();
+            let e = refuse_input_files(&out, &gltf).unwrap_err().to_string();
+            assert!(
+                e.contains("is the buffer file") && e.contains("scene buf.bin"),
+                "{e}"
+            );
+        }
+        refuse_input_files(&dir.join("out.glb"), &gltf).unwrap();
+        let e = refuse_input_files(&gltf, &gltf).unwrap_err().to_string();
+        assert!(e.contains("is the input"), "{e}");
+        let obj = dir.join("m.obj");
+        std::fs::write(&obj, "v 0 0 0\n").unwrap();
+        refuse_input_files(&buffer, &obj).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// A stream (with or without an unaligned flush half way, which turns direct I/O off),

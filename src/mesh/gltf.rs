@@ -490,29 +490,7 @@ pub struct SceneSize {
 /// cannot be read (the load then says what is wrong); a scene that is inconsistent counts
 /// its buffers only (the load fails on it after reading them).
 pub fn scene_size(path: &Path) -> Option<SceneSize> {
-    use std::io::Read;
-    // A device or pipe is not opened here (the load refuses it with its own error).
-    let len = super::regular_file(path).ok()?.len();
-    let mut f = std::fs::File::open(path).ok()?;
-    let mut head = [0u8; 20];
-    let n = f.read(&mut head).ok()?;
-    let json = if n >= 4 && &head[..4] == b"glTF" {
-        // GLB: only the JSON chunk, the first one, whose length is declared at byte 12.
-        if n < 20 {
-            return None;
-        }
-        let clen = u64::from(u32::from_le_bytes([head[12], head[13], head[14], head[15]]));
-        if clen > len.saturating_sub(20) {
-            return None;
-        }
-        let mut j = vec![0u8; clen as usize];
-        f.read_exact(&mut j).ok()?;
-        j
-    } else {
-        let mut j = head[..n].to_vec();
-        f.take(len).read_to_end(&mut j).ok()?;
-        j
-    };
+    let json = json_of(path)?;
     let root: ::gltf::json::Root = serde_json::from_slice(&json).ok()?;
     let file_buffers = root
         .buffers
@@ -562,6 +540,62 @@ fn scene_counts(root: &::gltf::json::Root) -> Option<(u64, u64)> {
         }
     }
     Some((vertices, corners))
+}
+
+/// The files the buffers of the glTF or GLB file at `path` name (URIs other than data
+/// URIs, resolved as the load resolves them): inputs too, which an output must not
+/// replace. Empty when the file cannot be read as glTF (the load then says what is wrong).
+pub fn buffer_files(path: &Path) -> Vec<std::path::PathBuf> {
+    let Some(root) =
+        json_of(path).and_then(|json| serde_json::from_slice::<::gltf::json::Root>(&json).ok())
+    else {
+        return Vec::new();
+    };
+    let dir = path.parent().unwrap_or(Path::new(""));
+    root.buffers
+        .iter()
+        .filter_map(|b| b.uri.as_deref())
+        .filter(|uri| !uri.starts_with("data:") && !uri.contains("://"))
+        .filter_map(percent_decode)
+        .map(|rel| dir.join(rel))
+        .collect()
+}
+
+/// The JSON of the glTF file at `path`: the whole file, or a GLB's JSON chunk. None for a
+/// file that is not regular (checked before opening it, which would block on a FIFO) or
+/// that cannot be read.
+fn json_of(path: &Path) -> Option<Vec<u8>> {
+    use std::io::Read;
+    // A device or pipe is not read here (the load refuses it with its own error).
+    if !std::fs::metadata(path).ok()?.is_file() {
+        return None;
+    }
+    let mut f = std::fs::File::open(path).ok()?;
+    let meta = f.metadata().ok()?;
+    if !meta.is_file() {
+        return None;
+    }
+    let len = meta.len();
+    let mut head = [0u8; 20];
+    let n = f.read(&mut head).ok()?;
+    let json = if n >= 4 && &head[..4] == b"glTF" {
+        // GLB: only the JSON chunk, the first one, whose length is declared at byte 12.
+        if n < 20 {
+            return None;
+        }
+        let clen = u64::from(u32::from_le_bytes([head[12], head[13], head[14], head[15]]));
+        if clen > len.saturating_sub(20) {
+            return None;
+        }
+        let mut j = vec![0u8; clen as usize];
+        f.read_exact(&mut j).ok()?;
+        j
+    } else {
+        let mut j = head[..n].to_vec();
+        f.take(len).read_to_end(&mut j).ok()?;
+        j
+    };
+    Some(json)
 }
 
 /// Error text of the gltf crate on one line, control characters escaped, cut to 300

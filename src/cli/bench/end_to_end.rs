@@ -66,21 +66,24 @@ pub struct EndToEndReport {
     pub rows: Vec<EndToEndRow>,
 }
 
-/// Removes a file when dropped (temporary files of the end-to-end run).
+/// A temporary file of the end-to-end run: created new (`O_EXCL`, never through a link
+/// planted at its name) under an unpredictable name, listed in [`TEMP_FILES`] (so that
+/// SIGINT and SIGTERM remove it), removed when dropped. The writes through the output
+/// path replace it by renaming onto it.
 struct TempFile(std::path::PathBuf);
 
 impl Drop for TempFile {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.0);
+        TEMP_FILES.unlist(&self.0);
     }
 }
 
-/// A plain sequential write of `bytes` bytes (1 MiB blocks through one buffer, then
-/// fsync, as the writers do): the baseline of writing a file of that size here.
-fn plain_write(path: &std::path::Path, bytes: u64) -> anyhow::Result<()> {
+/// A plain sequential write of `bytes` bytes into `f` (1 MiB blocks through one buffer,
+/// then fsync, as the writers do): the baseline of writing a file of that size here.
+fn plain_write(mut f: std::fs::File, bytes: u64) -> anyhow::Result<()> {
     use std::io::Write;
     let block = vec![0x5au8; 1 << 20];
-    let mut f = std::fs::File::create(path)?;
     let mut left = bytes;
     while left > 0 {
         let n = left.min(block.len() as u64) as usize;
@@ -212,7 +215,6 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
     let scheme = a.schemes.first().copied().unwrap_or(Scheme::G1);
     let temp = TempNames {
         dir: a.dir.clone().unwrap_or_else(std::env::temp_dir),
-        stamp: format!("g1tess-bench-{}", std::process::id()),
     };
     let say = |what: &str| {
         if !a.quiet {
@@ -367,16 +369,19 @@ impl EndToEndRows {
     }
 }
 
-/// Names of the end-to-end run's temporary files: `dir/stamp.extension`.
+/// Where the end-to-end run's temporary files go: `dir/g1tess-bench-RANDOM.extension`.
 struct TempNames {
     dir: std::path::PathBuf,
-    stamp: String,
 }
 
 impl TempNames {
-    /// The temporary file of `extension`, removed when dropped.
-    fn file(&self, extension: &str) -> TempFile {
-        TempFile(self.dir.join(format!("{}.{extension}", self.stamp)))
+    /// A new, empty temporary file of `extension` (see [`TempFile`]) and the file open for
+    /// writing.
+    fn file(&self, extension: &str) -> anyhow::Result<(TempFile, std::fs::File)> {
+        let (path, file) = TEMP_FILES
+            .create_listed(&self.dir, "g1tess-bench-", &format!(".{extension}"), None)
+            .map_err(|e| crate::Error::io(&self.dir, e))?;
+        Ok((TempFile(path), file))
     }
 }
 
@@ -405,19 +410,19 @@ fn time_file_writes(
     let (mut file, mut plain) = ((f64::INFINITY, None), (f64::INFINITY, None));
     let mut piped = (f64::INFINITY, None);
     for _ in 0..2 {
-        let plain_file = temp.file("plain");
-        let t = timed(|| plain_write(&plain_file.0, bytes))?;
+        let (plain_file, f) = temp.file("plain")?;
+        let t = timed(|| plain_write(f, bytes))?;
         drop(plain_file);
         if t.0 < plain.0 {
             plain = t;
         }
-        let piped_file = temp.file("piped");
+        let (piped_file, _) = temp.file("piped")?;
         let t = timed(|| piped_write(&piped_file.0, bytes))?;
         drop(piped_file);
         if t.0 < piped.0 {
             piped = t;
         }
-        let ply = temp.file("ply");
+        let (ply, _) = temp.file("ply")?;
         let t = timed(|| {
             write_stitched::<[f32; 3]>(
                 &ply.0,
@@ -454,7 +459,7 @@ fn time_obj_loading(
     say: &dyn Fn(&str),
     rows: &mut EndToEndRows,
 ) -> anyhow::Result<Mesh> {
-    let obj = temp.file("obj");
+    let (obj, _) = temp.file("obj")?;
     write_stitched::<[f32; 3]>(
         &obj.0,
         &TEMP_FILES,
