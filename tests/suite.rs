@@ -32,6 +32,8 @@ mod errors;
 mod export_net;
 mod formats;
 mod fuzz;
+#[cfg(feature = "cli")]
+mod hardening_patch;
 mod mesh_input;
 mod msh;
 mod obj_fuzz;

@@ -44,6 +44,7 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
         evaluator.as_ref(),
     )?;
     report.repair = repair;
+    note_undecided(a, &report.patches);
     if a.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {
@@ -88,10 +89,20 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
     );
     report.patches = crate::patch::validity::count(&table);
     report.repair = repair;
+    note_undecided(a, &report.patches);
     if a.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {
         println!("{}\n", report.to_text());
     }
     Ok(())
+}
+
+/// A note on stderr where the certificate left patches undecided (not with `--quiet`).
+fn note_undecided(a: &StatsArgs, patches: &crate::PatchCounts) {
+    if let Some(note) = crate::patch::validity::undecided_note(patches) {
+        if !(a.quiet || a.backend.quiet) {
+            eprintln!("note: {note}");
+        }
+    }
 }
