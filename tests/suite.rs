@@ -36,6 +36,8 @@ mod fuzz;
 mod hardening_cli;
 #[cfg(feature = "cli")]
 mod hardening_files;
+#[cfg(feature = "cli")]
+mod hardening_patch;
 mod hardening_readers;
 mod mesh_input;
 mod msh;

@@ -92,6 +92,7 @@ fn print_report(
     a: &StatsArgs,
     mut report: crate::analysis::stats::StatsReport,
 ) -> anyhow::Result<()> {
+    note_undecided(a, &report.patches);
     if a.json {
         out::stdout_json(&serde_json::to_string(&report)?)?;
     } else {
@@ -99,4 +100,13 @@ fn print_report(
         out::stdout_line(&format!("{}\n", report.to_text()))?;
     }
     Ok(())
+}
+
+/// A note on stderr where the certificate left patches undecided (not with `--quiet`).
+fn note_undecided(a: &StatsArgs, patches: &crate::PatchCounts) {
+    if let Some(note) = crate::patch::validity::undecided_note(patches) {
+        if !(a.quiet || a.backend.quiet) {
+            out::stderr_line(&format!("note: {note}"));
+        }
+    }
 }

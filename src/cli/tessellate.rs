@@ -282,7 +282,8 @@ fn choose_levels(
     a.memory.budget().check(
         "tessellate",
         &format!("levels up to the cap {cap}"),
-        need.saturating_mul(2),
+        need.saturating_mul(2)
+            .saturating_add(crate::tess::adaptive::measure_bytes(cap)),
         "the f64 measurements at the level cap; lower --max-level",
     )?;
     let bar = progress::bar(mesh.triangles.len() as u64, "measuring", "patches", a.quiet);

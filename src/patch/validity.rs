@@ -24,6 +24,13 @@
 //!   ([`PatchTable::eval`]) gives J < 0 by more than its rounding;
 //! - **undecided** otherwise (never a guess).
 //!
+//! **Cost.** A patch that no subdivision can certify (J's coefficient at a corner at most
+//! the tolerance: a normal in its triangle's plane) is only searched for a witness. Over
+//! a table ([`check_range`]), the subdivisions share budgets proportional to its patch
+//! count, so normals in or near their triangles' plane cost a bounded number of cells
+//! per patch; a patch whose search stops there is undecided, and the runs say how many
+//! were ([`undecided_note`]).
+//!
 //! **The rational Gregory blend (G1).** The interior point of corner m is the blend
 //! I_m = φ G_{m,1} + (1 − φ) G_{m−1,2} with φ = b_{m+1}/(b_{m+1} + b_{m+2}), which is not a
 //! polynomial and is singular at corner m. On each cell φ is replaced by its first-order
@@ -126,12 +133,10 @@ pub fn jacobian(table: &PatchTable, i: usize, b: [f64; 3]) -> (f64, f64) {
     )
 }
 
-/// The verdict on every patch of `table` (in parallel).
+/// The verdict on every patch of `table` (in parallel), within the bounds on the
+/// certificate's cost ([`check_range`]).
 pub fn check_table(table: &PatchTable) -> Vec<Verdict> {
-    (0..table.len())
-        .into_par_iter()
-        .map(|i| check_patch(table, i))
-        .collect()
+    check_range(table, 0..table.len()).verdicts
 }
 
 /// The verdicts of `table` counted (in parallel).
@@ -139,12 +144,158 @@ pub fn count(table: &PatchTable) -> PatchCounts {
     count_range(table, 0..table.len())
 }
 
-/// The verdicts of patches `range` of `table` counted (in parallel).
+/// The verdicts of patches `range` of `table` counted (in parallel), within the bounds on
+/// the certificate's cost ([`check_range`]).
 pub fn count_range(table: &PatchTable, range: std::ops::Range<usize>) -> PatchCounts {
-    range
+    check_range(table, range)
+        .verdicts
+        .iter()
+        .fold(PatchCounts::default(), PatchCounts::with)
+}
+
+/// The verdicts of some patches and what they cost ([`check_range`]; the costs are what
+/// the tests of the bounds read).
+#[cfg_attr(not(test), allow(dead_code))]
+pub struct RangeCheck {
+    /// The verdicts, in the order of the range.
+    pub verdicts: Vec<Verdict>,
+    /// Cells the subdivisions examined, all patches together (a subdivision run again
+    /// with a larger share counts once, with its largest count).
+    pub cells: usize,
+    /// Patches left undecided where a subdivision stopped at its share of a budget (the
+    /// others left undecided reached the limits of their subdivisions).
+    pub stopped: usize,
+}
+
+/// The verdicts of patches `range` of `table` (in parallel), with the certificate's cost
+/// bounded per patch and in total. Each patch gets what [`check_patch`] gives it, except
+/// that the subdivisions share budgets proportional to the length of the range:
+/// - the first subdivisions, [`FIRST_SHARE`] cells per patch of the range and at least
+///   [`FIRST_FLOOR`];
+/// - the witness searches of the patches that no subdivision can certify
+///   ([`Geometry::never_certified`]: normals in their triangle's plane, degenerate
+///   triangles), [`WITNESS_SHARE`] cells per patch and at least [`WITNESS_FLOOR`];
+/// - the deeper subdivisions of the patches that the first one leaves undecided,
+///   [`DEEP_SHARE`] cells per patch and at least [`DEEP_FLOOR`].
+///
+/// Each budget is shared out evenly among the subdivisions that need it, what the ones
+/// that finish within their share leave over going to the others ([`shared`]); so the
+/// verdicts depend on nothing but the patches of the range. A subdivision that stops
+/// at its share leaves its patch undecided, never a guess; where no budget binds (on
+/// every test mesh) each verdict is [`check_patch`]'s.
+pub fn check_range(table: &PatchTable, range: std::ops::Range<usize>) -> RangeCheck {
+    let n = range.len();
+    let budget = |floor: usize, per_patch: usize| floor.max(per_patch.saturating_mul(n));
+    let start = range.start;
+    let first: Vec<Stage> = range
         .into_par_iter()
-        .map(|i| PatchCounts::default().with(&check_patch(table, i)))
-        .reduce(PatchCounts::default, PatchCounts::merge)
+        .map(|i| first_stage(table, i))
+        .collect();
+    let of = |kind: Stage| -> Vec<usize> {
+        (0..n)
+            .filter(|&k| first[k] == kind)
+            .map(|k| start + k)
+            .collect()
+    };
+    let search = |depth: u32, cells: usize| {
+        move |i: usize, stop: usize| {
+            let geom = Geometry::new(table, i);
+            check_within(table, i, &geom, depth, cells, stop)
+        }
+    };
+    let mut out: Vec<(Verdict, usize, bool)> = first
+        .iter()
+        .map(|s| match s {
+            Stage::Done(v) => (*v, 0, false),
+            _ => (Verdict::Undecided, 0, false),
+        })
+        .collect();
+    let mut store = |ids: &[usize], results: Vec<(Verdict, usize, bool)>| {
+        for (&i, (v, cells, stopped)) in ids.iter().zip(results) {
+            let o = &mut out[i - start];
+            *o = (v, o.1 + cells, stopped);
+        }
+    };
+    // The first subdivisions; those they leave undecided (not stopped) go deeper.
+    let ids = of(Stage::First);
+    let results = shared(
+        &ids,
+        budget(FIRST_FLOOR, FIRST_SHARE),
+        search(MAX_DEPTH, MAX_CELLS),
+    );
+    let deeper: Vec<usize> = ids
+        .iter()
+        .zip(&results)
+        .filter(|(_, r)| r.0 == Verdict::Undecided && !r.2)
+        .map(|(&i, _)| i)
+        .collect();
+    store(&ids, results);
+    let ids = of(Stage::Witness);
+    let results = shared(
+        &ids,
+        budget(WITNESS_FLOOR, WITNESS_SHARE),
+        search(MAX_DEPTH, MAX_CELLS),
+    );
+    store(&ids, results);
+    let results = shared(
+        &deeper,
+        budget(DEEP_FLOOR, DEEP_SHARE),
+        search(DEEP_DEPTH, DEEP_CELLS),
+    );
+    store(&deeper, results);
+    RangeCheck {
+        cells: out.iter().map(|o| o.1).sum(),
+        stopped: out.iter().filter(|o| o.2).count(),
+        verdicts: out.into_iter().map(|o| o.0).collect(),
+    }
+}
+
+/// Cells of each search in the first round of [`shared`], at most: most patches need a
+/// few.
+const FIRST_ROUND: usize = 64;
+
+/// `search(i, stop)` (the verdict, the cells examined, whether it stopped at `stop`) of
+/// every patch of `ids`, in parallel, within `budget` cells. The first round gives each
+/// search an equal share of the budget, at most [`FIRST_ROUND`] cells; each further
+/// round runs the searches that stopped again, each with an equal share of what the
+/// finished ones left over, while that share at least doubles. A search examines its
+/// cells in the same order whatever its share, so running it again repeats its start
+/// and only its last count is charged: the work is at most twice the budget, plus the
+/// first round.
+fn shared<F>(ids: &[usize], budget: usize, search: F) -> Vec<(Verdict, usize, bool)>
+where
+    F: Fn(usize, usize) -> (Verdict, usize, bool) + Sync,
+{
+    let mut out = vec![(Verdict::Undecided, 0, false); ids.len()];
+    // Positions in `ids` of the searches not finished, and the cells the finished used.
+    let mut open: Vec<usize> = (0..ids.len()).collect();
+    let mut used = 0usize;
+    let mut share = 0usize;
+    while !open.is_empty() {
+        let even = budget.saturating_sub(used) / open.len();
+        let next = if share == 0 {
+            even.min(FIRST_ROUND)
+        } else {
+            even
+        };
+        if next == 0 || next < 2 * share {
+            break;
+        }
+        share = next;
+        let results: Vec<(Verdict, usize, bool)> =
+            open.par_iter().map(|&k| search(ids[k], share)).collect();
+        let mut still = Vec::new();
+        for (k, r) in open.into_iter().zip(results) {
+            out[k] = r;
+            if r.2 {
+                still.push(k);
+            } else {
+                used += r.1;
+            }
+        }
+        open = still;
+    }
+    out
 }
 
 #[cfg(test)]
@@ -177,6 +328,21 @@ pub fn fold_line(mesh_name: &str, table: &PatchTable) -> Option<String> {
             c.total(),
             table.scheme,
             c.undecided
+        )
+    })
+}
+
+/// The note a run prints where the certificate left patches undecided (`None` where it
+/// left none).
+pub fn undecided_note(c: &PatchCounts) -> Option<String> {
+    (c.undecided > 0).then(|| {
+        format!(
+            "{} of {} patches undecided: the validity certificate neither proved them valid \
+             nor found a fold within its bounds on cost (cells per patch, and a budget \
+             proportional to the patch count); normals in or near their triangle's plane \
+             make patches undecidable",
+            c.undecided,
+            c.total()
         )
     })
 }
@@ -398,6 +564,30 @@ impl Geometry {
             nref,
             tol,
         }
+    }
+
+    /// Whether no subdivision can ever certify the patch: J's Bernstein coefficient at a
+    /// corner of the domain is at most the tolerance. Every cell that holds that corner
+    /// has it as a corner, where its coefficient is bitwise this one ([`restrict`] at a
+    /// unit barycentric point selects coefficients exactly, and the linearised blend of a
+    /// Gregory patch never reaches the coefficients next to a corner); so every such
+    /// cell's lower bound, no more than that coefficient less the tolerance, is at most 0.
+    /// A normal in its triangle's plane, or a degenerate triangle, makes J vanish there.
+    fn never_certified(&self) -> bool {
+        let len = tables().powers[self.n as usize].len();
+        // Non-finite coefficients are not selected exactly (0 · ∞ is NaN).
+        if !(self.base[..len].iter().all(|p| p.is_finite()) && self.nref.is_finite()) {
+            return false;
+        }
+        let (ds, dt) = derivatives(&self.base[..len], self.n);
+        let m = self.n.max(1) - 1;
+        (0..3).any(|k| {
+            let mut p = [0u32; 3];
+            p[k] = m;
+            let j = basis::bezier_index(m, p);
+            // As [`Self::bound`] sums it: the corner's one product, of weight 1.
+            0.0 + 1.0 * ds[j].dot(dt[j].cross(self.nref)) <= self.tol
+        })
     }
 
     /// A lower bound of J on `cell` (certified when positive: the tolerance is taken off),
@@ -717,17 +907,46 @@ pub fn quick_flat(
 
 /// The verdict on patch `i` of `table`: within [`MAX_DEPTH`] and [`MAX_CELLS`], and for
 /// the few patches that leaves undecided, once more within [`DEEP_DEPTH`] and
-/// [`DEEP_CELLS`].
+/// [`DEEP_CELLS`]. A patch that no subdivision can certify
+/// ([`Geometry::never_certified`]) gets the first subdivision only, which looks for a
+/// witness of a fold (the verdict is folded or undecided).
 pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
-    if table.kind == PatchKind::Gregory && quick_gregory(table.patch(i), table.flat_normals[i]) {
-        return Verdict::Valid;
-    }
-    if let Some(v) = grid_witness(table, i) {
+    let stage = first_stage(table, i);
+    if let Stage::Done(v) = stage {
         return v;
     }
-    match check_within(table, i, MAX_DEPTH, MAX_CELLS) {
-        Verdict::Undecided => check_within(table, i, DEEP_DEPTH, DEEP_CELLS),
+    let geom = Geometry::new(table, i);
+    match check_within(table, i, &geom, MAX_DEPTH, MAX_CELLS, usize::MAX).0 {
+        Verdict::Undecided if stage == Stage::First => {
+            check_within(table, i, &geom, DEEP_DEPTH, DEEP_CELLS, usize::MAX).0
+        }
         v => v,
+    }
+}
+
+/// Where [`first_stage`] left a patch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Stage {
+    Done(Verdict),
+    /// The subdivisions decide.
+    First,
+    /// No subdivision can certify it: the first subdivision looks for a witness.
+    Witness,
+}
+
+/// The first stage of [`check_patch`], before any subdivision: the quick test (G1), the
+/// grid of witnesses, and whether a subdivision can certify the patch.
+fn first_stage(table: &PatchTable, i: usize) -> Stage {
+    if table.kind == PatchKind::Gregory && quick_gregory(table.patch(i), table.flat_normals[i]) {
+        return Stage::Done(Verdict::Valid);
+    }
+    if let Some(v) = grid_witness(table, i) {
+        return Stage::Done(v);
+    }
+    if Geometry::new(table, i).never_certified() {
+        Stage::Witness
+    } else {
+        Stage::First
     }
 }
 
@@ -757,9 +976,39 @@ fn grid_witness(table: &PatchTable, i: usize) -> Option<Verdict> {
 pub const DEEP_DEPTH: u32 = 18;
 /// Most cells of the second subdivision.
 pub const DEEP_CELLS: usize = 1 << 16;
+/// Cells per patch of a range ([`check_range`]) that the first subdivisions of its
+/// patches share. Nearly all patches of a mesh take a few cells; the test meshes take
+/// 215 on average at most (Suzanne, G1), normals at 17° to their triangles' plane about
+/// 550.
+pub const FIRST_SHARE: usize = 1024;
+/// Cells those first subdivisions share at least: eight whole ones.
+pub const FIRST_FLOOR: usize = 8 * MAX_CELLS;
+/// Cells per patch of a range that the witness searches of its patches that no
+/// subdivision can certify share. An in-plane normal (J = 0 along whole edges) makes
+/// every cell along those edges undecided: such a patch would otherwise take its whole
+/// first subdivision.
+pub const WITNESS_SHARE: usize = 128;
+/// Cells those witness searches share at least: four whole first subdivisions.
+pub const WITNESS_FLOOR: usize = 4 * MAX_CELLS;
+/// Cells per patch of a range that the deeper subdivisions of its patches share. On the
+/// test meshes, 1 patch in 120 at most goes deeper (Suzanne, G1), with 7,545 cells at
+/// most: 63 per patch of the mesh; a book of 1,000 triangles around one edge, 1 in 40.
+pub const DEEP_SHARE: usize = 1024;
+/// Cells those deeper subdivisions share at least: four whole ones.
+pub const DEEP_FLOOR: usize = 4 * DEEP_CELLS;
 
-/// [`check_patch`] by subdivision down to `max_depth` levels or `max_cells` cells.
-fn check_within(table: &PatchTable, i: usize, max_depth: u32, max_cells: usize) -> Verdict {
+/// [`check_patch`] by subdivision of the patch (`geom`) down to `max_depth` levels or
+/// `max_cells` cells: the verdict, the cells examined, and whether it stopped at `stop`
+/// cells (undecided then). It examines the cells in the same order whatever `stop` is,
+/// so wherever it examines no more than `stop` cells, the verdict is that without it.
+fn check_within(
+    table: &PatchTable,
+    i: usize,
+    geom: &Geometry,
+    max_depth: u32,
+    max_cells: usize,
+    stop: usize,
+) -> (Verdict, usize, bool) {
     let witness = |b: [f64; 3]| -> Option<Verdict> {
         let (j, scale) = jacobian(table, i, b);
         // Below −1e-12 |S_s| |S_t|: far beyond the rounding of the evaluation.
@@ -772,14 +1021,16 @@ fn check_within(table: &PatchTable, i: usize, max_depth: u32, max_cells: usize) 
     let whole: Cell = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     for b in whole.iter().chain([[1.0 / 3.0; 3]].iter()) {
         if let Some(v) = witness(*b) {
-            return v;
+            return (v, 0, false);
         }
     }
-    let geom = Geometry::new(table, i);
     let mut stack = vec![(whole, 0u32)];
     let mut cells = 0usize;
     let mut undecided = false;
     while let Some((cell, depth)) = stack.pop() {
+        if cells >= stop {
+            return (Verdict::Undecided, cells, true);
+        }
         cells += 1;
         let (lower, b, suspect) = geom.bound(&cell);
         if lower > 0.0 {
@@ -793,7 +1044,7 @@ fn check_within(table: &PatchTable, i: usize, max_depth: u32, max_cells: usize) 
             let centroid = std::array::from_fn(|j| (cell[0][j] + cell[1][j] + cell[2][j]) / 3.0);
             for p in [b, centroid] {
                 if let Some(v) = witness(p) {
-                    return v;
+                    return (v, cells, false);
                 }
             }
         }
@@ -813,24 +1064,26 @@ fn check_within(table: &PatchTable, i: usize, max_depth: u32, max_cells: usize) 
             stack.push((child, depth + 1));
         }
     }
-    if undecided {
+    let v = if undecided {
         Verdict::Undecided
     } else {
         Verdict::Valid
-    }
+    };
+    (v, cells, false)
 }
 
 #[cfg(test)]
 mod tests {
     use super::{
-        interior_powers, quick_flat, quick_quartic, tables, QUARTIC_BOUNDARY, QUARTIC_INTERIOR,
-        QUARTIC_UP,
+        check_within, interior_powers, quick_flat, quick_quartic, shared, tables, Geometry,
+        Verdict, MAX_CELLS, MAX_DEPTH, QUARTIC_BOUNDARY, QUARTIC_INTERIOR, QUARTIC_UP,
     };
     use crate::patch::basis;
     use crate::patch::validity::jacobian;
     use crate::PatchTable;
     use crate::{LoadOptions, Mesh};
     use crate::{Scheme, SchemeOptions};
+    use glam::DVec3;
 
     /// The compile-time index tables of [`quick_quartic`] are those of the runtime
     /// functions they stand for.
@@ -870,5 +1123,77 @@ mod tests {
         }
         // Deterministic: 66,615 of the 69,451 patches.
         assert_eq!((passed, table.len()), (66_615, 69_451));
+    }
+
+    /// [`shared`] on searches that need known numbers of cells: within a budget that
+    /// covers them all every one finishes; within a smaller one the largest needs stop at an
+    /// even share of what the others leave, and what is charged stays within the budget.
+    #[test]
+    fn shared_budgets_go_to_the_searches_that_need_them() {
+        let needs = [1usize, 5, 3000, 100, 40, 9000, 2];
+        let ids: Vec<usize> = (0..needs.len()).collect();
+        let runs = std::sync::Mutex::new(vec![0usize; needs.len()]);
+        let search = |i: usize, stop: usize| {
+            runs.lock().unwrap()[i] += 1;
+            if needs[i] <= stop {
+                (Verdict::Valid, needs[i], false)
+            } else {
+                (Verdict::Undecided, stop, true)
+            }
+        };
+        let all: usize = needs.iter().sum();
+        let out = shared(&ids, all, search);
+        assert!(out.iter().all(|r| r.0 == Verdict::Valid && !r.2));
+        let runs_all = runs.lock().unwrap().clone();
+        // The first round (64 cells each) finishes 1, 5, 40 and 2, the second (4,033
+        // each) 3,000 and 100, the third 9,000 (9,000 cells left, over twice 4,033).
+        assert_eq!(runs_all, vec![1, 1, 2, 2, 1, 3, 1]);
+        // 6,000 cells: 48 for the four small ones, the three others an even share of the
+        // rest (1,984 each), of which 100 needs little; the two left would get 2,926
+        // each, less than twice their share: they stop at 1,984.
+        let runs = std::sync::Mutex::new(vec![0usize; needs.len()]);
+        let search = |i: usize, stop: usize| {
+            runs.lock().unwrap()[i] += 1;
+            if needs[i] <= stop {
+                (Verdict::Valid, needs[i], false)
+            } else {
+                (Verdict::Undecided, stop, true)
+            }
+        };
+        let out = shared(&ids, 6000, search);
+        let stopped: Vec<usize> = (0..needs.len()).filter(|&k| out[k].2).collect();
+        assert_eq!(stopped, vec![2, 5]);
+        assert_eq!(out[2].1, 1984);
+        let charged: usize = out.iter().map(|r| r.1).sum();
+        assert!(charged <= 6000, "{charged}");
+    }
+
+    /// A G1 patch whose normals lie in its triangle's plane is never certified: J's
+    /// coefficient at a corner is 0, and the whole first subdivision (no bound on its
+    /// cells) finds no certifiable cell there; with the normal of its plane it certifies.
+    #[test]
+    fn in_plane_normals_are_never_certified() {
+        let p = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let table = |n: DVec3| {
+            let mesh = Mesh::from_soup(
+                "one",
+                &p,
+                &[[0, 1, 2]],
+                Some(&[n; 3]),
+                &LoadOptions::default(),
+            )
+            .unwrap();
+            PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap()
+        };
+        let flat = table(DVec3::Z);
+        assert!(!Geometry::new(&flat, 0).never_certified());
+        let in_plane = table(DVec3::new(1.0, 1.0, 0.0).normalize());
+        let g = Geometry::new(&in_plane, 0);
+        assert!(g.never_certified());
+        let (v, cells, stopped) = check_within(&in_plane, 0, &g, MAX_DEPTH, MAX_CELLS, usize::MAX);
+        assert!(
+            v != Verdict::Valid && !stopped && cells > 0,
+            "{v:?} after {cells}"
+        );
     }
 }

@@ -100,6 +100,19 @@ pub struct Deviation {
 /// Points a measurement evaluates at once.
 const MEASURE_POINTS: usize = 1 << 16;
 
+/// Bytes that [`measure_deviation`]'s own buffers hold beside the stitcher's, for patches
+/// of levels up to `level`: the barycentric coordinates of one patch's grid points, and
+/// the points queued for evaluation (at most [`MEASURE_POINTS`] and one triangle's more)
+/// with their flat points.
+pub fn measure_bytes(level: u32) -> u64 {
+    let n = level.max(1) as u64;
+    let per = (n + 1).saturating_mul(n + 2) / 2;
+    let queued = (MEASURE_POINTS + 10 * 64) as u64;
+    let point = (std::mem::size_of::<PatchPoint>() + std::mem::size_of::<DVec3>()) as u64;
+    per.saturating_mul(std::mem::size_of::<[f64; 3]>() as u64)
+        .saturating_add(queued * point)
+}
+
 /// The sink that measures: queues (patch point, flat point) pairs, evaluates the patch
 /// points in runs.
 struct Measure<'a> {
@@ -166,11 +179,12 @@ impl StitchSink<DVec3> for Measure<'_> {
                 self.points.push(PatchPoint { patch, b: q });
                 self.flat.push(w[0] * p[0] + w[1] * p[1] + w[2] * p[2]);
             }
+            // Within a patch too: one patch at a high level has millions of triangles.
+            if self.points.len() >= MEASURE_POINTS {
+                self.flush()?;
+            }
         }
         self.dev.triangles += out.grid_triangles.len();
-        if self.points.len() >= MEASURE_POINTS {
-            self.flush()?;
-        }
         Ok(())
     }
 }
@@ -185,23 +199,29 @@ pub fn measure_deviation(
     reference: &dyn Evaluator,
     progress: &dyn Progress,
 ) -> Result<Deviation> {
-    let mut m = Measure {
-        plan,
-        table,
-        reference,
-        bary: Vec::new(),
-        points: Vec::with_capacity(MEASURE_POINTS + 10 * 64),
-        flat: Vec::new(),
-        dev: Deviation {
-            max: 0.0,
-            per_patch: vec![0.0; plan.patches()],
-            triangles: 0,
-            points: 0,
-        },
-    };
+    let mut m = Measure::new(plan, table, reference);
     stitch_into::<DVec3>(plan, table, reference, &mut m, progress)?;
     m.flush()?;
     Ok(m.dev)
+}
+
+impl<'a> Measure<'a> {
+    fn new(plan: &'a StitchPlan, table: &'a PatchTable, reference: &'a dyn Evaluator) -> Self {
+        Measure {
+            plan,
+            table,
+            reference,
+            bary: Vec::new(),
+            points: Vec::with_capacity(MEASURE_POINTS + 10 * 64),
+            flat: Vec::new(),
+            dev: Deviation {
+                max: 0.0,
+                per_patch: vec![0.0; plan.patches()],
+                triangles: 0,
+                points: 0,
+            },
+        }
+    }
 }
 
 /// What [`levels_for_tolerance`] is asked.
@@ -456,3 +476,39 @@ pub fn levels_for_tolerance(
 
 /// Coarsening attempts of [`levels_for_tolerance`] once the tolerance is met.
 const COARSEN_ATTEMPTS: usize = 4;
+
+#[cfg(test)]
+mod tests {
+    use super::{Measure, MEASURE_POINTS};
+    use crate::eval::cpu::CpuEvaluator;
+    use crate::progress::NoProgress;
+    use crate::tess::stitch::{stitch_into, StitchPlan};
+    use crate::{InnerRule, Levels, LoadOptions, Mesh, PatchTable, Scheme, SchemeOptions};
+    use glam::DVec3;
+
+    /// One patch at level 128 has 16,384 output triangles, 163,840 points to measure: the
+    /// measurement evaluates them a bounded run at a time, so what it queues never
+    /// outgrows [`MEASURE_POINTS`] and one triangle's points (it held the whole patch's,
+    /// 9 GB at level 4,096, before).
+    #[test]
+    fn a_measurement_queues_a_bounded_number_of_points() {
+        let p = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let n = [DVec3::new(0.2, 0.1, 1.0).normalize(), DVec3::Z, DVec3::Z];
+        let mesh =
+            Mesh::from_soup("one", &p, &[[0, 1, 2]], Some(&n), &LoadOptions::default()).unwrap();
+        let adjacency = mesh.adjacency();
+        let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+        let levels = Levels::from_fn(&mesh, &adjacency, |_| 128, InnerRule::Max).unwrap();
+        let plan = StitchPlan::with_levels(&mesh, &adjacency, &levels).unwrap();
+        let reference = CpuEvaluator::default();
+        let mut m = Measure::new(&plan, &table, &reference);
+        stitch_into::<DVec3>(&plan, &table, &reference, &mut m, &NoProgress).unwrap();
+        m.flush().unwrap();
+        assert_eq!((m.dev.triangles, m.dev.points), (128 * 128, 10 * 128 * 128));
+        let most = MEASURE_POINTS + 10 * 64;
+        assert_eq!(m.points.capacity(), most);
+        // The flat points grow by doubling up to the run's length.
+        assert!(m.flat.capacity() <= 2 * most, "{}", m.flat.capacity());
+        assert!(m.dev.max > 0.0 && m.dev.max.is_finite());
+    }
+}

@@ -16,6 +16,7 @@ mod creases;
 mod g1_patch;
 #[cfg(feature = "gpu")]
 mod gpu;
+mod hardening_patch;
 mod paper;
 #[cfg(feature = "gpu")]
 mod render;

@@ -48,6 +48,7 @@ fn plan_with(
         Err(counts) => return Ok((Plan::Valid(counts), false)),
     };
     let g1 = scheme == Scheme::G1;
+    search.flatten_pages()?;
     if fins && g1 {
         search.split_fins()?;
     }
@@ -116,6 +117,8 @@ pub(super) struct Search<'a> {
     pub(super) crease_free_left: Vec<u32>,
     /// Triangles flattened by the last resort.
     pub(super) flattened: usize,
+    /// Pages flattened ([`Search::flatten_pages`]).
+    pub(super) pages: usize,
     input: Input,
 }
 
@@ -178,6 +181,7 @@ impl<'a> Search<'a> {
             rounds: 0,
             crease_free_left: Vec::new(),
             flattened: 0,
+            pages: 0,
             input: Input {
                 table,
                 verdicts: input_verdicts,
@@ -258,7 +262,7 @@ impl<'a> Search<'a> {
             slivers_isolated: self.slivers,
             edges_made_creases: new_creases(mesh, work),
             left_on_flipped_triangles: flipped,
-            triangles_flattened: self.flattened,
+            triangles_flattened: self.flattened + self.pages,
             rounds: self.rounds,
             normal_change_lower_bound_deg: self.input.lower_bound,
             crease_forced_groups: forced.iter().filter(|&&x| x).count(),

@@ -25,7 +25,22 @@ pub(super) struct Groups {
     /// that move normals back leave every group there alone, and the flattening makes
     /// every corner there flat.
     pub(super) fins: HashSet<u32>,
+    /// Groups of the pages flattened at a hub (`pages.rs`): the passes that move normals
+    /// back leave them alone.
+    pub(super) pages: HashSet<u32>,
+    /// Corners at each vertex, all its groups together.
+    corners_at: Vec<u32>,
+    /// For each half-edge 3t + k of an edge used by exactly two triangles, the other use's
+    /// half-edge; `u32::MAX` otherwise.
+    twins: Vec<u32>,
 }
+
+/// Corners of a vertex above which it is a hub: a new normal of one of its groups changes
+/// the patches of that group's triangles and of those across their two-use edges there,
+/// which [`Groups::triangles_around`] then lists, instead of every triangle at the vertex
+/// (n at a vertex shared by n triangles: listed for each of its n groups, O(n²)). The
+/// vertices of the test meshes have at most 11 corners.
+pub(super) const HUB_CORNERS: usize = 32;
 
 impl Groups {
     pub(super) fn new(mesh: &Mesh) -> Groups {
@@ -82,12 +97,26 @@ impl Groups {
             at_vertex,
             frozen: HashSet::new(),
             fins: HashSet::new(),
+            pages: HashSet::new(),
+            corners_at: (0..nv).map(|v| count[v + 1] - count[v]).collect(),
+            twins: super::geometry::twins(mesh),
         }
     }
 
-    /// Whether group `g` is at a vertex of a split fin ([`Self::fins`]).
+    /// Whether group `g` is at a vertex of a split fin ([`Self::fins`]) or a flattened
+    /// page's ([`Self::pages`]): the passes that move normals back leave it alone.
     pub(super) fn at_fin(&self, g: u32) -> bool {
-        self.fins.contains(&self.vertex[g as usize])
+        self.fins.contains(&self.vertex[g as usize]) || self.pages.contains(&g)
+    }
+
+    /// Whether vertex `v` is a hub ([`HUB_CORNERS`]).
+    pub(super) fn is_hub(&self, v: u32) -> bool {
+        self.corners_at[v as usize] as usize > HUB_CORNERS
+    }
+
+    /// Whether half-edge `h` is a use of an edge of exactly two uses.
+    pub(super) fn has_twin(&self, h: u32) -> bool {
+        self.twins[h as usize] != u32::MAX
     }
 
     pub(super) fn corners(&self, g: u32) -> &[u32] {
@@ -140,11 +169,28 @@ impl Groups {
 
     /// The triangles whose patch a new normal of group `g` may change: every triangle at
     /// its vertex (across a crease edge there, the shared crease curve is built from both
-    /// sides' normals).
-    pub(super) fn triangles_around(&self, g: u32) -> impl Iterator<Item = u32> + '_ {
-        self.at_vertex[self.vertex[g as usize] as usize]
-            .iter()
-            .flat_map(|&h| self.list[h as usize].iter().map(|&c| c / 3))
+    /// sides' normals); at a hub ([`HUB_CORNERS`]) only those that do change: the
+    /// triangles of `g` and those across their two-use edges at the vertex (a patch is
+    /// built from its own corners' normals and the curves it shares across two-use edges).
+    pub(super) fn triangles_around(&self, g: u32) -> Box<dyn Iterator<Item = u32> + '_> {
+        let v = self.vertex[g as usize] as usize;
+        if self.corners_at[v] as usize <= HUB_CORNERS {
+            return Box::new(
+                self.at_vertex[v]
+                    .iter()
+                    .flat_map(|&h| self.list[h as usize].iter().map(|&c| c / 3)),
+            );
+        }
+        // The half-edges of a corner's triangle at the vertex: the one leaving it and the
+        // one arriving there.
+        let across =
+            move |h: u32| (self.twins[h as usize] != u32::MAX).then(|| self.twins[h as usize] / 3);
+        Box::new(self.list[g as usize].iter().flat_map(move |&c| {
+            let arriving = c - c % 3 + (c % 3 + 2) % 3;
+            [Some(c / 3), across(c), across(arriving)]
+                .into_iter()
+                .flatten()
+        }))
     }
 
     /// The face normals (`faces`, by triangle) of the triangles of group `g`, less those

@@ -12,6 +12,8 @@
 //! build the patch table from the repaired mesh afterwards. The search runs in layers,
 //! each in its own module:
 //!
+//! 0. *pages*: triangles hanging at a hub by no two-use edge (a book of triangles around
+//!    one edge), flat;
 //! 1. *fins* (G1): doubled triangles split off the surface, flat;
 //! 2. *search*: the crease-free phase (G1): normals moved, one group or a few together,
 //!    under the certificate, then joint moves of the groups around what is left;
@@ -48,6 +50,7 @@ mod fallback;
 mod fins;
 mod geometry;
 mod groups;
+mod pages;
 mod relax;
 mod search;
 
@@ -118,7 +121,9 @@ pub struct RepairReport {
     /// triangles sharing a corner with it): folds of the input mesh itself.
     pub left_on_flipped_triangles: usize,
     /// Triangles flattened by the last resort (their own face normal at each corner,
-    /// straight boundary curves: a flat patch), with the patches around that this broke.
+    /// straight boundary curves: a flat patch), with the patches around that this broke;
+    /// and the pages flattened at a hub (triangles joined to the rest by no two-use edge,
+    /// at a vertex of many triangles: a book around one edge).
     pub triangles_flattened: usize,
     /// Rounds of the search.
     pub rounds: usize,

@@ -9,7 +9,7 @@ use glam::DVec3;
 use super::check::{badness, Checker};
 use super::driver::{count_uncertified, record, Search};
 use super::geometry::{central, corner_shortfall, max_min_direction, nearest_facing, towards};
-use super::groups::{set_group, with_moves, Groups};
+use super::groups::{set_group, with_moves, Groups, HUB_CORNERS};
 use crate::mesh::creases::normal_key;
 use crate::mesh::Mesh;
 use crate::patch::validity::Verdict;
@@ -133,9 +133,10 @@ impl Search<'_> {
             phase_rounds += 1;
             self.rounds += 1;
             let mut improved = false;
+            let mut hubs_tried = HashSet::new();
             for t in self.bad.clone() {
                 if self.verdicts[t as usize] != Verdict::Valid {
-                    improved |= self.improve(t as usize, fallback)?;
+                    improved |= self.improve(t as usize, fallback, &mut hubs_tried)?;
                 }
             }
             let verdicts = &self.verdicts;
@@ -156,8 +157,21 @@ impl Search<'_> {
     /// One patch's turn in a round: the best move of its corner groups is kept where the
     /// certificate agrees; in the fallback, where no move helps, a cut. Returns whether
     /// something changed.
-    fn improve(&mut self, tri: usize, fallback: bool) -> Result<bool> {
-        let candidates = self.candidates(tri, fallback);
+    fn improve(
+        &mut self,
+        tri: usize,
+        fallback: bool,
+        hubs_tried: &mut HashSet<u32>,
+    ) -> Result<bool> {
+        let candidates = self.candidates(tri, fallback, hubs_tried);
+        let hub = |g: u32| self.groups.corners(g).len() > HUB_CORNERS;
+        hubs_tried.extend(
+            candidates
+                .iter()
+                .flatten()
+                .map(|&(g, _)| g)
+                .filter(|&g| hub(g)),
+        );
         let (best, scored) = self.score(candidates, fallback)?;
         // The crease-free phase prefers, among the trials of largest gain, the one with
         // the fewest uncertified patches around it where that is fewer than now (the
@@ -180,7 +194,11 @@ impl Search<'_> {
     /// of them together towards the central normal of all their faces (a sliver's close
     /// corners need nearly the same normal: their curves to the far corner must not
     /// cross), and (crease-free) each or all to their nearest facing normals.
-    fn candidates(&self, tri: usize, fallback: bool) -> Vec<Moves> {
+    ///
+    /// None moves a hub ([`HUB_CORNERS`]) of `tried`, those an earlier patch of the round
+    /// tried: a move of a hub changes every patch around it, and tried for each of them in
+    /// every round, the moves of a hub shared by n patches would cost O(n²).
+    fn candidates(&self, tri: usize, fallback: bool, tried: &HashSet<u32>) -> Vec<Moves> {
         let (groups, faces, work) = (&self.groups, &self.faces, &self.work);
         let mean = work.corner_normals[tri]
             .iter()
@@ -189,7 +207,8 @@ impl Search<'_> {
             .try_normalize();
         let own: Vec<u32> = (0..3).map(|k| groups.of_corner[3 * tri + k]).collect();
         let mut candidates: Vec<Moves> = Vec::new();
-        for &g in own.iter().filter(|g| !groups.frozen.contains(g)) {
+        let left_out = |g: &u32| groups.frozen.contains(g) || tried.contains(g);
+        for &g in own.iter().filter(|g| !left_out(g)) {
             let cur = groups.normal(work, g);
             let f = faces_of_group(groups, faces, g);
             let mut targets = vec![central(&f, cur), faces[tri]];
@@ -206,7 +225,10 @@ impl Search<'_> {
                 }
             }
         }
-        for w in WEIGHTS {
+        for w in WEIGHTS
+            .into_iter()
+            .filter(|_| !own.iter().any(|g| tried.contains(g)))
+        {
             candidates.push(
                 own.iter()
                     .filter(|g| !groups.frozen.contains(g))
@@ -219,7 +241,7 @@ impl Search<'_> {
             let gs: Vec<u32> = set.iter().map(|&k| own[k]).collect();
             if gs
                 .iter()
-                .any(|g| gs.iter().filter(|h| *h == g).count() > 1 || groups.frozen.contains(g))
+                .any(|g| gs.iter().filter(|h| *h == g).count() > 1 || left_out(g))
             {
                 continue;
             }
