@@ -653,7 +653,7 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
         writeln!(
             w,
             "# {}\n# stitched: {} positions (v), {} vertex normals (vn), {}{} triangles",
-            self.title,
+            comment_text(self.title),
             self.plan.positions,
             self.plan.records,
             if self.plan.has_uvs() {
@@ -728,6 +728,20 @@ impl<V: Vector> FormatWriter<V> for ObjWriter<'_> {
 
     fn finish(&mut self, _: &mut PipedWriter, _: &dyn Progress) -> io::Result<()> {
         Ok(())
+    }
+}
+
+/// `title` for a comment line of a text format: control characters (a line break would
+/// end the comment, and what followed would be read as data) replaced by `?`.
+fn comment_text(title: &str) -> std::borrow::Cow<'_, str> {
+    if title.chars().any(char::is_control) {
+        title
+            .chars()
+            .map(|c| if c.is_control() { '?' } else { c })
+            .collect::<String>()
+            .into()
+    } else {
+        title.into()
     }
 }
 
@@ -1017,5 +1031,43 @@ impl<V: Vector> FormatWriter<V> for GlbWriter<'_> {
         }
         w.write_at_end(20, json.into_bytes());
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{write_stitched, MeshFormat};
+    use crate::eval::cpu::CpuEvaluator;
+    use crate::io::atomic::TempFiles;
+    use crate::progress::NoProgress;
+    use crate::tess::stitch::{stitch_into, StitchPlan};
+    use crate::{PatchTable, Scheme, SchemeOptions};
+
+    /// A library caller's title with line breaks and an escape stays in the OBJ's comment:
+    /// the icosahedron at level 1 has exactly its 12 vertex and 20 face lines, none forged,
+    /// and the comment's control characters are `?`.
+    #[test]
+    fn an_obj_title_cannot_forge_lines() {
+        let mesh = crate::tests::common::load("icosphere:0");
+        let plan = StitchPlan::new(&mesh, &mesh.adjacency(), 1).unwrap();
+        let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+        let path = crate::tests::common::tmp_dir("writers").join("title.obj");
+        write_stitched::<[f32; 3]>(
+            &path,
+            &TempFiles::default(),
+            MeshFormat::Obj,
+            &plan,
+            "x\nv 9 9 9\r\nf 1 1 1\u{1b}[31m",
+            &NoProgress,
+            &mut |sink| {
+                stitch_into(&plan, &table, &CpuEvaluator::default(), sink, &NoProgress)?;
+                Ok(())
+            },
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text.lines().filter(|l| l.starts_with("v ")).count(), 12);
+        assert_eq!(text.lines().filter(|l| l.starts_with("f ")).count(), 20);
+        assert_eq!(text.lines().next(), Some("# x?v 9 9 9??f 1 1 1?[31m"));
     }
 }
