@@ -94,6 +94,15 @@ mod tests;
 /// Errors: one error type for the whole library.
 pub use error::{Error, Result};
 
+/// The wgpu this crate is built with (version 30), for hosts that hand it their device:
+/// `use g1tess::wgpu;` keeps the two versions the same.
+#[cfg(feature = "gpu")]
+pub use wgpu;
+
+/// The glam this crate is built with: the vector and matrix types of its signatures
+/// (`DVec3` positions, the f32 `Mat4` of `ScreenFrame`).
+pub use glam;
+
 /// The mesh: loading (files or built-in generators), welding, adjacency and vertex normals.
 pub use mesh::adjacency::{EdgeCounts, EdgeUses, MeshEdge};
 pub use mesh::{
@@ -154,7 +163,7 @@ pub use io::TempFiles;
 pub use gpu::eval::{GpuEvaluator, GridTiming};
 /// Screen-space levels computed on the device, for [`LevelSource::Device`].
 #[cfg(feature = "gpu")]
-pub use gpu::screen::{gpu_screen_levels, LevelParams, LevelPass};
+pub use gpu::screen::{gpu_screen_levels, LevelParams, LevelPass, ScreenFrame, ScreenLevels};
 #[cfg(feature = "gpu")]
 pub use gpu::tessellator::{
     vertex_layout, GpuTessellator, LevelCapacity, LevelSource, TessCounts, Topology,

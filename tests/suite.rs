@@ -39,6 +39,8 @@ mod hardening_files;
 #[cfg(feature = "cli")]
 mod hardening_patch;
 mod hardening_readers;
+#[cfg(feature = "gpu")]
+mod host_tessellator;
 mod mesh_input;
 mod msh;
 mod obj_fuzz;

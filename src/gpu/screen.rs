@@ -110,16 +110,12 @@ impl LevelPass {
         Ok(LevelPass { layout, pipeline })
     }
 
-    /// Records the pass into `encoder`: `params` (a uniform buffer of [`LevelParams`],
-    /// written by the caller with `groups_x` from [`LevelPass::groups`]), `positions`,
-    /// `edges` and `levels` stay on the device.
-    pub fn record(
+    /// The bind group of `buffers` (params, positions, edges, levels) for this pass.
+    pub fn bind_group(
         &self,
         device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
         buffers: [&wgpu::Buffer; 4],
-        groups: (u32, u32),
-    ) {
+    ) -> wgpu::BindGroup {
         let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
             .iter()
             .enumerate()
@@ -128,17 +124,41 @@ impl LevelPass {
                 resource: b.as_entire_binding(),
             })
             .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("g1tess levels"),
             layout: &self.layout,
             entries: &entries,
-        });
+        })
+    }
+
+    /// Records the pass into `encoder`: `params` (a uniform buffer of [`LevelParams`],
+    /// written by the caller with `groups_x` from [`LevelPass::groups`]), `positions`,
+    /// `edges` and `levels` stay on the device. Makes a bind group each call:
+    /// [`ScreenLevels`] keeps its own and its buffers.
+    pub fn record(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        buffers: [&wgpu::Buffer; 4],
+        groups: (u32, u32),
+    ) {
+        let bind_group = self.bind_group(device, buffers);
+        self.record_with(encoder, &bind_group, groups);
+    }
+
+    /// Records the pass with a bind group made by [`LevelPass::bind_group`].
+    pub fn record_with(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        bind_group: &wgpu::BindGroup,
+        groups: (u32, u32),
+    ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("g1tess levels"),
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
+        pass.set_bind_group(0, bind_group, &[]);
         pass.dispatch_workgroups(groups.0, groups.1, 1);
     }
 
@@ -152,7 +172,8 @@ impl LevelPass {
 
 /// Screen-space levels of every edge of `mesh` computed on the GPU (positions rounded to
 /// f32) and read back: the same as [`crate::tess::screen::screen_levels`]'s edge levels up
-/// to f32 rounding where the projected length is a whole number of targets.
+/// to f32 rounding where the projected length is a whole number of targets. `adjacency`
+/// must be `mesh.adjacency()` (the order of the levels).
 pub fn gpu_screen_levels(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -165,55 +186,185 @@ pub fn gpu_screen_levels(
     if ne == 0 {
         return Ok(Vec::new());
     }
-    let edges = u32::try_from(ne)
-        .map_err(|_| Error::Invalid(format!("{}: {ne} edges are too many", mesh.name)))?;
-    let pass = LevelPass::new(device)?;
-    let positions: Vec<[f32; 4]> = mesh
-        .positions
-        .iter()
-        .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
-        .collect();
-    let ends: Vec<[u32; 2]> = adjacency.edges.iter().map(|e| e.v).collect();
-    let max_dim = device.limits().max_compute_workgroups_per_dimension;
-    let groups = LevelPass::groups(edges, max_dim);
-    let mut params = LevelParams::new(view, edges);
-    params.groups_x = groups.0;
-    use wgpu::BufferUsages as U;
-    let init = |label, contents: &[u8], usage| {
-        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents,
-            usage,
-        })
-    };
-    let params_buf = init("level params", bytemuck::bytes_of(&params), U::UNIFORM);
-    let pos_buf = init("positions", bytemuck::cast_slice(&positions), U::STORAGE);
-    let edge_buf = init("edges", bytemuck::cast_slice(&ends), U::STORAGE);
+    let screen = ScreenLevels::with_adjacency(device, mesh, adjacency)?;
     let bytes = 4 * ne as u64;
-    let out = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("levels"),
-        size: bytes.div_ceil(16) * 16,
-        usage: U::STORAGE | U::COPY_SRC,
-        mapped_at_creation: false,
-    });
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("levels staging"),
         size: bytes.div_ceil(16) * 16,
-        usage: U::MAP_READ | U::COPY_DST,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("g1tess levels"),
     });
-    pass.record(
-        device,
-        &mut encoder,
-        [&params_buf, &pos_buf, &edge_buf, &out],
-        groups,
-    );
-    encoder.copy_buffer_to_buffer(&out, 0, &staging, 0, bytes);
+    screen.record_params(queue, &mut encoder, LevelParams::new(view, screen.edges));
+    encoder.copy_buffer_to_buffer(&screen.levels, 0, &staging, 0, bytes);
     queue.submit([encoder.finish()]);
     crate::gpu::read_buffer(device, &staging, bytes, |b| {
         bytemuck::cast_slice::<u8, u32>(b).to_vec()
     })
+}
+
+/// One frame's view for [`ScreenLevels`], in the f32 a host holds: world → clip space
+/// (`glam::Mat4`, column vectors, as wgpu's clip space wants), the viewport in pixels, the
+/// wanted length of an output segment in pixels and the cap on every level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScreenFrame {
+    /// World → clip space.
+    pub view_proj: glam::Mat4,
+    /// Viewport width and height in pixels.
+    pub viewport: [f32; 2],
+    /// Wanted length of an output segment, pixels.
+    pub target_px: f32,
+    /// Cap on every level (1..=[`crate::MAX_LEVEL`]).
+    pub max_level: u32,
+}
+
+impl ScreenFrame {
+    /// The f64 view of the CPU's [`crate::screen_levels`] for the same frame (the matrix
+    /// widened exactly), for comparing both.
+    pub fn view(&self) -> ScreenView {
+        ScreenView {
+            view_proj: self.view_proj.as_dmat4(),
+            viewport: self.viewport.map(f64::from),
+            target_px: f64::from(self.target_px),
+            max_level: self.max_level,
+        }
+    }
+}
+
+/// Screen-space levels that own their buffers: built once from the device and the mesh
+/// (its positions as `vec4<f32>`, its edges in the order of `mesh.adjacency()`, which is
+/// the order [`crate::GpuTessellator`] numbers them in), they record each frame's levels
+/// into the host's encoder from a [`ScreenFrame`], for
+/// [`crate::GpuTessellator::tessellate_screen`] or [`ScreenLevels::source`]. Nothing is
+/// read back and no bind group is made per frame.
+pub struct ScreenLevels {
+    pass: LevelPass,
+    params: wgpu::Buffer,
+    levels: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    edges: u32,
+    groups: (u32, u32),
+}
+
+impl ScreenLevels {
+    /// Uploads the positions and edges of `mesh` and builds the pass.
+    pub fn new(device: &wgpu::Device, mesh: &Mesh) -> Result<ScreenLevels> {
+        Self::with_adjacency(device, mesh, &mesh.adjacency())
+    }
+
+    fn with_adjacency(
+        device: &wgpu::Device,
+        mesh: &Mesh,
+        adjacency: &Adjacency,
+    ) -> Result<ScreenLevels> {
+        let ne = adjacency.edges.len();
+        let edges = u32::try_from(ne)
+            .map_err(|_| Error::Invalid(format!("{}: {ne} edges are too many", mesh.name)))?;
+        let pass = LevelPass::new(device)?;
+        // Bindings are never empty: a vertex and an edge at least.
+        let mut positions: Vec<[f32; 4]> = mesh
+            .positions
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
+            .collect();
+        positions.resize(positions.len().max(1), [0.0; 4]);
+        let mut ends: Vec<[u32; 2]> = adjacency.edges.iter().map(|e| e.v).collect();
+        ends.resize(ends.len().max(1), [0; 2]);
+        use wgpu::BufferUsages as U;
+        let init = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("level params"),
+            size: std::mem::size_of::<LevelParams>() as u64,
+            usage: U::UNIFORM | U::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let pos_buf = init(
+            "level positions",
+            bytemuck::cast_slice(&positions),
+            U::STORAGE,
+        );
+        let edge_buf = init("level edges", bytemuck::cast_slice(&ends), U::STORAGE);
+        let levels = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("levels"),
+            size: (4 * ne as u64).max(16).div_ceil(16) * 16,
+            usage: U::STORAGE | U::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let bind_group = pass.bind_group(device, [&params, &pos_buf, &edge_buf, &levels]);
+        let max_dim = device.limits().max_compute_workgroups_per_dimension;
+        Ok(ScreenLevels {
+            pass,
+            params,
+            levels,
+            bind_group,
+            edges,
+            groups: LevelPass::groups(edges, max_dim),
+        })
+    }
+
+    /// Records this frame's levels into `encoder` (the parameters written with
+    /// `queue.write_buffer`, so submit the encoder before recording again). Errors on a
+    /// viewport, target or cap out of range or a matrix that is not finite.
+    pub fn record(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &ScreenFrame,
+    ) -> Result<()> {
+        frame.view().check()?;
+        let params = LevelParams {
+            view_proj: frame.view_proj.to_cols_array(),
+            viewport: frame.viewport,
+            target_px: frame.target_px,
+            max_level: frame.max_level,
+            edges: self.edges,
+            w_min: W_MIN as f32,
+            groups_x: 0,
+            pad: 0,
+        };
+        self.record_params(queue, encoder, params);
+        Ok(())
+    }
+
+    /// Records the pass with `params`, whose workgroup count is set here.
+    fn record_params(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        mut params: LevelParams,
+    ) {
+        params.groups_x = self.groups.0;
+        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        if self.edges > 0 {
+            self.pass
+                .record_with(encoder, &self.bind_group, self.groups);
+        }
+    }
+
+    /// The level buffer: one u32 per edge (`STORAGE | COPY_SRC`).
+    pub fn levels(&self) -> &wgpu::Buffer {
+        &self.levels
+    }
+
+    /// Edges of the mesh (entries of [`ScreenLevels::levels`]).
+    pub fn edges(&self) -> u32 {
+        self.edges
+    }
+
+    /// The levels as [`crate::GpuTessellator::tessellate_levels`] takes them, inner levels
+    /// by `rule`.
+    pub fn source(&self, rule: crate::InnerRule) -> crate::LevelSource<'_> {
+        crate::LevelSource::Device {
+            levels: &self.levels,
+            rule,
+        }
+    }
 }

@@ -134,7 +134,8 @@ pub fn jacobian(table: &PatchTable, i: usize, b: [f64; 3]) -> (f64, f64) {
 }
 
 /// The verdict on every patch of `table` (in parallel), within the bounds on the
-/// certificate's cost ([`check_range`]).
+/// certificate's cost: the subdivisions of the patches share cell budgets proportional to
+/// their count, and a patch whose search stops at its share is undecided, never a guess.
 pub fn check_table(table: &PatchTable) -> Vec<Verdict> {
     check_range(table, 0..table.len()).verdicts
 }

@@ -78,6 +78,11 @@ impl GpuTessellator {
     /// uploads the patch data and the topology of `mesh` (the table's mesh). Errors when the
     /// device lacks what the shaders need (`SHADER_F64` for f64, storage buffers in compute
     /// shaders) or a buffer exceeds its limits.
+    ///
+    /// The device is checked against [`GpuTessellator::required_limits`] and
+    /// [`GpuTessellator::required_features`] for every pass, the per-edge ones included
+    /// ([`GpuTessellator::check_device`]): a device that allows too few storage buffers
+    /// per stage gets an [`Error::LimitExceeded`] here, never a panic in a later pass.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
@@ -93,35 +98,8 @@ impl GpuTessellator {
                 mesh.triangles.len()
             )));
         }
-        if precision == Precision::F64 && !device.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(Error::missing_feature(
-                "SHADER_F64",
-                "the device was opened without SHADER_F64: f64 tessellation needs it \
-                 (request the feature when the adapter offers it); f32 works",
-            ));
-        }
+        Self::check_device(device, precision)?;
         let limits = device.limits();
-        if limits.max_storage_buffers_per_shader_stage < 6 || limits.max_bind_groups < 2 {
-            let (name, needed, allowed) = if limits.max_storage_buffers_per_shader_stage < 6 {
-                (
-                    "max_storage_buffers_per_shader_stage",
-                    6,
-                    limits.max_storage_buffers_per_shader_stage,
-                )
-            } else {
-                ("max_bind_groups", 2, limits.max_bind_groups)
-            };
-            return Err(Error::limit(
-                name,
-                needed,
-                u64::from(allowed),
-                format!(
-                    "tessellation needs 6 storage buffers per compute shader and 2 bind \
-                     groups; the device allows {} and {}",
-                    limits.max_storage_buffers_per_shader_stage, limits.max_bind_groups
-                ),
-            ));
-        }
         let max_binding = (limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
         let max_groups = limits.max_compute_workgroups_per_dimension;
         let topology = Topology::new(mesh, &mesh.adjacency())?;
@@ -245,6 +223,8 @@ impl GpuTessellator {
             uniform: TessUniform::default(),
             counts: None,
             levels: None,
+            level_cap: None,
+            level_group: None,
         })
     }
 
@@ -333,6 +313,7 @@ impl GpuTessellator {
             Self::INDEX_USAGE,
         );
         if grew_vertices || grew_indices {
+            self.level_group = None;
             self.group1 = Self::bind1(
                 device,
                 &self.layout1,

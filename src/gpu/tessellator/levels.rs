@@ -35,7 +35,6 @@ pub enum LevelSource<'a> {
 /// The `draw_indexed_indirect` arguments (also copied to [`GpuTessellator::indirect`]).
 pub const LV_STATE_DRAW: usize = 4;
 /// The vertex records written.
-#[cfg(test)]
 pub const LV_STATE_RECORDS: usize = 12;
 /// u32 at the head of the state buffer.
 const LV_STATE_HEAD: usize = 16;
@@ -93,6 +92,13 @@ pub(super) struct LevelTess {
     state: wgpu::Buffer,
     dispatch: wgpu::Buffer,
     host_levels: wgpu::Buffer,
+}
+
+impl LevelTess {
+    /// The state buffer ([`GpuTessellator::level_state`]).
+    pub(super) fn state(&self) -> &wgpu::Buffer {
+        &self.state
+    }
 }
 
 impl Topology {
@@ -169,7 +175,7 @@ fn level_weight_bytes<R: Real>(kind: PatchKind, top: u32) -> Vec<u8> {
 impl GpuTessellator {
     /// Builds the per-edge pipelines and buffers for levels up to `max_level`, or reuses
     /// those built while large enough.
-    fn level_tess(&mut self, device: &wgpu::Device, max_level: u32) -> Result<()> {
+    pub(super) fn level_tess(&mut self, device: &wgpu::Device, max_level: u32) -> Result<()> {
         if let Some(lt) = &self.levels {
             if lt.max_level >= max_level {
                 return Ok(());
@@ -295,6 +301,7 @@ impl GpuTessellator {
             ),
         };
         self.levels = Some(lt);
+        self.level_group = None;
         Ok(())
     }
 
@@ -327,11 +334,11 @@ impl GpuTessellator {
                     bytes,
                     self.max_binding,
                     format!(
-                        "levels up to {max_level} on {} patches need a {} MB {what} buffer, \
-                         over the device's storage binding limit of {} MB",
+                        "levels up to {max_level} on {} patches need a {} {what} buffer, \
+                         over the device's storage binding limit of {}",
                         topo.patches,
-                        bytes / 1_000_000,
-                        self.max_binding / 1_000_000
+                        super::mib(bytes),
+                        super::mib(self.max_binding)
                     ),
                 ));
             }
@@ -350,39 +357,27 @@ impl GpuTessellator {
     /// tessellating again. The exact counts stay on the device: the indirect arguments and
     /// [`GpuTessellator::level_state`].
     ///
-    /// Screen-space levels every frame, computed and used on the device:
+    /// Screen-space levels every frame, computed and used on the device
+    /// ([`crate::ScreenLevels`] owns the level buffers;
+    /// [`GpuTessellator::tessellate_screen`] records both steps in one call):
     ///
     /// ```no_run
     /// # fn demo(
     /// #     device: &wgpu::Device,
     /// #     queue: &wgpu::Queue,
+    /// #     mesh: &g1tess::Mesh,
     /// #     tess: &mut g1tess::GpuTessellator,
-    /// #     // LevelPass bindings: positions (vec4<f32> per vertex), edges (the two
-    /// #     // vertex ids of each adjacency edge), levels (u32 per edge, STORAGE).
-    /// #     positions: &wgpu::Buffer,
-    /// #     edges: &wgpu::Buffer,
-    /// #     levels: &wgpu::Buffer,
-    /// #     params: &wgpu::Buffer,
-    /// #     edge_count: u32,
-    /// #     view_proj: glam::DMat4,
+    /// #     view_proj: glam::Mat4,
     /// # ) -> g1tess::Result<()> {
-    /// use g1tess::LevelSource;
-    /// use g1tess::InnerRule;
-    /// use g1tess::ScreenView;
-    /// use g1tess::{LevelParams, LevelPass};
+    /// use g1tess::{InnerRule, ScreenFrame, ScreenLevels};
     ///
-    /// let pass = LevelPass::new(device)?; // once
+    /// let screen = ScreenLevels::new(device, mesh)?; // once: positions, edges, levels
     /// let max_level = 16;
     /// // Every frame: levels from the camera, then the tessellation, in one encoder.
-    /// let view = ScreenView { view_proj, viewport: [1280.0, 720.0], target_px: 8.0, max_level };
-    /// let groups = LevelPass::groups(edge_count, device.limits().max_compute_workgroups_per_dimension);
-    /// let mut p = LevelParams::new(&view, edge_count);
-    /// p.groups_x = groups.0;
-    /// queue.write_buffer(params, 0, bytemuck::bytes_of(&p));
+    /// let frame = ScreenFrame { view_proj, viewport: [1280.0, 720.0], target_px: 8.0, max_level };
     /// let mut encoder = device.create_command_encoder(&Default::default());
-    /// pass.record(device, &mut encoder, [params, positions, edges, levels], groups);
-    /// let source = LevelSource::Device { levels, rule: InnerRule::Max };
-    /// tess.tessellate_levels(device, queue, &mut encoder, source, max_level)?;
+    /// screen.record(queue, &mut encoder, &frame)?;
+    /// tess.tessellate_levels(device, queue, &mut encoder, screen.source(InnerRule::Max), max_level)?;
     /// // ... a render pass: tess.draw(&mut pass) (draw_indexed_indirect) ...
     /// queue.submit([encoder.finish()]);
     /// # Ok(())
@@ -434,30 +429,36 @@ impl GpuTessellator {
                 &lt.host_levels
             }
         };
-        let bufs = [
-            &lt.uniform,
-            &self.topo_buffer,
-            &self.vertices,
-            &self.indices,
-            &lt.statics,
-            levels,
-            &lt.state,
-        ];
-        let entries: Vec<wgpu::BindGroupEntry<'_>> = bufs
-            .into_iter()
-            .enumerate()
-            .map(|(b, buf)| wgpu::BindGroupEntry {
-                binding: b as u32,
-                resource: buf.as_entire_binding(),
-            })
-            .collect();
-        let group1 = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("g1tess tessellate levels"),
-            layout: &lt.layout1,
-            entries: &entries,
-        });
-        self.record_level_passes(lt, encoder, &group1, (px, py), (cx, cy));
+        let cached = matches!(&self.level_group, Some((b, _)) if b == levels);
+        if !cached {
+            let bufs = [
+                &lt.uniform,
+                &self.topo_buffer,
+                &self.vertices,
+                &self.indices,
+                &lt.statics,
+                levels,
+                &lt.state,
+            ];
+            let entries: Vec<wgpu::BindGroupEntry<'_>> = bufs
+                .into_iter()
+                .enumerate()
+                .map(|(b, buf)| wgpu::BindGroupEntry {
+                    binding: b as u32,
+                    resource: buf.as_entire_binding(),
+                })
+                .collect();
+            let group1 = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("g1tess tessellate levels"),
+                layout: &lt.layout1,
+                entries: &entries,
+            });
+            self.level_group = Some((levels.clone(), group1));
+        }
+        let (_, group1) = self.level_group.as_ref().expect("made above");
+        self.record_level_passes(lt, encoder, group1, (px, py), (cx, cy));
         self.counts = None;
+        self.level_cap = Some(max_level);
         Ok(cap)
     }
 

@@ -11,53 +11,66 @@
 //! [`crate::tess::stitch::StitchPlan`]'s numbering, placed at any level through the
 //! level-independent [`Topology`] table (`docs/gpu.md` explains both).
 //!
+//! A host opens its device with [`GpuTessellator::required_limits`] and
+//! [`GpuTessellator::required_features`] (checked by [`GpuTessellator::new`]), builds the
+//! tessellator and [`crate::ScreenLevels`] once, calls [`GpuTessellator::prepare`] so the
+//! first frame compiles nothing, and then every frame records the levels, the
+//! tessellation and its own draw into one encoder, reading nothing back:
+//!
 //! ```no_run
 //! # fn demo(
-//! #     device: &wgpu::Device,
-//! #     queue: &wgpu::Queue,
+//! #     adapter: &wgpu::Adapter,
 //! #     pipeline: &wgpu::RenderPipeline,
 //! #     target: &wgpu::TextureView,
+//! #     camera: impl Fn(u32) -> glam::Mat4,
+//! #     begin_pass: impl for<'a> Fn(&'a mut wgpu::CommandEncoder, &wgpu::TextureView) -> wgpu::RenderPass<'a>,
 //! # ) -> g1tess::Result<()> {
-//! use g1tess::{GpuTessellator, Mesh, PatchTable, Precision, Scheme};
+//! use g1tess::wgpu; // the wgpu g1tess is built with (30)
+//! use g1tess::{GpuTessellator, InnerRule, Mesh, PatchTable, Precision, Scheme};
+//! use g1tess::{ScreenFrame, ScreenLevels};
 //!
-//! // Once: the patches, their upload and the topology table.
+//! // Once: a device that can run every pass, the patches, the levels' own buffers.
+//! let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+//!     required_features: GpuTessellator::required_features(Precision::F32),
+//!     required_limits: GpuTessellator::required_limits(), // large meshes: the adapter's sizes
+//!     ..Default::default()
+//! }))
+//! .map_err(|e| g1tess::Error::Gpu(e.to_string()))?;
 //! let mesh = Mesh::load("icosphere:2", &Default::default())?;
 //! let table = PatchTable::build(&mesh, Scheme::G1, &Default::default())?;
-//! let mut tess = GpuTessellator::new(device, queue, &mesh, &table, Precision::F32)?;
+//! let mut tess = GpuTessellator::new(&device, &queue, &mesh, &table, Precision::F32)?;
+//! let screen = ScreenLevels::new(&device, &mesh)?;
+//! tess.prepare(&device, 16)?; // every pipeline and buffer, before the first frame
 //!
-//! // Every frame: tessellate at this frame's level and draw, in one encoder.
-//! let level = 8;
-//! let mut encoder = device.create_command_encoder(&Default::default());
-//! tess.tessellate(device, queue, &mut encoder, level)?;
-//! {
-//!     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-//!         label: Some("surface"),
-//!         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-//!             view: target,
-//!             depth_slice: None,
-//!             resolve_target: None,
-//!             ops: wgpu::Operations::default(),
-//!         })],
-//!         depth_stencil_attachment: None,
-//!         timestamp_writes: None,
-//!         occlusion_query_set: None,
-//!         multiview_mask: None,
-//!     });
-//!     // A pipeline whose vertex buffer 0 is g1tess::vertex_layout():
-//!     // @location(0) position, @location(1) unit normal, both vec3<f32>.
+//! for frame in 0..3 {
+//!     // The host's f32 camera; levels aim at 8-pixel segments, at most 16.
+//!     let view_proj = camera(frame);
+//!     let view = ScreenFrame { view_proj, viewport: [1280.0, 720.0], target_px: 8.0, max_level: 16 };
+//!     let mut encoder = device.create_command_encoder(&Default::default());
+//!     tess.tessellate_screen(&device, &queue, &mut encoder, &screen, &view, InnerRule::Max)?;
+//!     // The host's render pass and pipeline, whose `VertexState::buffers` is
+//!     // `&[Some(g1tess::vertex_layout())]`: @location(0) position, (1) unit normal.
+//!     let mut pass = begin_pass(&mut encoder, target);
 //!     pass.set_pipeline(pipeline);
 //!     tess.draw(&mut pass); // vertex + index buffers, draw_indexed_indirect
+//!     drop(pass);
+//!     queue.submit([encoder.finish()]);
 //! }
-//! queue.submit([encoder.finish()]);
+//! // Tools and tests only: the exact counts, read back asynchronously.
+//! let triangles = pollster::block_on(tess.read_counts(&device, &queue))?.triangles();
 //! # Ok(())
 //! # }
 //! ```
+//!
+//! A uniform level needs no level buffers: `tess.tessellate(&device, &queue, &mut encoder,
+//! level)` in place of `tessellate_screen`.
 
 // The topology table (filled from `tess::numbering`, the stitcher's numbering),
 // `record_of` (what the shaders mirror) and the tessellator's state are here; its
 // construction and buffers, uniform levels, per-edge levels and the WGSL assembly each have
 // a file.
 mod buffers;
+mod host;
 mod levels;
 mod shader;
 mod uniform;
@@ -99,7 +112,8 @@ pub const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
     wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
 
 /// The layout of [`GpuTessellator::vertices`] for a render pipeline: stride 24 bytes, per
-/// vertex, `VERTEX_ATTRIBUTES`.
+/// vertex, `VERTEX_ATTRIBUTES`. wgpu 30's `VertexState::buffers` takes options:
+/// `buffers: &[Some(g1tess::vertex_layout())]`.
 pub fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     wgpu::VertexBufferLayout {
         array_stride: VERTEX_BYTES,
@@ -317,10 +331,20 @@ pub fn level_grid_base(l: u32) -> u64 {
     l * (l + 1) * (l + 2) / 6 - 1
 }
 
+/// `bytes` in MiB (2²⁰ bytes) for messages, as the limits they are compared with are
+/// powers of two: one decimal, with the exact byte count.
+fn mib(bytes: u64) -> String {
+    format!(
+        "{:.1} MiB ({bytes} bytes)",
+        bytes as f64 / f64::from(1u32 << 20)
+    )
+}
+
 /// What one tessellation produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TessCounts {
-    /// The grid level of every patch.
+    /// The grid level of every patch (uniform levels), or the level cap (per-edge levels,
+    /// [`GpuTessellator::read_counts`]).
     pub level: u32,
     /// Vertex records written (entries of [`GpuTessellator::vertices`]).
     pub vertices: u32,
@@ -380,6 +404,11 @@ pub struct GpuTessellator {
     uniform: TessUniform,
     counts: Option<TessCounts>,
     levels: Option<levels::LevelTess>,
+    /// The level cap of the last per-edge tessellation (`None` after a uniform one).
+    level_cap: Option<u32>,
+    /// The bind group of the per-edge passes with the level buffer it binds, kept while
+    /// the buffers it binds stay the same.
+    level_group: Option<(wgpu::Buffer, wgpu::BindGroup)>,
 }
 
 impl GpuTessellator {
@@ -391,27 +420,35 @@ impl GpuTessellator {
         pass.draw_indexed_indirect(&self.indirect, 0);
     }
 
-    /// The vertex buffer: [`TessCounts::vertices`] entries of [`vertex_layout`].
+    /// The vertex buffer: [`TessCounts::vertices`] entries of [`vertex_layout`]; usage
+    /// [`GpuTessellator::VERTEX_USAGE`] (`VERTEX | STORAGE | COPY_SRC | COPY_DST`). It is
+    /// replaced when a tessellation needs more room than it has (never after
+    /// [`GpuTessellator::prepare`] within its cap): take it again after tessellating.
     pub fn vertices(&self) -> &wgpu::Buffer {
         &self.vertices
     }
 
-    /// The index buffer: [`TessCounts::indices`] `u32` record ids, 3 per triangle.
+    /// The index buffer: [`TessCounts::indices`] `u32` record ids, 3 per triangle; usage
+    /// [`GpuTessellator::INDEX_USAGE`] (`INDEX | STORAGE | COPY_SRC | COPY_DST`), replaced
+    /// as the vertex buffer is.
     pub fn indices(&self) -> &wgpu::Buffer {
         &self.indices
     }
 
-    /// The `draw_indexed_indirect` arguments of the last tessellation.
+    /// The `draw_indexed_indirect` arguments of the last tessellation (20 bytes:
+    /// `wgpu::util::DrawIndexedIndirectArgs`); usage `INDIRECT | COPY_DST | COPY_SRC`.
     pub fn indirect(&self) -> &wgpu::Buffer {
         &self.indirect
     }
 
-    /// The keys of [`GpuTessellator::record_bounds`]: 6 u32.
+    /// The keys of [`GpuTessellator::record_bounds`]: 6 u32; usage
+    /// `STORAGE | COPY_SRC | COPY_DST`.
     pub fn bounds(&self) -> &wgpu::Buffer {
         &self.bounds
     }
 
-    /// Counts of the last tessellation.
+    /// Counts of the last uniform tessellation, known on the host; `None` after per-edge
+    /// levels, whose counts stay on the device ([`GpuTessellator::read_counts`] reads them).
     pub fn counts(&self) -> Option<TessCounts> {
         self.counts
     }

@@ -49,11 +49,11 @@ impl GpuTessellator {
                     bytes,
                     self.max_binding,
                     format!(
-                        "level {level} on {} patches needs a {} MB {what} buffer, over the \
-                         device's storage binding limit of {} MB",
+                        "level {level} on {} patches needs a {} {what} buffer, over the \
+                         device's storage binding limit of {}",
                         topo.patches,
-                        bytes / 1_000_000,
-                        self.max_binding / 1_000_000
+                        super::mib(bytes),
+                        super::mib(self.max_binding)
                     ),
                 ));
             }
@@ -170,6 +170,7 @@ impl GpuTessellator {
             indices: index_count as u32,
         };
         self.counts = Some(counts);
+        self.level_cap = None;
         Ok(counts)
     }
 
