@@ -157,6 +157,10 @@ pub use io::nets::write_nets;
 pub use io::writers::{ply_file_bytes, write_stitched, MeshFormat};
 pub use io::TempFiles;
 
+/// Blocking forms, native only (the web awaits `GpuContext::new_async`, `gpu_adapters_async`
+/// and `read_buffer_async`).
+#[cfg(all(feature = "gpu", not(target_arch = "wasm32")))]
+pub use gpu::adapters as gpu_adapters;
 /// The GPU: a device, the GPU evaluator, and the tessellator writing straight into a host
 /// program's vertex and index buffers.
 #[cfg(feature = "gpu")]
@@ -169,7 +173,7 @@ pub use gpu::tessellator::{
     vertex_layout, GpuTessellator, LevelCapacity, LevelSource, TessCounts, Topology,
 };
 #[cfg(feature = "gpu")]
-pub use gpu::{adapters as gpu_adapters, read_buffer, GpuContext};
+pub use gpu::{adapters_async as gpu_adapters_async, read_buffer, read_buffer_async, GpuContext};
 
 /// Drawing a tessellated surface with its normal field: the camera that frames it, and (with
 /// the `gpu` feature) the buffers and the render pass.

@@ -1,7 +1,8 @@
 //! GPU device set-up, kept apart from the work done on it (the split of the wgpu examples).
 //!
 //! [`GpuContext`] opens an adapter of the platform's native backend ([`BACKENDS`]: Vulkan
-//! on Linux, Vulkan or DX12 on Windows, Metal on macOS; never silently GL), requests its full limits and [`wgpu::Features::SHADER_F64`] where offered, and records
+//! on Linux, Vulkan or DX12 on Windows, Metal on macOS, the browser's WebGPU on wasm32;
+//! never silently GL), requests its full limits and [`wgpu::Features::SHADER_F64`] where offered, and records
 //! the adapter's name and driver for reports. Work is done by free functions taking
 //! `(&Device, &Queue, ...)`, so a program opens one context (device creation is slow on
 //! software drivers) and shares it, in an `Arc`, between the evaluator, the tessellator and
@@ -19,6 +20,12 @@
 //! wgpu's default panic) and turned into [`Error::Gpu`] by [`GpuContext::check`]; results
 //! come back through [`read_buffer`] (map, wait, copy out, unmap, errors as `Result`s). A lost
 //! device is reported by [`GpuContext::check`] as [`Error::DeviceLost`].
+//!
+//! On the web (wasm32) nothing blocks: the context is opened by [`GpuContext::new_async`],
+//! adapters are listed by [`adapters_async`] and buffers read back by
+//! [`read_buffer_async`], each awaited on the browser's event loop. The blocking
+//! [`GpuContext::new`] and [`adapters`] are native only; the blocking [`read_buffer`] there
+//! returns an error instead of waiting.
 
 pub mod eval;
 pub mod readback;
@@ -28,7 +35,7 @@ pub mod stats;
 pub mod tessellator;
 
 pub use crate::eval::Precision;
-pub use readback::read_buffer;
+pub use readback::{read_buffer, read_buffer_async};
 
 use std::sync::{Arc, Mutex};
 
@@ -36,7 +43,8 @@ use crate::{Error, Result};
 
 /// The backends a [`GpuContext`] may open, whatever `WGPU_BACKEND` says: wgpu's primary
 /// ones, of which Cargo.toml compiles the platform's own (Vulkan on Linux, where this is
-/// Vulkan alone; Vulkan and DX12 on Windows; Metal on macOS). Never GL: no silent fallback.
+/// Vulkan alone; Vulkan and DX12 on Windows; Metal on macOS; WebGPU on wasm32). Never GL:
+/// no silent fallback.
 pub const BACKENDS: wgpu::Backends = wgpu::Backends::PRIMARY;
 
 /// [`BACKENDS`] by name, for messages.
@@ -44,7 +52,9 @@ pub const BACKENDS: wgpu::Backends = wgpu::Backends::PRIMARY;
 const BACKEND_NAMES: &str = "Metal";
 #[cfg(windows)]
 const BACKEND_NAMES: &str = "Vulkan or DX12";
-#[cfg(not(any(windows, target_vendor = "apple")))]
+#[cfg(target_arch = "wasm32")]
+const BACKEND_NAMES: &str = "WebGPU";
+#[cfg(not(any(windows, target_vendor = "apple", target_arch = "wasm32")))]
 const BACKEND_NAMES: &str = "Vulkan";
 
 /// What a machine without an adapter needs, for the error.
@@ -52,11 +62,13 @@ const BACKEND_NAMES: &str = "Vulkan";
 const DRIVER_HINT: &str = "GPU evaluation needs a Metal device";
 #[cfg(windows)]
 const DRIVER_HINT: &str = "GPU evaluation needs a Vulkan or DX12 driver";
-#[cfg(not(any(windows, target_vendor = "apple")))]
+#[cfg(target_arch = "wasm32")]
+const DRIVER_HINT: &str = "GPU evaluation needs a browser with WebGPU enabled";
+#[cfg(not(any(windows, target_vendor = "apple", target_arch = "wasm32")))]
 const DRIVER_HINT: &str =
     "GPU evaluation needs a Vulkan driver (e.g. Mesa's lavapipe, package mesa-vulkan-drivers)";
 
-/// An open device (Vulkan, DX12 or Metal) with its queue, the adapter's description and limits.
+/// An open device (Vulkan, DX12, Metal or WebGPU) with its queue, the adapter's description and limits.
 pub struct GpuContext {
     /// The wgpu instance the adapter was found through.
     pub instance: wgpu::Instance,
@@ -88,11 +100,27 @@ impl std::fmt::Debug for GpuContext {
 impl GpuContext {
     /// Opens the first adapter of `BACKENDS` (high-performance preference). Errors when
     /// there is none: callers decide whether falling back to the CPU is allowed.
+    ///
+    /// Blocks until the device is open, so it is native only; the web awaits
+    /// [`GpuContext::new_async`].
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn new() -> Result<GpuContext> {
         pollster::block_on(Self::new_async())
     }
 
-    async fn new_async() -> Result<GpuContext> {
+    /// [`GpuContext::new`] without blocking: the same adapter choice, limits, features and
+    /// error reporting, as a future. On the web (wasm32, the browser's WebGPU) this is the
+    /// constructor, awaited on the browser's event loop (e.g. through
+    /// `wasm_bindgen_futures::spawn_local`); natively any executor may drive it.
+    ///
+    /// ```no_run
+    /// # async fn demo() -> g1tess::Result<()> {
+    /// let ctx = g1tess::GpuContext::new_async().await?;
+    /// eprintln!("gpu: {}", ctx.describe());
+    /// # Ok(())
+    /// # }
+    /// ```
+    pub async fn new_async() -> Result<GpuContext> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         desc.backends = BACKENDS;
         let instance = wgpu::Instance::new(desc);
@@ -216,7 +244,8 @@ impl GpuContext {
         Err(Error::Gpu(format!("{}: {msg}", self.info.name)))
     }
 
-    /// Blocks until every submitted command has finished.
+    /// Blocks until every submitted command has finished. On the web the browser runs the
+    /// queue by itself and this returns at once (wgpu's WebGPU poll is a no-op).
     pub fn wait(&self) -> Result<()> {
         wait(&self.device)
     }
@@ -226,17 +255,30 @@ impl GpuContext {
 /// opening a device; empty where there is no driver. Callers choosing between the GPU and
 /// the CPU read `device_type`: [`wgpu::DeviceType::Cpu`] is a software rasteriser (lavapipe,
 /// WARP) running on the same cores as the CPU backend.
+///
+/// Blocks while the adapters are listed, so it is native only; the web awaits
+/// [`adapters_async`].
+#[cfg(not(target_arch = "wasm32"))]
 pub fn adapters() -> Vec<wgpu::AdapterInfo> {
+    pollster::block_on(adapters_async())
+}
+
+/// [`adapters`] without blocking, as a future. On the web (wasm32) it lists the browser's
+/// default WebGPU adapter, or none where WebGPU is missing.
+pub async fn adapters_async() -> Vec<wgpu::AdapterInfo> {
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
     desc.backends = BACKENDS;
     let instance = wgpu::Instance::new(desc);
-    pollster::block_on(instance.enumerate_adapters(BACKENDS))
+    instance
+        .enumerate_adapters(BACKENDS)
+        .await
         .iter()
         .map(|a| a.get_info())
         .collect()
 }
 
-/// Blocks until every submitted command of `device` has finished.
+/// Blocks until every submitted command of `device` has finished (returns at once on the
+/// web, where the browser runs the queue).
 pub fn wait(device: &wgpu::Device) -> Result<()> {
     device
         .poll(wgpu::PollType::wait_indefinitely())

@@ -1,5 +1,11 @@
 //! Reading a buffer back from the GPU: map, wait, hand out the bytes, unmap, with every
-//! failure an [`Error::Gpu`] instead of a panic.
+//! failure an [`Error::Gpu`] instead of a panic. [`read_buffer`] blocks (native only: on the
+//! web it returns an error); [`read_buffer_async`] awaits, on the web and natively.
+
+use std::future::Future;
+use std::pin::Pin;
+use std::sync::{Arc, Mutex};
+use std::task::{Context, Poll, Waker};
 
 use crate::{Error, Result};
 
@@ -10,7 +16,8 @@ use crate::{Error, Result};
 /// `bytes` must be a multiple of [`wgpu::COPY_BUFFER_ALIGNMENT`] (4); the mapped bytes
 /// start at offset 0, [`wgpu::MAP_ALIGNMENT`]-aligned, so `f` may cast them to `f32`,
 /// `f64` or `u32` with `bytemuck`. Errors when mapping fails (a lost device, a buffer in use) or the
-/// map callback never runs.
+/// map callback never runs. On the web (wasm32), which cannot block, it returns an error
+/// at once: await [`read_buffer_async`] there.
 ///
 /// ```no_run
 /// # fn demo(device: &wgpu::Device, staging: &wgpu::Buffer) -> g1tess::Result<()> {
@@ -43,11 +50,11 @@ pub fn read_buffer_after<T>(
     if bytes == 0 {
         return Ok(f(&[]));
     }
-    if bytes > buffer.size() {
-        return Err(Error::Gpu(format!(
-            "reading {bytes} bytes back from a buffer of {} bytes",
-            buffer.size()
-        )));
+    check_size(buffer, bytes)?;
+    if cfg!(target_arch = "wasm32") {
+        return Err(Error::Gpu(
+            "reading a buffer back: the web cannot block; use read_buffer_async".into(),
+        ));
     }
     let slice = buffer.slice(..bytes);
     let (tx, rx) = std::sync::mpsc::channel();
@@ -69,4 +76,114 @@ pub fn read_buffer_after<T>(
         .map(|view| f(&view));
     buffer.unmap();
     out
+}
+
+/// [`read_buffer`] as a future, for the web (wasm32), where the browser maps the buffer
+/// while the page's event loop runs and nothing may block: the same checks, bytes and
+/// errors. Natively the device is polled until the mapping is done (wgpu's native backends
+/// make progress only when polled), so the future is ready when first polled, under any
+/// executor.
+///
+/// ```no_run
+/// # async fn demo(device: &wgpu::Device, staging: &wgpu::Buffer) -> g1tess::Result<()> {
+/// let counts: Vec<u32> = g1tess::read_buffer_async(device, staging, 16, |b| {
+///     bytemuck::cast_slice(b).to_vec()
+/// })
+/// .await?;
+/// # let _ = counts;
+/// # Ok(())
+/// # }
+/// ```
+pub async fn read_buffer_async<T>(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    bytes: u64,
+    f: impl FnOnce(&[u8]) -> T,
+) -> Result<T> {
+    if bytes == 0 {
+        return Ok(f(&[]));
+    }
+    check_size(buffer, bytes)?;
+    let slice = buffer.slice(..bytes);
+    let slot = Arc::new(Mutex::new(Slot::default()));
+    let sender = Sender(slot.clone());
+    slice.map_async(wgpu::MapMode::Read, move |r| sender.send(r));
+    if !cfg!(target_arch = "wasm32") {
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| Error::Gpu(format!("device poll: {e}")))?;
+    }
+    Mapped(slot)
+        .await
+        .map_err(|e| Error::Gpu(format!("reading a buffer back: {e}")))?;
+    let out = slice
+        .get_mapped_range()
+        .map_err(|e| Error::Gpu(format!("reading a buffer back: {e}")))
+        .map(|view| f(&view));
+    buffer.unmap();
+    out
+}
+
+/// The error for reading more bytes than `buffer` holds.
+fn check_size(buffer: &wgpu::Buffer, bytes: u64) -> Result<()> {
+    if bytes > buffer.size() {
+        return Err(Error::Gpu(format!(
+            "reading {bytes} bytes back from a buffer of {} bytes",
+            buffer.size()
+        )));
+    }
+    Ok(())
+}
+
+/// The outcome of one `map_async` (`None` until its callback runs) and the task waiting for it.
+#[derive(Default)]
+struct Slot {
+    done: Option<std::result::Result<(), String>>,
+    waker: Option<Waker>,
+}
+
+/// The map callback's half: stores the outcome and wakes the waiting task; dropped without
+/// sending (wgpu dropped the callback unrun) it stores an error, so the future never hangs.
+struct Sender(Arc<Mutex<Slot>>);
+
+impl Sender {
+    fn send(self, r: std::result::Result<(), wgpu::BufferAsyncError>) {
+        self.finish(r.map_err(|e| format!("mapping failed: {e}")));
+    }
+
+    fn finish(&self, r: std::result::Result<(), String>) {
+        let waker = self.0.lock().ok().and_then(|mut slot| {
+            slot.done.get_or_insert(r);
+            slot.waker.take()
+        });
+        if let Some(w) = waker {
+            w.wake();
+        }
+    }
+}
+
+impl Drop for Sender {
+    fn drop(&mut self) {
+        self.finish(Err("the map callback never ran".into()));
+    }
+}
+
+/// The waiting half: ready once the callback has run (or was dropped).
+struct Mapped(Arc<Mutex<Slot>>);
+
+impl Future for Mapped {
+    type Output = std::result::Result<(), String>;
+
+    fn poll(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Self::Output> {
+        let Ok(mut slot) = self.0.lock() else {
+            return Poll::Ready(Err("the map state is poisoned".into()));
+        };
+        match slot.done.take() {
+            Some(r) => Poll::Ready(r),
+            None => {
+                slot.waker = Some(cx.waker().clone());
+                Poll::Pending
+            }
+        }
+    }
 }

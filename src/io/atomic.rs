@@ -689,8 +689,12 @@ impl PipedWriter {
     }
 
     /// Writes from a new thread (from the calling one where no thread can be started),
-    /// with direct I/O where the file system suits it.
+    /// with direct I/O where the file system suits it. On wasm32, which has no threads,
+    /// always from the calling thread.
     pub fn spawn(file: File) -> PipedWriter {
+        if cfg!(target_arch = "wasm32") {
+            return PipedWriter::direct(file);
+        }
         let direct = direct::suits(&file) && direct::set(&file, true);
         match PipedWriter::spawn_at(&file, None, direct) {
             Some(mut w) => {

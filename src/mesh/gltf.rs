@@ -28,17 +28,18 @@ use ::gltf::mesh::Mode;
 use ::gltf::Semantic;
 use glam::{DMat3, DMat4, DVec3};
 
-use super::{normals, LoadOptions, LoadReport, Mesh, Soup};
+use super::{normals, LoadOptions, LoadReport, Mesh, Soup, Source};
 use crate::{Error, Result};
 
 /// Deepest node nesting followed (a cycle is refused rather than followed forever).
 const MAX_DEPTH: usize = 256;
 
 /// Reads a glTF 2.0 file (`.gltf` or `.glb`); see the module documentation.
-pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
+pub fn load_gltf(src: Source<'_>, opts: &LoadOptions) -> Result<Mesh> {
+    let path = src.path();
     let file = path.display().to_string();
     let err = |m: String| Error::mesh(&file, m);
-    let data = super::read_regular(path)?;
+    let data = src.data()?;
     let (json, blob) = if data.starts_with(b"glTF") {
         let (j, b) = glb(&data).map_err(err)?;
         (j, b)
@@ -46,7 +47,7 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
         (&data[..], None)
     };
     let doc = document(json).map_err(err)?;
-    let buffers = load_buffers(path, &doc, blob).map_err(err)?;
+    let buffers = load_buffers(src, &doc, blob).map_err(err)?;
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
@@ -99,10 +100,10 @@ fn document(json: &[u8]) -> std::result::Result<::gltf::Document, String> {
 }
 
 /// The bytes of every buffer: the GLB binary chunk, a data URI's contents, or exactly the
-/// declared `byteLength` of a file inside the glTF's folder ([`load_file`]); each checked to
-/// hold at least its declared length.
+/// declared `byteLength` of a file inside the glTF's folder ([`load_file`]; refused when the
+/// glTF came as bytes, without a folder); each checked to hold at least its declared length.
 fn load_buffers(
-    path: &Path,
+    src: Source<'_>,
     doc: &::gltf::Document,
     blob: Option<&[u8]>,
 ) -> std::result::Result<Vec<Vec<u8>>, String> {
@@ -114,7 +115,7 @@ fn load_buffers(
                 format!("buffer {i} refers to a GLB binary chunk the file does not have")
             })?,
             ::gltf::buffer::Source::Uri(uri) => {
-                load_uri(path, uri, b.length()).map_err(|m| format!("buffer {i}: {m}"))?
+                load_uri(src, uri, b.length()).map_err(|m| format!("buffer {i}: {m}"))?
             }
         };
         if bytes.len() < b.length() {
@@ -667,7 +668,7 @@ fn glb(data: &[u8]) -> std::result::Result<(&[u8], Option<&[u8]>), String> {
 
 /// The bytes of a buffer URI declaring `length` bytes: a base64 data URI, or a file inside
 /// the glTF file's folder ([`load_file`]).
-fn load_uri(path: &Path, uri: &str, length: usize) -> std::result::Result<Vec<u8>, String> {
+fn load_uri(src: Source<'_>, uri: &str, length: usize) -> std::result::Result<Vec<u8>, String> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (meta, payload) = rest
             .split_once(',')
@@ -678,6 +679,15 @@ fn load_uri(path: &Path, uri: &str, length: usize) -> std::result::Result<Vec<u8
         return base64(payload).ok_or_else(|| "data URI: invalid base64".to_string());
     }
     let shown = super::text::echo(uri);
+    let path = match src {
+        Source::File(path) => path,
+        Source::Bytes { .. } => {
+            return Err(format!(
+                "URI '{shown}' names an external file, which a glTF loaded from bytes cannot \
+                 read (only GLB and data URI buffers are)"
+            ))
+        }
+    };
     if uri.contains("://") {
         return Err(format!(
             "URI '{shown}' is not a relative file (only files inside the glTF's folder and data \

@@ -2,6 +2,8 @@
 //! the built-in meshes of the paper.
 
 pub mod adjacency;
+#[cfg(test)]
+mod bytes_tests;
 pub mod creases;
 pub mod generators;
 pub mod gltf;
@@ -299,6 +301,45 @@ pub(crate) fn read_regular(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).map_err(|e| Error::io(path, e))
 }
 
+/// Where a reader's bytes come from: a file, or bytes in memory ([`Mesh::from_bytes`]). Both
+/// are read by the same code; `path()` is what errors and the mesh's name give (the file's
+/// path, or the name given with the bytes).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Source<'a> {
+    /// A file, read through [`regular_file`] (refusing FIFOs and devices).
+    File(&'a Path),
+    /// Bytes in memory and the name they go by.
+    Bytes { name: &'a Path, bytes: &'a [u8] },
+}
+
+impl<'a> Source<'a> {
+    /// The path (or name) errors and the mesh's name give.
+    pub(crate) fn path(&self) -> &'a Path {
+        match *self {
+            Source::File(path) => path,
+            Source::Bytes { name, .. } => name,
+        }
+    }
+
+    /// The whole input: the file read after [`regular_file`] has checked it, or the bytes.
+    pub(crate) fn data(&self) -> Result<std::borrow::Cow<'a, [u8]>> {
+        match *self {
+            Source::File(path) => read_regular(path).map(std::borrow::Cow::Owned),
+            Source::Bytes { bytes, .. } => Ok(std::borrow::Cow::Borrowed(bytes)),
+        }
+    }
+
+    /// The input's length in bytes.
+    pub(crate) fn len(&self) -> Result<u64> {
+        match *self {
+            Source::File(path) => std::fs::metadata(path)
+                .map(|m| m.len())
+                .map_err(|e| Error::io(path, e)),
+            Source::Bytes { bytes, .. } => Ok(bytes.len() as u64),
+        }
+    }
+}
+
 /// The name a mesh read from `path` carries in reports: its file name.
 pub(crate) fn display_name(path: &Path) -> String {
     path.file_name()
@@ -325,16 +366,53 @@ impl Mesh {
             }
             // Before anything opens it (the format sniffing does): a FIFO would block.
             regular_file(path)?;
-            match InputFormat::detect(path)? {
-                InputFormat::Obj => obj::load_obj(path, opts)?,
-                InputFormat::Pn => pn_file::load_pn(path)?,
-                InputFormat::Ply => ply::load_ply(path, opts)?,
-                InputFormat::Stl => stl::load_stl(path, opts)?,
-                InputFormat::Gltf => gltf::load_gltf(path, opts)?,
-            }
+            Self::read(Source::File(path), InputFormat::detect(path)?, opts)?
         };
         mesh.apply_options(opts)?;
         Ok(mesh)
+    }
+
+    /// Loads a mesh from bytes in memory in the given format, the way [`Mesh::load`] reads
+    /// a file of that format: the same readers, so the same mesh bit for bit, the same
+    /// [`LoadReport`] and the same one-line errors, with `name` (e.g. the name of the
+    /// file the bytes came from) where file loading gives the path, beside the line or
+    /// element. No file system is touched, so this is how a browser (wasm32) loads a file
+    /// the user opened or dropped. The mesh is named by `name`'s file name.
+    ///
+    /// A glTF (`.gltf`) whose buffers are external files cannot be read this way (an error
+    /// says so): only a GLB's binary chunk and `data:` URIs are.
+    ///
+    /// ```
+    /// use g1tess::{InputFormat, LoadOptions, Mesh};
+    /// let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    /// let mesh = Mesh::from_bytes("tri.obj", obj, InputFormat::Obj, &LoadOptions::default())?;
+    /// assert_eq!((mesh.positions.len(), mesh.triangles.len()), (3, 1));
+    /// assert_eq!(mesh.name, "tri.obj");
+    /// let bad = Mesh::from_bytes("bad.obj", b"v 0 0\n", InputFormat::Obj, &LoadOptions::default());
+    /// assert!(bad.unwrap_err().to_string().starts_with("bad.obj:1: "));
+    /// # Ok::<(), g1tess::Error>(())
+    /// ```
+    pub fn from_bytes(
+        name: &str,
+        bytes: &[u8],
+        format: InputFormat,
+        opts: &LoadOptions,
+    ) -> Result<Mesh> {
+        let name = Path::new(name);
+        let mut mesh = Self::read(Source::Bytes { name, bytes }, format, opts)?;
+        mesh.apply_options(opts)?;
+        Ok(mesh)
+    }
+
+    /// The reader of `format` on `src`.
+    fn read(src: Source<'_>, format: InputFormat, opts: &LoadOptions) -> Result<Mesh> {
+        match format {
+            InputFormat::Obj => obj::load_obj(src, opts),
+            InputFormat::Pn => pn_file::load_pn(src),
+            InputFormat::Ply => ply::load_ply(src, opts),
+            InputFormat::Stl => stl::load_stl(src, opts),
+            InputFormat::Gltf => gltf::load_gltf(src, opts),
+        }
     }
 
     /// What every source does last: the options' normal recomputation and crease split,
@@ -786,7 +864,7 @@ pub(crate) mod text {
         out
     }
 
-    fn fill(file: &mut std::fs::File, buf: &mut Vec<u8>, want: usize) -> std::io::Result<bool> {
+    fn fill(file: &mut impl Read, buf: &mut Vec<u8>, want: usize) -> std::io::Result<bool> {
         let target = buf.len() + want;
         buf.reserve(want);
         while buf.len() < target {
@@ -801,7 +879,7 @@ pub(crate) mod text {
         Ok(false)
     }
 
-    /// Reads `path` chunk by chunk, each chunk ending at a statement boundary (a UTF-8 BOM at
+    /// Reads `src` chunk by chunk, each chunk ending at a statement boundary (a UTF-8 BOM at
     /// the start dropped), and hands each to `f` in order with the number of its first line;
     /// `f` returns how many lines the chunk holds. The next chunk is read while `f` works.
     ///
@@ -809,14 +887,28 @@ pub(crate) mod text {
     /// readers read a file a second time to name the line of a defect, which a pipe or
     /// device cannot give, opening a FIFO blocks, and a device such as `/dev/zero` never
     /// ends. A statement longer than [`MAX_LINE`] is an error naming its line, so
-    /// memory stays bounded whatever the file holds.
-    pub fn for_each_chunk<F>(path: &Path, mut f: F) -> Result<()>
+    /// memory stays bounded whatever the file holds. Bytes in memory are cut into the same
+    /// chunks as a file holding them.
+    pub fn for_each_chunk<F>(src: super::Source<'_>, f: F) -> Result<()>
+    where
+        F: FnMut(&[u8], usize) -> Result<usize> + Send,
+    {
+        match src {
+            super::Source::File(path) => {
+                super::regular_file(path)?;
+                let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+                chunks(path, file, f)
+            }
+            super::Source::Bytes { name, bytes } => chunks(name, bytes, f),
+        }
+    }
+
+    /// [`for_each_chunk`] on an open reader; `path` names it in errors.
+    fn chunks<F>(path: &Path, mut file: impl Read + Send, mut f: F) -> Result<()>
     where
         F: FnMut(&[u8], usize) -> Result<usize> + Send,
     {
         let io = |e| Error::io(path, e);
-        super::regular_file(path)?;
-        let mut file = std::fs::File::open(path).map_err(io)?;
         let mut cur = Vec::new();
         let mut eof = fill(&mut file, &mut cur, CHUNK).map_err(io)?;
         if cur.starts_with(b"\xef\xbb\xbf") {

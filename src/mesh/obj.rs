@@ -20,7 +20,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::text::{self, echo, Tokens};
-use super::{normals, weld, CornerAttributes, LoadOptions, LoadReport, Mesh};
+use super::{normals, weld, CornerAttributes, LoadOptions, LoadReport, Mesh, Source};
 use crate::{Error, Result};
 
 /// Marks a corner without a normal.
@@ -464,10 +464,9 @@ impl Raw {
 
 /// One pass over the file: parallel (`totals` = None, any defect gives `Retry`) or
 /// sequential (exact errors).
-fn pass(path: &Path, parallel: bool, totals: Option<Counts>) -> std::result::Result<Raw, Fail> {
-    let file_len = std::fs::metadata(path)
-        .map_err(|e| Error::io(path, e))?
-        .len();
+fn pass(src: Source<'_>, parallel: bool, totals: Option<Counts>) -> std::result::Result<Raw, Fail> {
+    let path = src.path();
+    let file_len = src.len()?;
     let mut raw = Raw {
         positions: Vec::new(),
         normals: Vec::new(),
@@ -485,7 +484,7 @@ fn pass(path: &Path, parallel: bool, totals: Option<Counts>) -> std::result::Res
     } else {
         1
     };
-    let done = text::for_each_chunk(path, |chunk, first_line| {
+    let done = text::for_each_chunk(src, |chunk, first_line| {
         let pieces = if chunk.len() < 1 << 16 {
             vec![chunk]
         } else {
@@ -559,8 +558,9 @@ fn pass(path: &Path, parallel: bool, totals: Option<Counts>) -> std::result::Res
 /// vertices dropped, per-corner normals kept (renormalised), missing normals estimated with
 /// `opts.weighting`. Lines may end in `\n`, `\r\n` or `\r`; a backslash at the end of a line
 /// continues the statement; a UTF-8 byte-order mark is skipped.
-pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let sequential = |totals| match pass(path, false, totals) {
+pub fn load_obj(src: Source<'_>, opts: &LoadOptions) -> Result<Mesh> {
+    let path = src.path();
+    let sequential = |totals| match pass(src, false, totals) {
         Ok(raw) => Ok(raw),
         Err(Fail::Error(e)) => Err(e),
         Err(Fail::Retry) => Err(Error::Invalid(format!(
@@ -568,7 +568,7 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
             path.display()
         ))),
     };
-    let raw = match pass(path, true, None) {
+    let raw = match pass(src, true, None) {
         Ok(raw) => raw,
         Err(Fail::Error(e)) => return Err(e),
         Err(Fail::Retry) => sequential(None)?,
@@ -583,13 +583,14 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
             path.display()
         )));
     }
-    build(path, raw, opts)
+    build(src, raw, opts)
 }
 
 /// The line of the file's first face (a second, sequential read: for an error message).
-fn first_face_line(path: &Path) -> Result<usize> {
+fn first_face_line(src: Source<'_>) -> Result<usize> {
+    let path = src.path();
     let mut found = None;
-    text::for_each_chunk(path, |chunk, first_line| {
+    text::for_each_chunk(src, |chunk, first_line| {
         let text = text::utf8(path, chunk, first_line)?;
         text::statements(path, text, first_line, true, |line, s| {
             if found.is_none() && Tokens::new(s).next() == Some("f") {
@@ -602,7 +603,8 @@ fn first_face_line(path: &Path) -> Result<usize> {
 }
 
 /// Welds, drops, and gives every corner its normal.
-fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
+fn build(src: Source<'_>, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
+    let path = src.path();
     let Raw {
         positions,
         normals: normals_in,
@@ -633,7 +635,7 @@ fn build(path: &Path, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
     if tris.is_empty() {
         return Err(Error::parse(
             path,
-            first_face_line(path)?,
+            first_face_line(src)?,
             "every face is degenerate (repeated or collinear corners, or an area below the \
              smallest f64), this one first: empty mesh",
         ));

@@ -24,7 +24,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::text::{self, echo};
-use super::{normals, LoadOptions, LoadReport, Mesh, Soup};
+use super::{normals, LoadOptions, LoadReport, Mesh, Soup, Source};
 use crate::{Error, Result};
 
 /// Scalar types of PLY properties.
@@ -418,8 +418,9 @@ struct Body {
 }
 
 /// Reads a PLY file; see the module documentation.
-pub fn load_ply(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let data = super::read_regular(path)?;
+pub fn load_ply(src: Source<'_>, opts: &LoadOptions) -> Result<Mesh> {
+    let path = src.path();
+    let data = src.data()?;
     let mut report = LoadReport::default();
     let h = header(path, &data, &mut report)?;
     let vertex = h.elements.iter().find(|e| e.name == "vertex").cloned();

@@ -23,7 +23,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::text::{self, echo, Tokens};
-use super::{normals, weld, LoadReport, Mesh};
+use super::{normals, weld, LoadReport, Mesh, Source};
 use crate::{Error, Result};
 
 /// The first line of every version-1 file.
@@ -34,11 +34,12 @@ pub const HEADER: &str = "g1tess-pn 1";
 /// The file is read in chunks of whole lines, each split into blocks parsed in parallel; any
 /// defect sends the file through the same parser once more, sequentially, which reports the
 /// first defect with its line (errors cost a second pass, valid files do not).
-pub fn load_pn(path: &Path) -> Result<Mesh> {
-    let raw = match pass(path, true) {
+pub fn load_pn(src: Source<'_>) -> Result<Mesh> {
+    let path = src.path();
+    let raw = match pass(src, true) {
         Some(Ok(raw)) if raw.consistent() => raw,
         Some(Err(e)) => return Err(e),
-        _ => match pass(path, false) {
+        _ => match pass(src, false) {
             Some(r) => r?,
             None => {
                 return Err(Error::Invalid(format!(
@@ -316,14 +317,15 @@ impl Raw {
 
 /// One pass over the file. `None`: a parallel pass found something to leave to the
 /// sequential one.
-fn pass(path: &Path, parallel: bool) -> Option<Result<Raw>> {
+fn pass(src: Source<'_>, parallel: bool) -> Option<Result<Raw>> {
+    let path = src.path();
     let mut raw = Raw {
         expect_counts: true,
         ..Default::default()
     };
     let mut retry = false;
     let blocks = 2 * rayon::current_num_threads();
-    let done = text::for_each_chunk(path, |chunk, first_line| {
+    let done = text::for_each_chunk(src, |chunk, first_line| {
         if !parallel {
             let text = text::utf8(path, chunk, first_line)?;
             return text::statements(path, text, first_line, false, |line, s| {

@@ -16,7 +16,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::text::{self, echo, Tokens};
-use super::{normals, LoadOptions, Mesh, Soup};
+use super::{normals, LoadOptions, Mesh, Soup, Source};
 use crate::{Error, Result};
 
 /// Bytes of a binary STL header (80 bytes of text and the facet count).
@@ -34,8 +34,9 @@ pub(crate) fn is_binary_size(head: &[u8], len: u64) -> bool {
 
 /// Reads an STL file (ASCII or binary): corners welded by exact position, degenerate
 /// facets dropped and counted, vertex normals estimated with `opts.weighting`.
-pub fn load_stl(path: &Path, opts: &LoadOptions) -> Result<Mesh> {
-    let data = super::read_regular(path)?;
+pub fn load_stl(src: Source<'_>, opts: &LoadOptions) -> Result<Mesh> {
+    let path = src.path();
+    let data = src.data()?;
     let name = super::display_name(path);
     let len = data.len() as u64;
     let corners = if is_binary_size(&data, len) || !is_ascii(&data) {
