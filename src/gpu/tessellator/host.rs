@@ -4,9 +4,6 @@
 //! every pipeline before the first frame, and the exact counts read back asynchronously.
 
 use std::future::Future;
-use std::pin::Pin;
-use std::sync::{Arc, Mutex};
-use std::task::{Context, Poll, Waker};
 
 use crate::gpu::Precision;
 use crate::{Error, Result};
@@ -156,8 +153,10 @@ impl GpuTessellator {
                         .into(),
                 ));
             };
-            let words: Vec<u32> =
-                bytemuck::cast_slice(&map_read(&device, &staging).await?).to_vec();
+            let words: Vec<u32> = crate::gpu::read_buffer_async(&device, &staging, 8, |b| {
+                bytemuck::cast_slice(b).to_vec()
+            })
+            .await?;
             Ok(TessCounts {
                 level,
                 vertices: words[1],
@@ -189,62 +188,6 @@ impl GpuTessellator {
         queue.submit([encoder.finish()]);
         staging
     }
-}
-
-/// What a map callback left: its result and the task waiting for it.
-#[derive(Default)]
-struct MapState {
-    result: Option<std::result::Result<(), wgpu::BufferAsyncError>>,
-    waker: Option<Waker>,
-}
-
-/// The future of one `map_async`.
-struct Mapped(Arc<Mutex<MapState>>);
-
-impl Future for Mapped {
-    type Output = std::result::Result<(), wgpu::BufferAsyncError>;
-
-    fn poll(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Self::Output> {
-        let mut s = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        match s.result.take() {
-            Some(r) => Poll::Ready(r),
-            None => {
-                s.waker = Some(cx.waker().clone());
-                Poll::Pending
-            }
-        }
-    }
-}
-
-/// The whole of `buffer` (`MAP_READ`, its copies submitted) mapped and copied out, without
-/// blocking on the web: natively the device is polled until the map is done; in the
-/// browser the map callback wakes the task.
-pub(crate) async fn map_read(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u8>> {
-    let state = Arc::new(Mutex::new(MapState::default()));
-    let callback_state = Arc::clone(&state);
-    let slice = buffer.slice(..);
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let mut s = callback_state.lock().unwrap_or_else(|e| e.into_inner());
-        s.result = Some(r);
-        if let Some(w) = s.waker.take() {
-            w.wake();
-        }
-    });
-    #[cfg(not(target_arch = "wasm32"))]
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| Error::Gpu(format!("device poll: {e}")))?;
-    #[cfg(target_arch = "wasm32")]
-    let _ = device;
-    Mapped(state)
-        .await
-        .map_err(|e| Error::Gpu(format!("reading a buffer back: mapping failed: {e}")))?;
-    let out = slice
-        .get_mapped_range()
-        .map_err(|e| Error::Gpu(format!("reading a buffer back: {e}")))
-        .map(|view| view.to_vec());
-    buffer.unmap();
-    out
 }
 
 #[cfg(test)]
