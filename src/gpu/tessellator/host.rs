@@ -52,8 +52,10 @@ impl GpuTessellator {
     }
 
     /// Checks `device` against [`GpuTessellator::required_limits`] and
-    /// [`GpuTessellator::required_features`]: the first limit below them is an
-    /// [`Error::LimitExceeded`] naming it, a missing feature an [`Error::MissingFeature`].
+    /// [`GpuTessellator::required_features`]: the first limit of the passes' shape below
+    /// them (storage buffers per stage, bind groups, workgroup sizes and storage, uniform
+    /// binding size) is an [`Error::LimitExceeded`] naming it, a missing feature an
+    /// [`Error::MissingFeature`]. Buffer sizes are checked where the buffers are made.
     pub fn check_device(device: &wgpu::Device, precision: Precision) -> Result<()> {
         let missing = Self::required_features(precision) - device.features();
         if missing.contains(wgpu::Features::SHADER_F64) {
@@ -63,14 +65,23 @@ impl GpuTessellator {
                  (request the feature when the adapter offers it); f32 works",
             ));
         }
+        // The limits of the passes' shape (bindings, workgroups); buffer sizes are checked
+        // buffer by buffer, with the sizes in the message.
+        let have = device.limits();
+        let least = Self::required_limits();
+        let needed = wgpu::Limits {
+            max_storage_buffers_per_shader_stage: least.max_storage_buffers_per_shader_stage,
+            max_bind_groups: least.max_bind_groups,
+            max_compute_invocations_per_workgroup: least.max_compute_invocations_per_workgroup,
+            max_compute_workgroup_size_x: least.max_compute_workgroup_size_x,
+            max_compute_workgroup_storage_size: least.max_compute_workgroup_storage_size,
+            max_uniform_buffer_binding_size: least.max_uniform_buffer_binding_size,
+            ..have.clone()
+        };
         let mut first: Option<(&'static str, u64, u64)> = None;
-        Self::required_limits().check_limits_with_fail_fn(
-            &device.limits(),
-            false,
-            |name, needed, allowed| {
-                first.get_or_insert((name, needed, allowed));
-            },
-        );
+        needed.check_limits_with_fail_fn(&have, false, |name, needed, allowed| {
+            first.get_or_insert((name, needed, allowed));
+        });
         match first {
             None => Ok(()),
             Some((name, needed, allowed)) => Err(Error::limit(

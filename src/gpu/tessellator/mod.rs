@@ -7,15 +7,12 @@
 //! tessellation of a uniform level ([`GpuTessellator::tessellate`]) or of per-edge levels
 //! kept on the device ([`GpuTessellator::tessellate_levels`]), leaving
 //! [`GpuTessellator::vertices`] (24 bytes per record, [`vertex_layout`]),
-//! [`GpuTessellator::indices`] and [`GpuTessellator::indirect`]. The output is
-//! [`crate::tess::stitch::StitchPlan`]'s numbering, placed at any level through the
-//! level-independent [`Topology`] table (`docs/gpu.md` explains both).
+//! [`GpuTessellator::indices`] and [`GpuTessellator::indirect`], numbered as the stitcher
+//! numbers files, at any level, by the [`Topology`] table (`docs/gpu.md` explains both).
 //!
-//! A host opens its device with [`GpuTessellator::required_limits`] and
-//! [`GpuTessellator::required_features`] (checked by [`GpuTessellator::new`]), builds the
-//! tessellator and [`crate::ScreenLevels`] once, calls [`GpuTessellator::prepare`] so the
-//! first frame compiles nothing, and then every frame records the levels, the
-//! tessellation and its own draw into one encoder, reading nothing back:
+//! A host opens its device with the published limits and features, builds the
+//! tessellator, [`crate::ScreenLevels`] and every pipeline once, then records each frame's
+//! levels, tessellation and draw into one encoder, reading nothing back:
 //!
 //! ```no_run
 //! # fn demo(
@@ -61,9 +58,6 @@
 //! # Ok(())
 //! # }
 //! ```
-//!
-//! A uniform level needs no level buffers: `tess.tessellate(&device, &queue, &mut encoder,
-//! level)` in place of `tessellate_screen`.
 
 // The topology table (filled from `tess::numbering`, the stitcher's numbering),
 // `record_of` (what the shaders mirror) and the tessellator's state are here; its
