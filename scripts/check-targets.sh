@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
-# Checks that the library compiles where wgpu's native backends run: macOS (Metal), Windows
-# (DX12 and Vulkan) and Linux (Vulkan), each with the GPU path (feature `gpu`), and on this
-# machine without default features (CPU-only, no GPU crate). `cargo check` only: types and
+# Checks that the library compiles where wgpu runs: macOS (Metal), Windows (DX12 and Vulkan)
+# and Linux (Vulkan), each with the GPU path (feature `gpu`), the web (wasm32-unknown-unknown,
+# the browser's WebGPU) with the GPU path and CPU-only, and on this machine without default
+# features (CPU-only, no GPU crate). `cargo check` only: types and
 # borrows, no linker or SDK of the other platforms needed. A target's standard library is
 # installed with `rustup target add` when it is missing. One line per check with its time;
 # the compiler's messages only where a check fails or warns.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-TARGETS=(aarch64-apple-darwin x86_64-pc-windows-msvc x86_64-unknown-linux-gnu)
+TARGETS=(aarch64-apple-darwin x86_64-pc-windows-msvc x86_64-unknown-linux-gnu wasm32-unknown-unknown)
 
 installed=$(rustup target list --installed)
 for t in "${TARGETS[@]}"; do
@@ -40,6 +41,12 @@ check() {
 }
 
 for t in "${TARGETS[@]}"; do
-  check --lib --features gpu --target "$t"
+  # The web has no command line (feature `cli`): its GPU path without it.
+  if [ "$t" = wasm32-unknown-unknown ]; then
+    check --lib --no-default-features --features gpu --target "$t"
+  else
+    check --lib --features gpu --target "$t"
+  fi
 done
+check --lib --no-default-features --target wasm32-unknown-unknown
 check --lib --no-default-features

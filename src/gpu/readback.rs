@@ -187,3 +187,45 @@ impl Future for Mapped {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wgpu::util::DeviceExt;
+
+    #[test]
+    fn the_async_readback_gives_the_blocking_ones_bytes() {
+        let ctx = match crate::tests::common::shared_gpu() {
+            Ok(ctx) => ctx,
+            Err(e) => {
+                let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
+                assert!(!ci, "CI=true and no GPU adapter: {e}");
+                eprintln!("SKIP: no GPU adapter ({e}); GPU test not run");
+                return;
+            }
+        };
+        let want: Vec<u32> = (0..64u32).map(|i| i * 2_654_435_761).collect();
+        let buffer = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("readback test"),
+                contents: bytemuck::cast_slice(&want),
+                usage: wgpu::BufferUsages::MAP_READ,
+            });
+        let copy = |b: &[u8]| bytemuck::cast_slice::<u8, u32>(b).to_vec();
+        let sync = read_buffer(&ctx.device, &buffer, 256, copy).unwrap();
+        // Natively the future is ready when first polled: any executor drives it.
+        let fut = read_buffer_async(&ctx.device, &buffer, 256, copy);
+        let got = pollster::block_on(fut).unwrap();
+        assert_eq!(got, want);
+        assert_eq!(sync, want);
+        // The first 16 bytes only; more than the buffer holds is an error, not a panic.
+        let head = pollster::block_on(read_buffer_async(&ctx.device, &buffer, 16, copy));
+        assert_eq!(head.unwrap(), want[..4]);
+        let err = pollster::block_on(read_buffer_async(&ctx.device, &buffer, 260, copy));
+        assert_eq!(
+            err.unwrap_err().to_string(),
+            "gpu: reading 260 bytes back from a buffer of 256 bytes"
+        );
+    }
+}
