@@ -119,7 +119,7 @@ export function missingBrowser() {
 
 /// The g1tess binary: $G1TESS_BIN, else target/release/g1tess (scripts/test-browser.sh
 /// builds it).
-export const G1TESS = process.env.G1TESS_BIN ?? path.join(ROOT, 'target', 'release', 'g1tess');
+export const G1TESS = path.resolve(ROOT, process.env.G1TESS_BIN ?? path.join('target', 'release', 'g1tess'));
 
 /// Runs the CLI; throws with its stderr when it fails. Returns stdout.
 export function g1tess(...args) {
@@ -129,6 +129,14 @@ export function g1tess(...args) {
     throw new Error(`g1tess ${args.join(' ')}: exit ${r.status}: ${r.stderr.trim()}`);
   }
   return r.stdout;
+}
+
+/// Runs the CLI in `cwd` where it must fail; returns its stderr.
+export function g1tessFails(cwd, ...args) {
+  const r = spawnSync(G1TESS, args, { cwd, encoding: 'utf8' });
+  if (r.error) throw r.error;
+  if (r.status === 0) throw new Error(`g1tess ${args.join(' ')} succeeded`);
+  return r.stderr;
 }
 
 /// A fresh temporary folder for one test file's outputs.
