@@ -119,6 +119,8 @@ function applyLevels() {
 function wire() {
   $("file").addEventListener("change", (e) => {
     const f = e.target.files[0];
+    // Cleared, so that choosing the same file again reloads it.
+    e.target.value = "";
     if (f) {
       setStatus("loading");
       loadFile(f);
@@ -176,14 +178,6 @@ function wire() {
   }, { passive: false });
 }
 
-function base64(bytes) {
-  let s = "";
-  for (let i = 0; i < bytes.length; i += 0x8000) {
-    s += String.fromCharCode.apply(null, bytes.subarray(i, i + 0x8000));
-  }
-  return btoa(s);
-}
-
 // For tests and scripts.
 const api = {
   // Fixes the camera: {eye: [x,y,z], target: [x,y,z], up: [x,y,z], fovyDeg}.
@@ -192,7 +186,7 @@ const api = {
     generation++;
   },
   // Draws one frame and reads the canvas back in the same task (a presented WebGPU canvas
-  // reads back empty): {width, height, data: base64 of RGBA rows, top row first}.
+  // reads back empty): {width, height, data: Uint8Array of RGBA rows, top row first}.
   async capture() {
     viewer.frame(true);
     const { width, height } = canvas;
@@ -203,7 +197,7 @@ const api = {
     ctx.drawImage(canvas, 0, 0);
     const rgba = ctx.getImageData(0, 0, width, height).data;
     afterFrame();
-    return { width, height, data: base64(new Uint8Array(rgba.buffer)) };
+    return { width, height, data: new Uint8Array(rgba.buffer) };
   },
   // The counts of the current view's tessellation, read back: {vertices, triangles}.
   async counts() {
@@ -220,6 +214,19 @@ const api = {
 };
 window.g1tess = api;
 
+// The adapter as the browser describes it (wgpu names it by GPUAdapterInfo.description,
+// which Chromium may leave empty).
+async function adapterInfo() {
+  try {
+    const a = await navigator.gpu.requestAdapter();
+    const i = a.info ?? {};
+    const words = [i.vendor, i.architecture, i.device, i.description].filter((w) => w);
+    return words.length ? words.join(" ") : "WebGPU adapter";
+  } catch {
+    return "WebGPU adapter";
+  }
+}
+
 async function main() {
   wire();
   try {
@@ -229,7 +236,7 @@ async function main() {
     fail(e);
     return;
   }
-  $("adapter").textContent = viewer.adapter();
+  $("adapter").textContent = viewer.adapter() || (await adapterInfo());
   requestAnimationFrame(loop);
   // ?mesh=URL (same origin) opens a mesh at start.
   const url = new URLSearchParams(location.search).get("mesh");

@@ -62,7 +62,13 @@ pub fn glb(name: &str, vertices: &[u8], indices: &[u8]) -> Vec<u8> {
 
 /// `[x,y,z]` with Rust's shortest round-trip formatting (valid JSON for finite values).
 fn json_vec(v: [f32; 3]) -> String {
-    let f = |x: f32| if x.is_finite() { format!("{x:?}") } else { "0".into() };
+    let f = |x: f32| {
+        if x.is_finite() {
+            format!("{x:?}")
+        } else {
+            "0".into()
+        }
+    };
     format!("[{},{},{}]", f(v[0]), f(v[1]), f(v[2]))
 }
 

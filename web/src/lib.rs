@@ -148,8 +148,8 @@ impl Viewer {
     /// Loads a mesh from a file's bytes (format from `name`'s extension), builds its
     /// patches with the current scheme and frames it.
     pub fn load(&mut self, name: &str, bytes: &[u8]) -> Result<(), JsValue> {
-        let scene = Scene::load(&self.device, &self.queue, name, bytes, self.scheme)
-            .map_err(js_err)?;
+        let scene =
+            Scene::load(&self.device, &self.queue, name, bytes, self.scheme).map_err(js_err)?;
         let (centre, radius) = scene.bounds();
         self.camera = Camera::fit(centre, radius);
         self.scene = Some(scene);
@@ -215,7 +215,9 @@ impl Viewer {
         };
         let (eye, target, up) = (v(eye, "eye")?, v(target, "target")?, v(up, "up")?);
         if eye == target || up.cross(target - eye).length() == 0.0 {
-            return Err(js_err("setView: eye equals target, or up is along the view"));
+            return Err(js_err(
+                "setView: eye equals target, or up is along the view",
+            ));
         }
         if !(fovy_deg > 0.0 && fovy_deg < 180.0) {
             return Err(js_err("setView: fovyDeg must be between 0 and 180"));
@@ -253,7 +255,8 @@ impl Viewer {
             self.renderer.resize(&self.device, size);
         }
         let texture = match self.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Success(t)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
             _ => {
                 self.surface.configure(&self.device, &self.config);
                 return Ok(false);
@@ -264,7 +267,14 @@ impl Viewer {
         let mut encoder = self.device.create_command_encoder(&Default::default());
         let scene = self.scene.as_mut().expect("checked above");
         scene
-            .tessellate(&self.device, &self.queue, &mut encoder, self.mode, view_proj, size)
+            .tessellate(
+                &self.device,
+                &self.queue,
+                &mut encoder,
+                self.mode,
+                view_proj,
+                size,
+            )
             .map_err(js_err)?;
         self.renderer.draw(
             &self.device,
@@ -292,7 +302,10 @@ impl Viewer {
     /// The counts of the last tessellation: a promise of `{vertices, triangles}` (read
     /// back from the GPU after per-edge levels).
     pub fn counts(&self) -> Result<js_sys::Promise, JsValue> {
-        let scene = self.scene.as_ref().ok_or_else(|| js_err("no mesh loaded"))?;
+        let scene = self
+            .scene
+            .as_ref()
+            .ok_or_else(|| js_err("no mesh loaded"))?;
         let pending = scene.tess.read_counts(&self.device, &self.queue);
         Ok(wasm_bindgen_futures::future_to_promise(async move {
             let c = pending.await.map_err(js_err)?;
@@ -310,7 +323,10 @@ impl Viewer {
 
     /// The last tessellation as a glTF binary: a promise of a `Uint8Array`.
     pub fn glb(&self) -> Result<js_sys::Promise, JsValue> {
-        let scene = self.scene.as_ref().ok_or_else(|| js_err("no mesh loaded"))?;
+        let scene = self
+            .scene
+            .as_ref()
+            .ok_or_else(|| js_err("no mesh loaded"))?;
         let pending = scene.glb(&self.device, &self.queue);
         Ok(wasm_bindgen_futures::future_to_promise(async move {
             let bytes = pending.await.map_err(js_err)?;
@@ -320,7 +336,9 @@ impl Viewer {
 
     /// Input triangles (patches).
     pub fn patches(&self) -> u32 {
-        self.scene.as_ref().map_or(0, |s| s.mesh.triangles.len() as u32)
+        self.scene
+            .as_ref()
+            .map_or(0, |s| s.mesh.triangles.len() as u32)
     }
 
     /// The screen-space level cap this device allows for the mesh (16 unless its storage

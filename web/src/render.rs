@@ -154,7 +154,11 @@ fn pipeline(
     })
 }
 
-fn layout_entry(binding: u32, stage: wgpu::ShaderStages, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
+fn layout_entry(
+    binding: u32,
+    stage: wgpu::ShaderStages,
+    ty: wgpu::BufferBindingType,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: stage,
@@ -216,36 +220,54 @@ impl Renderer {
             immediate_size: 0,
         });
         let less = wgpu::CompareFunction::Less;
-        let surface_pipeline = pipeline(device, &module, &plain, format, PipelineSpec {
-            vs: "vs",
-            fs: "fs",
-            buffers: &[Some(g1tess::vertex_layout())],
-            blend: None,
-            depth_compare: less,
-            depth_write: true,
-        });
-        let wire_pipeline = pipeline(device, &module, &pulled, format, PipelineSpec {
-            vs: "vs_wire",
-            fs: "fs_wire",
-            buffers: &[],
-            blend: None,
-            depth_compare: less,
-            depth_write: true,
-        });
+        let surface_pipeline = pipeline(
+            device,
+            &module,
+            &plain,
+            format,
+            PipelineSpec {
+                vs: "vs",
+                fs: "fs",
+                buffers: &[Some(g1tess::vertex_layout())],
+                blend: None,
+                depth_compare: less,
+                depth_write: true,
+            },
+        );
+        let wire_pipeline = pipeline(
+            device,
+            &module,
+            &pulled,
+            format,
+            PipelineSpec {
+                vs: "vs_wire",
+                fs: "fs_wire",
+                buffers: &[],
+                blend: None,
+                depth_compare: less,
+                depth_write: true,
+            },
+        );
         let mark_attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4];
-        let mark_pipeline = pipeline(device, &module, &plain, format, PipelineSpec {
-            vs: "vs_mark",
-            fs: "fs_mark",
-            buffers: &[Some(wgpu::VertexBufferLayout {
-                array_stride: 28,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &mark_attributes,
-            })],
-            blend: Some(wgpu::BlendState::ALPHA_BLENDING),
-            // Marked on top: the flat triangles lie partly inside the curved surface.
-            depth_compare: wgpu::CompareFunction::Always,
-            depth_write: false,
-        });
+        let mark_pipeline = pipeline(
+            device,
+            &module,
+            &plain,
+            format,
+            PipelineSpec {
+                vs: "vs_mark",
+                fs: "fs_mark",
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: 28,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &mark_attributes,
+                })],
+                blend: Some(wgpu::BlendState::ALPHA_BLENDING),
+                // Marked on top: the flat triangles lie partly inside the curved surface.
+                depth_compare: wgpu::CompareFunction::Always,
+                depth_write: false,
+            },
+        );
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view"),
             size: 96,

@@ -6,8 +6,8 @@ use std::future::Future;
 use g1tess::glam::{Mat4, Vec3};
 use g1tess::wgpu;
 use g1tess::{
-    check_table, GpuTessellator, InnerRule, InputFormat, LoadOptions, Mesh, PatchTable,
-    Precision, Result, Scheme, ScreenFrame, ScreenLevels, Verdict,
+    check_table, GpuTessellator, InnerRule, InputFormat, LoadOptions, Mesh, PatchTable, Precision,
+    Result, Scheme, ScreenFrame, ScreenLevels, Verdict,
 };
 
 use crate::render::Overlay;
@@ -180,7 +180,8 @@ impl Scene {
                 Verdict::Folded { .. } => [1.0, 0.1, 0.1, 0.6],
                 Verdict::Undecided => [1.0, 0.85, 0.0, 0.6],
             };
-            let corners = self.mesh.triangles[t].map(|i| self.mesh.positions[i as usize].as_vec3().to_array());
+            let corners = self.mesh.triangles[t]
+                .map(|i| self.mesh.positions[i as usize].as_vec3().to_array());
             marked.push((corners, colour));
         }
         let overlay = Overlay::new(device, &marked);
@@ -203,7 +204,9 @@ impl Scene {
                 Verdict::Undecided => undecided += 1,
             }
         }
-        Some(format!("{valid} valid, {folded} folded, {undecided} undecided"))
+        Some(format!(
+            "{valid} valid, {folded} folded, {undecided} undecided"
+        ))
     }
 
     /// The current tessellation as a GLB: its counts read back, then that many vertices

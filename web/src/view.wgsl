@@ -18,14 +18,19 @@ struct Out {
     @location(2) bary: vec3<f32>,
 }
 
-@vertex
-fn vs(@location(0) p: vec3<f32>, @location(1) n: vec3<f32>) -> Out {
+// WGSL entry points cannot be called: `vs` and `vs_wire` share this.
+fn project(p: vec3<f32>, n: vec3<f32>) -> Out {
     var out: Out;
     out.clip = view.view_proj * vec4<f32>(p, 1.0);
     out.normal = n;
     out.world = p;
     out.bary = vec3<f32>(1.0);
     return out;
+}
+
+@vertex
+fn vs(@location(0) p: vec3<f32>, @location(1) n: vec3<f32>) -> Out {
+    return project(p, n);
 }
 
 // Two-sided headlight: ambient plus diffuse, and a little specular.
@@ -66,7 +71,7 @@ fn vs_wire(@builtin(vertex_index) vi: u32) -> Out {
     let v = indices[vi] * 6u;
     let p = vec3<f32>(vertices[v], vertices[v + 1u], vertices[v + 2u]);
     let n = vec3<f32>(vertices[v + 3u], vertices[v + 4u], vertices[v + 5u]);
-    var out = vs(p, n);
+    var out = project(p, n);
     let corner = vi % 3u;
     out.bary = vec3<f32>(f32(corner == 0u), f32(corner == 1u), f32(corner == 2u));
     return out;
