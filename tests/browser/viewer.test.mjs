@@ -209,11 +209,11 @@ test('the canvas matches g1tess render of the same view', async (t) => {
   // 7e-4, 0.1 of a colour unit). Pixels straddling an edge between surface regions (an
   // ear in front of the head) may show either region on either side after a sub-pixel
   // shift, and the ramp's inversion is off where 4× multisampling blended two colours, so
-  // the bound is on the mean (4 colour units of 255) and the 99th percentile (32), the
+  // the bound is on the mean (4 colour units of 255) and the 99th percentile (16), the
   // largest difference of a component, not on every pixel.
   assert.ok(r.compared > 1000, `${r.compared} pixels compared`);
   assert.ok(r.meanDiff <= 4, `mean colour difference ${r.meanDiff}`);
-  assert.ok(r.p99Diff <= 32, `99th percentile colour difference ${r.p99Diff}`);
+  assert.ok(r.p99Diff <= 16, `99th percentile colour difference ${r.p99Diff}`);
 });
 
 test('scheme and level switches give the CLI triangle counts', async (t) => {
@@ -265,47 +265,41 @@ test('screen-space levels: frame time and triangles per second, screenshot', asy
   if (need(t)) return;
   await page.selectOption('#shading', 'lit');
   await page.selectOption('#scheme', 'g1');
-  await page.selectOption('#mode', 'screen');
-  await page.fill('#target', '8');
   // The viewer's own framing (setView was changed by the picture test): reload the file.
   await settle(() => page.setInputFiles('#file', BUNNY));
   await page.selectOption('#mode', 'screen');
   await page.fill('#target', '8');
-  // Let frames run for 3 s, then sample the frame time the page shows for 3 s.
-  await page.waitForTimeout(3000);
-  const samples = await page.evaluate(async () => {
-    const out = [];
-    const end = performance.now() + 3000;
-    let frames = 0;
-    while (performance.now() < end) {
-      await new Promise((r) => requestAnimationFrame(r));
-      frames++;
-      out.push(Number(document.querySelector('#frame-ms').textContent.replace(/[^\d.]/g, '')));
+  // Frame time: forced frames one after another, each awaited to the GPU's completion
+  // (counts() draws a frame and reads back 8 bytes of counts after it), after 3 warm-up
+  // frames (the first frames build the per-edge pipelines). The median of 10.
+  const timing = await page.evaluate(async () => {
+    for (let i = 0; i < 3; i++) await window.g1tess.counts();
+    const ms = [];
+    let counts;
+    for (let i = 0; i < 10; i++) {
+      const t0 = performance.now();
+      counts = await window.g1tess.counts();
+      ms.push(performance.now() - t0);
     }
-    return { out, frames };
+    ms.sort((p, q) => p - q);
+    return { ms, counts, shown: Number(document.querySelector('#frame-ms').textContent) };
   });
-  const ms = samples.out.filter((x) => x > 0).sort((a, b) => a - b);
-  const frameMs = ms[ms.length >> 1];
-  const counts = await page.evaluate(() => window.g1tess.counts());
-  // End to end: frames drawn and read back one after another.
-  const perCapture = await page.evaluate(async () => {
-    const n = 10;
-    const t0 = performance.now();
-    for (let i = 0; i < n; i++) await window.g1tess.capture();
-    return (performance.now() - t0) / n;
-  });
+  const frameMs = timing.ms[5];
+  const counts = timing.counts;
   figures.screen = {
     targetPx: 8,
     triangles: counts.triangles,
-    frameMsMedian: frameMs,
+    frameMsMedian: Math.round(frameMs * 10) / 10,
+    frameMsRange: [Math.round(timing.ms[0]), Math.round(timing.ms[9])],
+    pageFrameMs: timing.shown,
     trianglesPerSecond: Math.round(counts.triangles / (frameMs / 1000)),
-    captureMs: Math.round(perCapture * 10) / 10,
-    rafFrames3s: samples.frames,
   };
   console.log(`screen-space (8 px): ${JSON.stringify(figures.screen)}`);
-  assert.ok(counts.triangles > 0);
-  assert.ok(frameMs > 0, 'the page reports a frame time');
-  await page.screenshot({ path: SCREENSHOT });
+  // Screen-space levels are at least 1 per edge: at least one triangle per patch.
+  assert.ok(counts.triangles >= 69451, `${counts.triangles} triangles`);
+  assert.ok(frameMs > 0, 'a frame time was measured');
+  // The canvas (800 × 600 with a 12-pixel margin) and the panel beside it.
+  await page.screenshot({ path: SCREENSHOT, clip: { x: 0, y: 0, width: 1096, height: 624 } });
   assert.ok(fs.statSync(SCREENSHOT).size > 10_000, 'docs/viewer.png written');
 });
 
