@@ -5,7 +5,8 @@
 # With CI=true a missing GPU adapter fails the GPU tests instead of skipping them.
 # After the cargo tests, scripts/check-targets.sh checks that the library compiles for macOS
 # and Windows (their standard libraries installed with rustup when missing) and without the
-# GPU path.
+# GPU path. Last, scripts/test-browser.sh tests the WebGPU viewer (web/) in headless Chromium
+# (installing Debian's chromium and npm's playwright-core when missing).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -55,3 +56,6 @@ G1TESS_BIN=target/release/g1tess scripts/blender_test.sh
 echo "== python package, gmsh and dask tests"
 setup_done "$python_setup" .cache/python-setup.log
 G1TESS_BIN=target/release/g1tess scripts/python_test.sh
+
+echo "== browser tests: the WebGPU viewer in headless Chromium"
+G1TESS_BIN=target/release/g1tess scripts/test-browser.sh

@@ -159,10 +159,13 @@ pub fn variants() -> Vec<(ShaderFile, PatchKind)> {
         .collect()
 }
 
-/// A WGSL literal of `x` in `precision`, exactly (shortest round-trip decimal).
+/// A WGSL literal of `x` in `precision`, exactly (shortest round-trip decimal). An f32 is
+/// written with the digits of its f64 value: the shortest f32 digits of `f32::MAX`
+/// (3.4028235e38) lie above it, and Tint (WebGPU in Chromium) reads a literal as an f64
+/// first and refuses one beyond the f32 range.
 fn literal(x: f64, precision: Precision) -> String {
     match precision {
-        Precision::F32 => format!("{:e}f", x as f32),
+        Precision::F32 => format!("{:e}f", x as f32 as f64),
         Precision::F64 => format!("{x:e}lf"),
     }
 }
