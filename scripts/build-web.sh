@@ -2,6 +2,8 @@
 # Builds the WebGPU viewer: web/ (Rust, wasm32) into web/pkg/ (wasm + JS glue), ready to be
 # served as static files with web/index.html. Needs rustup and cargo; installs the wasm32
 # target and wasm-bindgen-cli (the version web/Cargo.toml pins) when missing.
+#
+#   scripts/build-web.sh [--tools-only]   (--tools-only: install those two and stop)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -13,6 +15,7 @@ fi
 if [ "$(wasm-bindgen --version 2>/dev/null | awk '{print $2}')" != "$BINDGEN_VERSION" ]; then
     cargo install wasm-bindgen-cli --version "$BINDGEN_VERSION"
 fi
+[ "${1:-}" = --tools-only ] && exit 0
 
 # One target directory with the root package: the library's dependencies build once.
 target_dir="${CARGO_TARGET_DIR:-$PWD/target}"

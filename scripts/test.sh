@@ -34,6 +34,19 @@ scripts/blender_test.sh --setup-only >.cache/blender-setup.log 2>&1 &
 blender_setup=$!
 scripts/python_test.sh --setup-only >.cache/python-setup.log 2>&1 &
 python_setup=$!
+# The browser tests' tools too: Chromium and playwright-core are downloads, wasm-bindgen-cli
+# a compile of a few minutes (niced below the tests, which leave cores idle at times).
+(
+  if [ ! -x /usr/bin/chromium ]; then
+    if [ "$(id -u)" = 0 ]; then SUDO=""; else SUDO="sudo"; fi
+    export DEBIAN_FRONTEND=noninteractive
+    $SUDO apt-get update -qq && $SUDO apt-get install -y -qq chromium >/dev/null
+  fi
+  [ -d tests/browser/node_modules/playwright-core ] ||
+    (cd tests/browser && npm ci --no-audit --no-fund)
+  nice -n 10 scripts/build-web.sh --tools-only
+) >.cache/web-setup.log 2>&1 &
+web_setup=$!
 # Waits for a background set-up, shows what it printed, and fails when it failed.
 setup_done() { # PID LOG
   local rc=0
@@ -58,4 +71,5 @@ setup_done "$python_setup" .cache/python-setup.log
 G1TESS_BIN=target/release/g1tess scripts/python_test.sh
 
 echo "== browser tests: the WebGPU viewer in headless Chromium"
+setup_done "$web_setup" .cache/web-setup.log
 G1TESS_BIN=target/release/g1tess scripts/test-browser.sh
