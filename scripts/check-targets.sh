@@ -43,7 +43,13 @@ check() {
 for t in "${TARGETS[@]}"; do
   # The web has no command line (feature `cli`): its GPU path without it.
   if [ "$t" = wasm32-unknown-unknown ]; then
-    check --lib --no-default-features --features gpu --target "$t"
+    # scripts/test.sh builds it anyway (the viewer, scripts/build-web.sh) and sets this.
+    if [ "${CHECK_TARGETS_WEB_BUILT_LATER:-}" = 1 ]; then
+      echo "skip cargo check --lib --no-default-features --features gpu --target $t" \
+        "(scripts/build-web.sh compiles it for the viewer later in this run)"
+    else
+      check --lib --no-default-features --features gpu --target "$t"
+    fi
   else
     check --lib --features gpu --target "$t"
   fi
