@@ -285,3 +285,25 @@ pub fn wait(device: &wgpu::Device) -> Result<()> {
         .map(|_| ())
         .map_err(|e| Error::Gpu(format!("device poll: {e}")))
 }
+
+/// A bind group of `layout` binding `buffers` whole at bindings 0, 1, 2, … in order.
+pub(crate) fn bind_buffers(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
+        .iter()
+        .enumerate()
+        .map(|(b, buf)| wgpu::BindGroupEntry {
+            binding: b as u32,
+            resource: buf.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}

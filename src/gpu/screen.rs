@@ -116,19 +116,7 @@ impl LevelPass {
         device: &wgpu::Device,
         buffers: [&wgpu::Buffer; 4],
     ) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("g1tess levels"),
-            layout: &self.layout,
-            entries: &entries,
-        })
+        crate::gpu::bind_buffers(device, "g1tess levels", &self.layout, &buffers)
     }
 
     /// Records the pass into `encoder`: `params` (a uniform buffer of [`LevelParams`],

@@ -912,11 +912,11 @@ pub fn quick_flat(
 /// ([`Geometry::never_certified`]) gets the first subdivision only, which looks for a
 /// witness of a fold (the verdict is folded or undecided).
 pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
-    let stage = first_stage(table, i);
-    if let Stage::Done(v) = stage {
-        return v;
-    }
-    let geom = Geometry::new(table, i);
+    let (stage, geom) = match classify(table, i) {
+        (Stage::Done(v), _) => return v,
+        (stage, Some(geom)) => (stage, geom),
+        (stage, None) => (stage, Geometry::new(table, i)),
+    };
     match check_within(table, i, &geom, MAX_DEPTH, MAX_CELLS, usize::MAX).0 {
         Verdict::Undecided if stage == Stage::First => {
             check_within(table, i, &geom, DEEP_DEPTH, DEEP_CELLS, usize::MAX).0
@@ -938,17 +938,25 @@ enum Stage {
 /// The first stage of [`check_patch`], before any subdivision: the quick test (G1), the
 /// grid of witnesses, and whether a subdivision can certify the patch.
 fn first_stage(table: &PatchTable, i: usize) -> Stage {
+    classify(table, i).0
+}
+
+/// [`first_stage`], with the patch's [`Geometry`] (built to tell the stage) handed on
+/// where the subdivisions decide, so that [`check_patch`] does not build it again.
+fn classify(table: &PatchTable, i: usize) -> (Stage, Option<Geometry>) {
     if table.kind == PatchKind::Gregory && quick_gregory(table.patch(i), table.flat_normals[i]) {
-        return Stage::Done(Verdict::Valid);
+        return (Stage::Done(Verdict::Valid), None);
     }
     if let Some(v) = grid_witness(table, i) {
-        return Stage::Done(v);
+        return (Stage::Done(v), None);
     }
-    if Geometry::new(table, i).never_certified() {
+    let geom = Geometry::new(table, i);
+    let stage = if geom.never_certified() {
         Stage::Witness
     } else {
         Stage::First
-    }
+    };
+    (stage, Some(geom))
 }
 
 /// Level of the grid searched for a witness before any subdivision.

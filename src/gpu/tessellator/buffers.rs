@@ -275,19 +275,12 @@ impl GpuTessellator {
         indices: &wgpu::Buffer,
         bounds: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry<'_>> = [uniform, topology, vertices, indices, bounds]
-            .into_iter()
-            .enumerate()
-            .map(|(b, buf)| wgpu::BindGroupEntry {
-                binding: b as u32,
-                resource: buf.as_entire_binding(),
-            })
-            .collect();
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("g1tess tessellate"),
+        crate::gpu::bind_buffers(
+            device,
+            "g1tess tessellate",
             layout,
-            entries: &entries,
-        })
+            &[uniform, topology, vertices, indices, bounds],
+        )
     }
 
     /// Grows the vertex and index buffers to at least `vertex_bytes` and `index_bytes`,

@@ -440,19 +440,8 @@ impl GpuTessellator {
                 levels,
                 &lt.state,
             ];
-            let entries: Vec<wgpu::BindGroupEntry<'_>> = bufs
-                .into_iter()
-                .enumerate()
-                .map(|(b, buf)| wgpu::BindGroupEntry {
-                    binding: b as u32,
-                    resource: buf.as_entire_binding(),
-                })
-                .collect();
-            let group1 = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("g1tess tessellate levels"),
-                layout: &lt.layout1,
-                entries: &entries,
-            });
+            let group1 =
+                crate::gpu::bind_buffers(device, "g1tess tessellate levels", &lt.layout1, &bufs);
             self.level_group = Some((levels.clone(), group1));
         }
         let (_, group1) = self.level_group.as_ref().expect("made above");
