@@ -89,15 +89,7 @@ impl Search<'_> {
         let mut sink = Vec::new();
         for &t in &pair {
             for k in 0..3 {
-                let c = 3 * t + k;
-                let g = groups.of_corner[c as usize];
-                let h = if groups.corners(g).len() > 1 {
-                    let h = groups.split(g, &[c]);
-                    splits.push((g, h));
-                    h
-                } else {
-                    g
-                };
+                let h = groups.own_group(3 * t + k, &mut splits);
                 set_group(work, groups, h, faces[t as usize], &mut sink);
                 set.push(h);
             }
@@ -119,12 +111,7 @@ impl Search<'_> {
             Vec::new()
         };
         if !ok || v.iter().filter(|x| **x != Verdict::Valid).count() >= was {
-            for (&t, n) in ring.iter().zip(old) {
-                work.corner_normals[t as usize] = n;
-            }
-            for &(g, h) in splits.iter().rev() {
-                groups.unsplit(g, h);
-            }
+            groups.undo_trial(work, &ring, old, &splits);
             return Ok(None);
         }
         record(verdicts, changed, &ring, &v);

@@ -109,6 +109,35 @@ impl Groups {
         self.fins.contains(&self.vertex[g as usize]) || self.pages.contains(&g)
     }
 
+    /// The group of corner `c` alone: its own group, or one split off for it (the split
+    /// pushed on `splits` for [`Groups::undo_trial`]).
+    pub(super) fn own_group(&mut self, c: u32, splits: &mut Vec<(u32, u32)>) -> u32 {
+        let g = self.of_corner[c as usize];
+        if self.corners(g).len() == 1 {
+            return g;
+        }
+        let h = self.split(g, &[c]);
+        splits.push((g, h));
+        h
+    }
+
+    /// Undoes a trial: the corner normals of `tris` back to `old` (in order) and the
+    /// `splits` made for it unsplit, last first.
+    pub(super) fn undo_trial(
+        &mut self,
+        work: &mut Mesh,
+        tris: &[u32],
+        old: Vec<[glam::DVec3; 3]>,
+        splits: &[(u32, u32)],
+    ) {
+        for (&t, n) in tris.iter().zip(old) {
+            work.corner_normals[t as usize] = n;
+        }
+        for &(g, h) in splits.iter().rev() {
+            self.unsplit(g, h);
+        }
+    }
+
     /// Whether vertex `v` is a hub ([`HUB_CORNERS`]).
     pub(super) fn is_hub(&self, v: u32) -> bool {
         self.corners_at[v as usize] as usize > HUB_CORNERS

@@ -58,25 +58,14 @@ impl Search<'_> {
                 {
                     continue;
                 }
-                let h = if !alone {
-                    let h = groups.split(g, &[c]);
-                    splits.push((g, h));
-                    h
-                } else {
-                    g
-                };
+                let h = groups.own_group(c, &mut splits);
                 set_group(work, groups, h, faces[t as usize], &mut sink);
                 set.push(h);
             }
         }
         let v = cx.verdicts_of(work, &list)?;
         if v.iter().filter(|x| **x != Verdict::Valid).count() >= was {
-            for (&t, n) in list.iter().zip(old) {
-                work.corner_normals[t as usize] = n;
-            }
-            for &(g, h) in splits.iter().rev() {
-                groups.unsplit(g, h);
-            }
+            groups.undo_trial(work, &list, old, &splits);
             return Ok(());
         }
         record(verdicts, changed, &list, &v);
