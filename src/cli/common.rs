@@ -95,6 +95,14 @@ impl InputArgs {
         };
         Ok((mesh, table, line))
     }
+
+    /// [`Self::prepare`] of `mesh` as it is (no repair: the caller checked
+    /// `repair_folds`): its table and the line about its folded patches.
+    pub fn table_of(&self, mesh: &Mesh) -> anyhow::Result<(PatchTable, Option<String>)> {
+        let table = PatchTable::build(mesh, self.scheme, &self.scheme_options())?;
+        let line = repair_line(&mesh.name, &table, None);
+        Ok((table, line))
+    }
 }
 
 /// Significant decimal digits of an f32 in its normal range: 24 bits, log10(2^24).

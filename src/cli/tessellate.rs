@@ -111,11 +111,25 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     if let Some(note) = super::common::f32_range(&mesh)? {
         out::stderr_line(&note);
     }
-    let (mesh, table, folds) = a.input.prepare(mesh)?;
+    let uniform = a.tolerance.is_none() && a.tolerance_rel.is_none();
+    // At one level on the input mesh (no repair), the plan needs neither the table nor the
+    // certificate: the numbering (one pass in order) is built beside them.
+    let (mesh, table, folds, adjacency, early_plan) = if uniform && !a.input.repair_folds {
+        let adjacency = mesh.adjacency();
+        let (prepared, plan) = rayon::join(
+            || a.input.table_of(&mesh),
+            || StitchPlan::new(&mesh, &adjacency, a.level),
+        );
+        let (table, folds) = prepared?;
+        (mesh, table, folds, adjacency, Some(plan))
+    } else {
+        let (mesh, table, folds) = a.input.prepare(mesh)?;
+        let adjacency = mesh.adjacency();
+        (mesh, table, folds, adjacency, None)
+    };
     if let Some(line) = folds {
         out::stderr_line(&line);
     }
-    let adjacency = mesh.adjacency();
     let eps = match (a.tolerance, a.tolerance_rel) {
         (Some(t), _) => Some(t),
         (None, Some(r)) => Some(r * mesh.diagonal()),
@@ -150,9 +164,10 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         level,
         chosen.is_some(),
     )?;
-    let plan = match &chosen {
-        Some((t, _)) => StitchPlan::with_levels(&mesh, &adjacency, &t.levels)?,
-        None => StitchPlan::new(&mesh, &adjacency, a.level)?,
+    let plan = match (&chosen, early_plan) {
+        (_, Some(plan)) => plan?,
+        (Some((t, _)), None) => StitchPlan::with_levels(&mesh, &adjacency, &t.levels)?,
+        (None, None) => StitchPlan::new(&mesh, &adjacency, a.level)?,
     };
     let backend = BackendArgs {
         quiet: a.quiet,
