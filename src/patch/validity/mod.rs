@@ -57,6 +57,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{basis, PatchKind, PatchTable};
+
+mod lanes;
 #[cfg(test)]
 use {super::PatchBuilder, crate::Result};
 
@@ -600,6 +602,17 @@ impl Geometry {
     /// polynomial part alone does not certify the cell: only then is a witness looked for
     /// at a shallow cell).
     fn bound(&self, cell: &Cell) -> (f64, [f64; 3], bool) {
+        let (pair, rs, rt) = self.cell_pairs(cell);
+        let mut r = [[DVec3::ZERO; 2]; 15];
+        restrict(&pair, self.n.max(1) - 1, cell, &mut r);
+        self.finish(&r, rs, rt, cell)
+    }
+
+    /// The first part of [`Self::bound`]: the derivative coefficient pairs (along s and t,
+    /// degree n − 1) of the polynomial part on the whole domain, with a Gregory patch's
+    /// blend linearised for `cell`, and the bounds r_s, r_t on what that leaves out.
+    #[inline(always)]
+    fn cell_pairs(&self, cell: &Cell) -> (Pairs, f64, f64) {
         let t = tables();
         let n = self.n;
         let len = t.powers[n as usize].len();
@@ -628,8 +641,15 @@ impl Geometry {
         for j in 0..dlen {
             pair[j] = [ds[j], dt[j]];
         }
-        let mut r = [[DVec3::ZERO; 2]; 15];
-        restrict(&pair, m, cell, &mut r);
+        (pair, rs, rt)
+    }
+
+    /// The last part of [`Self::bound`], from the pairs `r` restricted to `cell`.
+    #[inline(always)]
+    fn finish(&self, r: &Pairs, rs: f64, rt: f64, cell: &Cell) -> (f64, [f64; 3], bool) {
+        let t = tables();
+        let m = self.n.max(1) - 1;
+        let dlen = t.powers[m as usize].len();
         let ps = r[..dlen].iter().map(|v| v[0].length()).fold(0.0, f64::max);
         let pt = r[..dlen].iter().map(|v| v[1].length()).fold(0.0, f64::max);
         let mut tn = [DVec3::ZERO; 15];
@@ -640,6 +660,23 @@ impl Geometry {
         for &(a, b, g, w) in &t.products[m as usize] {
             jc[g] += w * r[a][0].dot(tn[b]);
         }
+        self.conclude(&jc, ps, pt, rs, rt, cell)
+    }
+
+    /// The bound from J's coefficients `jc` on `cell` and the tangent bounds (the end of
+    /// [`Self::bound`]).
+    #[inline(always)]
+    fn conclude(
+        &self,
+        jc: &[f64; 45],
+        ps: f64,
+        pt: f64,
+        rs: f64,
+        rt: f64,
+        cell: &Cell,
+    ) -> (f64, [f64; 3], bool) {
+        let t = tables();
+        let m = self.n.max(1) - 1;
         let jlen = t.powers[2 * m as usize].len();
         let (imin, jmin) =
             jc[..jlen]
@@ -1052,15 +1089,16 @@ fn check_within(
             return (v, 0, false);
         }
     }
-    let mut stack = vec![(whole, 0u32)];
+    // Each cell with its bound, computed with its siblings' (four lanes, `bound4`) when
+    // its parent is split; the whole domain's alone.
+    let mut stack = vec![(whole, 0u32, geom.bound(&whole))];
     let mut cells = 0usize;
     let mut undecided = false;
-    while let Some((cell, depth)) = stack.pop() {
+    while let Some((cell, depth, (lower, b, suspect))) = stack.pop() {
         if cells >= stop {
             return (Verdict::Undecided, cells, true);
         }
         cells += 1;
-        let (lower, b, suspect) = geom.bound(&cell);
         if lower > 0.0 {
             continue;
         }
@@ -1083,13 +1121,15 @@ fn check_within(
         let mid = |a: [f64; 3], b: [f64; 3]| std::array::from_fn(|j| 0.5 * (a[j] + b[j]));
         let [u0, u1, u2] = cell;
         let (m01, m12, m20) = (mid(u0, u1), mid(u1, u2), mid(u2, u0));
-        for child in [
+        let children = [
             [m12, m20, m01],
             [u0, m01, m20],
             [m01, u1, m12],
             [m20, m12, u2],
-        ] {
-            stack.push((child, depth + 1));
+        ];
+        let bounds = geom.bound4(&children);
+        for (child, bound) in children.into_iter().zip(bounds) {
+            stack.push((child, depth + 1, bound));
         }
     }
     let v = if undecided {

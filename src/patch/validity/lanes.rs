@@ -1,0 +1,269 @@
+//! The certificate's bound on four cells at once ([`Geometry::bound4`]): the four children
+//! of a cell that the subdivision splits, one in each lane of `[f64; 4]` arrays, so that
+//! the restriction of the derivative coefficients to the cells (de Casteljau steps) and
+//! J's coefficients (the products) run four cells per instruction stream. Every lane
+//! computes what [`Geometry::bound`] computes for its cell, operation for operation in the
+//! same order (no fused multiply-add, which Rust never makes on its own), so each lane's
+//! result is bitwise that of `bound` (a unit test compares them).
+
+use super::{basis, tables, Cell, Geometry};
+#[cfg(test)]
+use {super::Pairs, glam::DVec3};
+
+/// One value per cell.
+type Lanes = [f64; 4];
+
+/// Coefficient pairs of four cells: `[coefficient][s or t][x, y or z][lane]`.
+type Pairs4 = [[[Lanes; 3]; 2]; 15];
+
+const ZERO4: Pairs4 = [[[[0.0; 4]; 3]; 2]; 15];
+
+/// A barycentric point per lane: `[coordinate][lane]`.
+type Point4 = [Lanes; 3];
+
+/// [`super::step`] in every lane (lane l at `u[·][l]`).
+#[inline(always)]
+fn step4(src: &Pairs4, deg: u32, u: &Point4, dst: &mut Pairs4) {
+    let up = &tables().up[deg as usize];
+    for (j, ix) in up.iter().enumerate() {
+        let (a, b, c) = (&src[ix[0]], &src[ix[1]], &src[ix[2]]);
+        for v in 0..2 {
+            for k in 0..3 {
+                for l in 0..4 {
+                    dst[j][v][k][l] =
+                        u[0][l] * a[v][k][l] + u[1][l] * b[v][k][l] + u[2][l] * c[v][k][l];
+                }
+            }
+        }
+    }
+}
+
+/// [`step4`] from `buf[from]` into the other buffer of the pair.
+#[inline(always)]
+fn step_over4(buf: &mut [Pairs4; 2], from: usize, deg: u32, u: &Point4) {
+    let (x, y) = buf.split_at_mut(1);
+    if from == 0 {
+        step4(&x[0], deg, u, &mut y[0]);
+    } else {
+        step4(&y[0], deg, u, &mut x[0]);
+    }
+}
+
+/// [`super::restrict`] in every lane: the pairs `d` (degree m ≤ 4) restricted to lane l's
+/// cell, whose corner k is `corners[k][·][l]`.
+#[inline(always)]
+fn restrict4(d: &Pairs4, m: u32, corners: &[Point4; 3], out: &mut Pairs4) {
+    let m = m as usize;
+    let mut a = [ZERO4; 5];
+    a[0] = *d;
+    for i in 1..=m {
+        let (lo, hi) = a.split_at_mut(i);
+        step4(&lo[i - 1], (m - i + 1) as u32, &corners[0], &mut hi[0]);
+    }
+    let mut bb = [ZERO4; 2];
+    let mut cc = [ZERO4; 2];
+    for i in 0..=m {
+        let mut b: Option<usize> = None;
+        for j in 0..=m - i {
+            let deg = m - i - j;
+            let value = if deg == 0 {
+                match b {
+                    None => a[i][0],
+                    Some(k) => bb[k][0],
+                }
+            } else {
+                match b {
+                    None => step4(&a[i], deg as u32, &corners[2], &mut cc[0]),
+                    Some(k) => step4(&bb[k], deg as u32, &corners[2], &mut cc[0]),
+                }
+                let mut c = 0;
+                for dd in (1..deg).rev() {
+                    step_over4(&mut cc, c, dd as u32, &corners[2]);
+                    c ^= 1;
+                }
+                cc[c][0]
+            };
+            out[basis::bezier_index(m as u32, [i as u32, j as u32, deg as u32])] = value;
+            if j < m - i {
+                b = Some(match b {
+                    None => {
+                        step4(&a[i], deg as u32, &corners[1], &mut bb[0]);
+                        0
+                    }
+                    Some(k) => {
+                        step_over4(&mut bb, k, deg as u32, &corners[1]);
+                        k ^ 1
+                    }
+                });
+            }
+        }
+    }
+}
+
+impl Geometry {
+    /// [`Self::bound`] of each of `cells`, bitwise: with AVX where the CPU has it (the
+    /// lanes in one register; the same operations, so the same bits).
+    pub(super) fn bound4(&self, cells: &[Cell; 4]) -> [(f64, [f64; 3], bool); 4] {
+        #[cfg(target_arch = "x86_64")]
+        if cpu_has!("avx") {
+            // SAFETY: the CPU has AVX (checked above).
+            return unsafe { self.bound4_avx(cells) };
+        }
+        self.bound4_lanes(cells)
+    }
+
+    /// [`Self::bound4_lanes`] compiled for AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn bound4_avx(&self, cells: &[Cell; 4]) -> [(f64, [f64; 3], bool); 4] {
+        self.bound4_lanes(cells)
+    }
+
+    /// See [`Self::bound4`].
+    #[inline(always)]
+    fn bound4_lanes(&self, cells: &[Cell; 4]) -> [(f64, [f64; 3], bool); 4] {
+        let t = tables();
+        let m = self.n.max(1) - 1;
+        let dlen = t.powers[m as usize].len();
+        let mut d = ZERO4;
+        let mut rs = [0.0; 4];
+        let mut rt = [0.0; 4];
+        for (l, cell) in cells.iter().enumerate() {
+            let (pair, s, tt) = self.cell_pairs(cell);
+            (rs[l], rt[l]) = (s, tt);
+            for j in 0..dlen {
+                for v in 0..2 {
+                    for (k, x) in pair[j][v].to_array().into_iter().enumerate() {
+                        d[j][v][k][l] = x;
+                    }
+                }
+            }
+        }
+        let corners: [Point4; 3] = std::array::from_fn(|k| {
+            std::array::from_fn(|c| std::array::from_fn(|l| cells[l][k][c]))
+        });
+        let mut r = ZERO4;
+        restrict4(&d, m, &corners, &mut r);
+        // As `finish`: |S_s|, |S_t| bounds, t × n_f, then J's coefficients, per lane.
+        let length = |v: &[Lanes; 3], l: usize| {
+            (v[0][l] * v[0][l] + v[1][l] * v[1][l] + v[2][l] * v[2][l]).sqrt()
+        };
+        let n = self.nref;
+        let mut tn = [[[0.0; 4]; 3]; 15];
+        for j in 0..dlen {
+            let v = &r[j][1];
+            for l in 0..4 {
+                tn[j][0][l] = v[1][l] * n.z - n.y * v[2][l];
+                tn[j][1][l] = v[2][l] * n.x - n.z * v[0][l];
+                tn[j][2][l] = v[0][l] * n.y - n.x * v[1][l];
+            }
+        }
+        let mut jc = [[0.0f64; 4]; 45];
+        for &(a, b, g, w) in &t.products[m as usize] {
+            let (s, tb) = (&r[a][0], &tn[b]);
+            for l in 0..4 {
+                jc[g][l] += w * (s[0][l] * tb[0][l] + s[1][l] * tb[1][l] + s[2][l] * tb[2][l]);
+            }
+        }
+        std::array::from_fn(|l| {
+            let ps = r[..dlen]
+                .iter()
+                .map(|v| length(&v[0], l))
+                .fold(0.0, f64::max);
+            let pt = r[..dlen]
+                .iter()
+                .map(|v| length(&v[1], l))
+                .fold(0.0, f64::max);
+            let lane: [f64; 45] = std::array::from_fn(|g| jc[g][l]);
+            self.conclude(&lane, ps, pt, rs[l], rt[l], &cells[l])
+        })
+    }
+}
+
+/// [`Pairs`] of one lane of `p` (tests).
+#[cfg(test)]
+fn lane(p: &Pairs4, l: usize) -> Pairs {
+    std::array::from_fn(|j| {
+        std::array::from_fn(|v| DVec3::new(p[j][v][0][l], p[j][v][1][l], p[j][v][2][l]))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{restrict, Geometry, WHOLE};
+    use super::*;
+    use crate::{LoadOptions, Mesh, PatchTable, Scheme, SchemeOptions};
+
+    /// The four children of `cell`, as the subdivision makes them.
+    fn children(cell: &Cell) -> [Cell; 4] {
+        let mid = |a: [f64; 3], b: [f64; 3]| std::array::from_fn(|j| 0.5 * (a[j] + b[j]));
+        let [u0, u1, u2] = *cell;
+        let (m01, m12, m20) = (mid(u0, u1), mid(u1, u2), mid(u2, u0));
+        [
+            [m12, m20, m01],
+            [u0, m01, m20],
+            [m01, u1, m12],
+            [m20, m12, u2],
+        ]
+    }
+
+    /// Every lane of [`Geometry::bound4`] (and of [`restrict4`]) is bitwise the scalar
+    /// result, on cells down to depth 4 of patches of every kind on Suzanne (G1's Gregory
+    /// patches included).
+    #[test]
+    fn four_lanes_are_bitwise_the_scalar_bound() {
+        let path = format!("{}/tests/data/suzanne.obj", env!("CARGO_MANIFEST_DIR"));
+        let mesh = Mesh::load(&path, &LoadOptions::default()).unwrap();
+        let mut compared = 0;
+        for scheme in [Scheme::G1, Scheme::Pn, Scheme::Phong, Scheme::Flat] {
+            let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
+            for i in (0..table.len()).step_by(37) {
+                let geom = Geometry::new(&table, i);
+                let mut level = vec![WHOLE];
+                for _ in 0..4 {
+                    let mut next = Vec::new();
+                    for cell in &level {
+                        let kids = children(cell);
+                        let four = geom.bound4(&kids);
+                        for (k, kid) in kids.iter().enumerate() {
+                            let one = geom.bound(kid);
+                            assert_eq!(four[k].0.to_bits(), one.0.to_bits(), "{scheme} {i}");
+                            assert_eq!(four[k].1.map(f64::to_bits), one.1.map(f64::to_bits));
+                            assert_eq!(four[k].2, one.2);
+                            compared += 1;
+                        }
+                        next.extend(kids);
+                    }
+                    level = next;
+                }
+                // The restriction itself, lane by lane.
+                let kids = children(&WHOLE);
+                let (pair, _, _) = geom.cell_pairs(&kids[0]);
+                // The same pairs in every lane.
+                let d: Pairs4 = std::array::from_fn(|j| {
+                    std::array::from_fn(|v| pair[j][v].to_array().map(|x| [x; 4]))
+                });
+                let corners: [Point4; 3] = std::array::from_fn(|k| {
+                    std::array::from_fn(|c| std::array::from_fn(|l| kids[l][k][c]))
+                });
+                let m = geom.n.max(1) - 1;
+                let mut r4 = ZERO4;
+                restrict4(&d, m, &corners, &mut r4);
+                for (l, kid) in kids.iter().enumerate() {
+                    let mut r = [[DVec3::ZERO; 2]; 15];
+                    restrict(&pair, m, kid, &mut r);
+                    let got = lane(&r4, l);
+                    for j in 0..15 {
+                        for v in 0..2 {
+                            assert_eq!(
+                                got[j][v].to_array().map(f64::to_bits),
+                                r[j][v].to_array().map(f64::to_bits)
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert!(compared > 1000, "{compared}");
+    }
+}
