@@ -6,7 +6,7 @@
 //! same order (no fused multiply-add, which Rust never makes on its own), so each lane's
 //! result is bitwise that of `bound` (a unit test compares them).
 
-use super::{basis, tables, Cell, Geometry};
+use super::{restrict_by, tables, Cell, Geometry};
 #[cfg(test)]
 use {super::Pairs, glam::DVec3};
 
@@ -38,66 +38,13 @@ fn step4(src: &Pairs4, deg: u32, u: &Point4, dst: &mut Pairs4) {
     }
 }
 
-/// [`step4`] from `buf[from]` into the other buffer of the pair.
-#[inline(always)]
-fn step_over4(buf: &mut [Pairs4; 2], from: usize, deg: u32, u: &Point4) {
-    let (x, y) = buf.split_at_mut(1);
-    if from == 0 {
-        step4(&x[0], deg, u, &mut y[0]);
-    } else {
-        step4(&y[0], deg, u, &mut x[0]);
-    }
-}
-
 /// [`super::restrict`] in every lane: the pairs `d` (degree m ≤ 4) restricted to lane l's
 /// cell, whose corner k is `corners[k][·][l]`.
 #[inline(always)]
 fn restrict4(d: &Pairs4, m: u32, corners: &[Point4; 3], out: &mut Pairs4) {
-    let m = m as usize;
-    let mut a = [ZERO4; 5];
-    a[0] = *d;
-    for i in 1..=m {
-        let (lo, hi) = a.split_at_mut(i);
-        step4(&lo[i - 1], (m - i + 1) as u32, &corners[0], &mut hi[0]);
-    }
-    let mut bb = [ZERO4; 2];
-    let mut cc = [ZERO4; 2];
-    for i in 0..=m {
-        let mut b: Option<usize> = None;
-        for j in 0..=m - i {
-            let deg = m - i - j;
-            let value = if deg == 0 {
-                match b {
-                    None => a[i][0],
-                    Some(k) => bb[k][0],
-                }
-            } else {
-                match b {
-                    None => step4(&a[i], deg as u32, &corners[2], &mut cc[0]),
-                    Some(k) => step4(&bb[k], deg as u32, &corners[2], &mut cc[0]),
-                }
-                let mut c = 0;
-                for dd in (1..deg).rev() {
-                    step_over4(&mut cc, c, dd as u32, &corners[2]);
-                    c ^= 1;
-                }
-                cc[c][0]
-            };
-            out[basis::bezier_index(m as u32, [i as u32, j as u32, deg as u32])] = value;
-            if j < m - i {
-                b = Some(match b {
-                    None => {
-                        step4(&a[i], deg as u32, &corners[1], &mut bb[0]);
-                        0
-                    }
-                    Some(k) => {
-                        step_over4(&mut bb, k, deg as u32, &corners[1]);
-                        k ^ 1
-                    }
-                });
-            }
-        }
-    }
+    let step_at =
+        |src: &Pairs4, deg: u32, k: usize, dst: &mut Pairs4| step4(src, deg, &corners[k], dst);
+    restrict_by(d, m, [[[0.0; 4]; 3]; 2], step_at, out);
 }
 
 impl Geometry {

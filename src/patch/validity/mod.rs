@@ -432,34 +432,47 @@ fn step(src: &Pairs, deg: u32, u: [f64; 3], dst: &mut Pairs) {
 /// Coefficient pairs of a Bézier triangle of degree at most 4.
 type Pairs = [[DVec3; 2]; 15];
 
-/// [`step`] from `buf[from]` into the other buffer of the pair.
-#[inline(always)]
-fn step_over(buf: &mut [Pairs; 2], from: usize, deg: u32, u: [f64; 3]) {
-    let (x, y) = buf.split_at_mut(1);
-    if from == 0 {
-        step(&x[0], deg, u, &mut y[0]);
-    } else {
-        step(&y[0], deg, u, &mut x[0]);
-    }
-}
-
 /// The pairs of Bézier coefficients (degree m ≤ 4) `d` restricted to `cell` (blossoming:
 /// coefficient α of the restriction is the blossom at α_0 copies of the cell's first
-/// corner, α_1 of its second, α_2 of its third; the blossoms share their prefixes). The
-/// steps run between two pairs of buffers, never copying a whole set of coefficients.
+/// corner, α_1 of its second, α_2 of its third; the blossoms share their prefixes).
 fn restrict(d: &Pairs, m: u32, cell: &Cell, out: &mut Pairs) {
+    let step_at = |src: &Pairs, deg: u32, k: usize, dst: &mut Pairs| step(src, deg, cell[k], dst);
+    restrict_by(d, m, [DVec3::ZERO; 2], step_at, out);
+}
+
+/// The order of the steps of [`restrict`], for coefficients of any type `P` (one pair, or
+/// four cells' pairs side by side, `lanes`): `step(src, deg, k, dst)` is one de Casteljau
+/// step of degree `deg` at the cell's corner k. The steps run between two pairs of
+/// buffers, never copying a whole set of coefficients.
+#[inline(always)]
+fn restrict_by<P: Copy>(
+    d: &[P; 15],
+    m: u32,
+    zero: P,
+    step: impl Fn(&[P; 15], u32, usize, &mut [P; 15]),
+    out: &mut [P; 15],
+) {
+    // `step` from `buf[from]` into the other buffer of the pair.
+    let step_over = |buf: &mut [[P; 15]; 2], from: usize, deg: u32, k: usize| {
+        let (x, y) = buf.split_at_mut(1);
+        if from == 0 {
+            step(&x[0], deg, k, &mut y[0]);
+        } else {
+            step(&y[0], deg, k, &mut x[0]);
+        }
+    };
     let m = m as usize;
     // a[i]: after i steps at the first corner (degree m − i).
-    let mut a = [[[DVec3::ZERO; 2]; 15]; 5];
+    let mut a = [[zero; 15]; 5];
     a[0] = *d;
     for i in 1..=m {
         let (lo, hi) = a.split_at_mut(i);
-        step(&lo[i - 1], (m - i + 1) as u32, cell[0], &mut hi[0]);
+        step(&lo[i - 1], (m - i + 1) as u32, 0, &mut hi[0]);
     }
     // b: a[i] after j steps at the second corner (degree m − i − j), in `bb[k]` once
     // stepped; c: b after the steps at the third corner, in `cc`.
-    let mut bb = [[[DVec3::ZERO; 2]; 15]; 2];
-    let mut cc = [[[DVec3::ZERO; 2]; 15]; 2];
+    let mut bb = [[zero; 15]; 2];
+    let mut cc = [[zero; 15]; 2];
     for i in 0..=m {
         let mut b: Option<usize> = None;
         for j in 0..=m - i {
@@ -471,12 +484,12 @@ fn restrict(d: &Pairs, m: u32, cell: &Cell, out: &mut Pairs) {
                 }
             } else {
                 match b {
-                    None => step(&a[i], deg as u32, cell[2], &mut cc[0]),
-                    Some(k) => step(&bb[k], deg as u32, cell[2], &mut cc[0]),
+                    None => step(&a[i], deg as u32, 2, &mut cc[0]),
+                    Some(k) => step(&bb[k], deg as u32, 2, &mut cc[0]),
                 }
                 let mut c = 0;
                 for dd in (1..deg).rev() {
-                    step_over(&mut cc, c, dd as u32, cell[2]);
+                    step_over(&mut cc, c, dd as u32, 2);
                     c ^= 1;
                 }
                 cc[c][0]
@@ -485,11 +498,11 @@ fn restrict(d: &Pairs, m: u32, cell: &Cell, out: &mut Pairs) {
             if j < m - i {
                 b = Some(match b {
                     None => {
-                        step(&a[i], deg as u32, cell[1], &mut bb[0]);
+                        step(&a[i], deg as u32, 1, &mut bb[0]);
                         0
                     }
                     Some(k) => {
-                        step_over(&mut bb, k, deg as u32, cell[1]);
+                        step_over(&mut bb, k, deg as u32, 1);
                         k ^ 1
                     }
                 });
