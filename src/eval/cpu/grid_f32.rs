@@ -567,6 +567,19 @@ impl CpuEvaluator {
         weights: &GridWeightsF32,
         sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
     ) -> Result<()> {
+        self.grid_f32_staged(table, weights, &mut |_| {}, sink)
+    }
+
+    /// [`Self::grid_f32`] with a stage run on each chunk in the thread-pool job that
+    /// evaluated it, before the sink gets the chunk (see
+    /// [`Evaluator::evaluate_f32_staged`]).
+    pub(crate) fn grid_f32_staged(
+        &self,
+        table: &PatchTable,
+        weights: &GridWeightsF32,
+        stage: &mut (dyn FnMut(ChunkF32<'_>) + Send),
+        sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
+    ) -> Result<()> {
         check_weights(table, weights)?;
         let per = weights.per;
         let kernel = self.f32_kernel;
@@ -588,21 +601,21 @@ impl CpuEvaluator {
                 0
             }),
         );
-        // The kernel fills the next chunk on the pool while the sink reads this one.
+        // The kernel fills the next chunk on the pool, and the stage takes it there, while
+        // the sink reads this one.
         crate::pipelined::double_buffered(
             &mut cur,
             &mut next,
             n,
             patches_per_chunk,
             |first, count, (p, q)| {
-                run_patches_f32(
-                    table,
-                    weights,
-                    kernel,
+                let (p, q) = (&mut p[..count * per], &mut q[..count * per]);
+                run_patches_f32(table, weights, kernel, first, p, q);
+                stage(Chunk {
                     first,
-                    &mut p[..count * per],
-                    &mut q[..count * per],
-                )
+                    positions: p,
+                    normals: q,
+                })
             },
             |first, count, (p, q)| {
                 sink(Chunk {
