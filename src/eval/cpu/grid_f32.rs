@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use super::CpuEvaluator;
 #[cfg(doc)] // links in the documentation
 use crate::eval::Evaluator;
-use crate::eval::{grid_barycentrics, grid_corners, Chunk, ChunkF32};
+use crate::eval::{grid_barycentrics, grid_corners, Chunk, ChunkF32, STAGE_SAMPLES};
 use crate::patch::PatchTable;
 use crate::Result;
 
@@ -567,12 +567,13 @@ impl CpuEvaluator {
         weights: &GridWeightsF32,
         sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
     ) -> Result<()> {
-        self.grid_f32_staged(table, weights, &mut |_| {}, sink)
+        self.grid_f32_chunks(table, weights, PIPELINE_SAMPLES, &mut |_| {}, sink)
     }
 
     /// [`Self::grid_f32`] with a stage run on each chunk in the thread-pool job that
     /// evaluated it, before the sink gets the chunk (see
-    /// [`Evaluator::evaluate_f32_staged`]).
+    /// [`Evaluator::evaluate_f32_staged`]); chunks of at most `STAGE_SAMPLES` samples, so
+    /// that the chunk and what the stage builds of it stay in the core's cache.
     pub(crate) fn grid_f32_staged(
         &self,
         table: &PatchTable,
@@ -580,11 +581,24 @@ impl CpuEvaluator {
         stage: &mut (dyn FnMut(ChunkF32<'_>) + Send),
         sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
     ) -> Result<()> {
+        self.grid_f32_chunks(table, weights, STAGE_SAMPLES, stage, sink)
+    }
+
+    /// The f32 kernel in chunks of at most `most` samples (and `chunk_samples`; one patch
+    /// at least), each staged in the pool job that evaluated it.
+    fn grid_f32_chunks(
+        &self,
+        table: &PatchTable,
+        weights: &GridWeightsF32,
+        most: usize,
+        stage: &mut (dyn FnMut(ChunkF32<'_>) + Send),
+        sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
+    ) -> Result<()> {
         check_weights(table, weights)?;
         let per = weights.per;
         let kernel = self.f32_kernel;
         let n = table.len();
-        let chunk = self.chunk_samples.min(PIPELINE_SAMPLES);
+        let chunk = self.chunk_samples.min(most);
         let patches_per_chunk = (chunk / per).max(1).min(n.max(1));
         let buffers = |patches: usize| {
             (
