@@ -342,42 +342,45 @@ impl StitchPlan {
         });
         // Every id fits: the caller checked the bound on records.
         let id = |b: &Bases, item: Item| b.base(item) as u32;
-        let uses = 0..3 * self.patches;
         let flag = |yes: bool, f: u8| if yes { f } else { 0 };
-        self.corner_flags = uses
-            .clone()
-            .into_par_iter()
-            .map(|c| flag(positions.makes_corner(c), OWNS) | flag(records.makes_corner(c), NEW_REC))
-            .collect();
-        self.corner_pos = uses
-            .clone()
-            .into_par_iter()
-            .map(|c| id(&pb, positions.corner_item(c)))
-            .collect();
-        self.corner_rec = uses
-            .clone()
-            .into_par_iter()
-            .map(|c| id(&rb, records.corner_item(c)))
-            .collect();
+        // One pass over the corners and one over the edge uses, in parallel, each filling
+        // its three arrays in blocks of uses.
+        const BLOCK: usize = 1 << 12;
+        let uses = 3 * self.patches;
+        let (mut flags, mut pos, mut rec) = (vec![0u8; uses], vec![0u32; uses], vec![0u32; uses]);
+        flags
+            .par_chunks_mut(BLOCK)
+            .zip(pos.par_chunks_mut(BLOCK))
+            .zip(rec.par_chunks_mut(BLOCK))
+            .enumerate()
+            .for_each(|(i, ((f, p), r))| {
+                for (j, ((f, p), r)) in f.iter_mut().zip(p).zip(r).enumerate() {
+                    let c = i * BLOCK + j;
+                    *f = flag(positions.makes_corner(c), OWNS)
+                        | flag(records.makes_corner(c), NEW_REC);
+                    *p = id(&pb, positions.corner_item(c));
+                    *r = id(&rb, records.corner_item(c));
+                }
+            });
+        (self.corner_flags, self.corner_pos, self.corner_rec) = (flags, pos, rec);
         let rev = &numbering.use_rev;
-        self.use_flags = uses
-            .clone()
-            .into_par_iter()
-            .map(|u| {
-                flag(positions.makes_block(u), OWNS)
-                    | flag(records.makes_block(u), NEW_REC)
-                    | flag(rev[u], REV)
-            })
-            .collect();
-        self.use_pos = uses
-            .clone()
-            .into_par_iter()
-            .map(|u| id(&pb, positions.block_item(u)))
-            .collect();
-        self.use_rec = uses
-            .into_par_iter()
-            .map(|u| id(&rb, records.block_item(u)))
-            .collect();
+        let (mut flags, mut pos, mut rec) = (vec![0u8; uses], vec![0u32; uses], vec![0u32; uses]);
+        flags
+            .par_chunks_mut(BLOCK)
+            .zip(pos.par_chunks_mut(BLOCK))
+            .zip(rec.par_chunks_mut(BLOCK))
+            .enumerate()
+            .for_each(|(i, ((f, p), r))| {
+                for (j, ((f, p), r)) in f.iter_mut().zip(p).zip(r).enumerate() {
+                    let u = i * BLOCK + j;
+                    *f = flag(positions.makes_block(u), OWNS)
+                        | flag(records.makes_block(u), NEW_REC)
+                        | flag(rev[u], REV);
+                    *p = id(&pb, positions.block_item(u));
+                    *r = id(&rb, records.block_item(u));
+                }
+            });
+        (self.use_flags, self.use_pos, self.use_rec) = (flags, pos, rec);
         let patches = 0..self.patches;
         self.interior_rec = patches
             .clone()
@@ -724,7 +727,7 @@ impl<V> StitchSink<V> for CountingSink {
 
 /// Most patches of the grid of `level` whose output the stitcher builds in parallel
 /// before the sink sees them in order (a run; it holds two, the one the sink reads and the
-/// one built meanwhile): a run holds at most `STAGE_SAMPLES` (2^16) grid points, one patch
+/// one built meanwhile): a run holds at most `STAGE_SAMPLES` (2^14) grid points, one patch
 /// at least.
 pub fn batch_patches(level: u32) -> usize {
     (STAGE_SAMPLES / grid_len(level).max(1)).max(1)
