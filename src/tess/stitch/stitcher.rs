@@ -501,11 +501,11 @@ fn build_patch<V: Vector>(
             grid_positions[g] = q;
         }
         if new_rec {
-            records[nrec] = VertexRecord {
-                position: q,
-                normal: nrm[g],
-                position_id: pid,
-            };
+            // Field by field, as the interior's below.
+            let r = &mut records[nrec];
+            r.position = q;
+            r.normal = nrm[g];
+            r.position_id = pid;
             nrec += 1;
         }
     };
