@@ -532,9 +532,16 @@ fn run_patches_f32(
             let c = table.patch(i);
             let o = c[0];
             let mut cp = [[0f32; 3]; crate::patch::basis::MAX_POINTS];
-            for (j, x) in c.iter().enumerate() {
-                let v = if j < g.geometry { *x - o } else { *x };
-                cp[j] = [v.x as f32, v.y as f32, v.z as f32];
+            // Geometry relative to the first point, the normal field as it is: two loops
+            // without a branch per point.
+            let (geometry, field) = c.split_at(g.geometry.min(c.len()));
+            let (cp_geometry, cp_field) = cp.split_at_mut(geometry.len());
+            for (d, x) in cp_geometry.iter_mut().zip(geometry) {
+                let v = *x - o;
+                *d = [v.x as f32, v.y as f32, v.z as f32];
+            }
+            for (d, x) in cp_field.iter_mut().zip(field) {
+                *d = [x.x as f32, x.y as f32, x.z as f32];
             }
             let f = table.flat_normals[i];
             let origin = [o.x as f32, o.y as f32, o.z as f32];
