@@ -515,7 +515,9 @@ impl StitchPlan {
     }
 
     /// Where patch `p`'s corners, edge samples and interior lie in its samples. A uniform
-    /// plan answers from its per-level tables; otherwise `scratch` holds the answer.
+    /// plan answers from its per-level tables (inline: the stitcher asks for every patch);
+    /// otherwise `scratch` holds the answer.
+    #[inline]
     fn local_map<'s>(&'s self, p: usize, scratch: &'s mut LocalScratch) -> LocalMap<'s> {
         match &self.adaptive {
             None => {
@@ -526,25 +528,28 @@ impl StitchPlan {
                     interior: &self.interior,
                 }
             }
-            Some(_) => {
-                let (e, inner) = self.patch_levels(p);
-                let (ranges, interior) = layout::local_edges(e, inner);
-                scratch.edges.clear();
-                let mut ends = [0usize; 3];
-                for (k, r) in ranges.into_iter().enumerate() {
-                    scratch.edges.extend(r);
-                    ends[k] = scratch.edges.len();
-                }
-                scratch.interior.clear();
-                scratch.interior.push(interior);
-                let (a, rest) = scratch.edges.split_at(ends[0]);
-                let (b, c) = rest.split_at(ends[1] - ends[0]);
-                LocalMap {
-                    corner: [0, 1, 2],
-                    edges: [a, b, c],
-                    interior: &scratch.interior,
-                }
-            }
+            Some(_) => self.local_map_adaptive(p, scratch),
+        }
+    }
+
+    /// [`local_map`](Self::local_map) of a patch of a non-uniform plan, into `scratch`.
+    fn local_map_adaptive<'s>(&self, p: usize, scratch: &'s mut LocalScratch) -> LocalMap<'s> {
+        let (e, inner) = self.patch_levels(p);
+        let (ranges, interior) = layout::local_edges(e, inner);
+        scratch.edges.clear();
+        let mut ends = [0usize; 3];
+        for (k, r) in ranges.into_iter().enumerate() {
+            scratch.edges.extend(r);
+            ends[k] = scratch.edges.len();
+        }
+        scratch.interior.clear();
+        scratch.interior.push(interior);
+        let (a, rest) = scratch.edges.split_at(ends[0]);
+        let (b, c) = rest.split_at(ends[1] - ends[0]);
+        LocalMap {
+            corner: [0, 1, 2],
+            edges: [a, b, c],
+            interior: &scratch.interior,
         }
     }
 
