@@ -6,7 +6,8 @@
 /// Steps of at most `step` items over `0..total`: `produce(start, len, buf)` fills `buf`
 /// with items `start..start + len` (on the thread pool, but for the first step), and
 /// `consume(start, len, buf)` reads them, in order, on the calling thread, while the next
-/// step is produced into the other buffer. `next` must hold a step wherever there is more
+/// step is produced into the other buffer (steps are produced one at a time, in order, so
+/// `produce` may keep state of its own). `next` must hold a step wherever there is more
 /// than one. The first error of `consume` stops the steps (after the step being produced
 /// meanwhile) and is returned.
 pub(crate) fn double_buffered<'a, B, E>(
@@ -14,7 +15,7 @@ pub(crate) fn double_buffered<'a, B, E>(
     mut next: &'a mut B,
     total: usize,
     step: usize,
-    produce: impl Fn(usize, usize, &mut B) + Sync,
+    mut produce: impl FnMut(usize, usize, &mut B) + Send,
     mut consume: impl FnMut(usize, usize, &B) -> Result<(), E>,
 ) -> Result<(), E>
 where
@@ -28,7 +29,7 @@ where
     while len > 0 {
         let after = start + len;
         let more = step.min(total - after);
-        let (ready, building, produce) = (&*cur, &mut *next, &produce);
+        let (ready, building, produce) = (&*cur, &mut *next, &mut produce);
         rayon::in_place_scope(|s| {
             if more > 0 {
                 s.spawn(move |_| produce(after, more, building));

@@ -235,6 +235,8 @@ fn bench_end_to_end_rows_are_consistent() {
         "5",
         "--stats-level",
         "2",
+        "--memory-levels",
+        "2,5",
         "--dir",
         dir.to_str().unwrap(),
         "--json",
@@ -252,14 +254,22 @@ fn bench_end_to_end_rows_are_consistent() {
         .arg("--version")
         .output()
         .is_ok_and(|o| o.status.success());
-    let mut want = vec![
+    let mut want = Vec::new();
+    for _ in [2, 5] {
+        want.extend([
+            "tessellate_setup",
+            "tessellate_eval",
+            "tessellate_setup_eval",
+        ]);
+    }
+    want.extend([
         "tessellate_memory",
         "tessellate_ply_file",
         "plain_write",
         "piped_write",
         "load_obj",
         "count_words",
-    ];
+    ]);
     if wc {
         want.push("wc_w");
     }
@@ -279,6 +289,23 @@ fn bench_end_to_end_rows_are_consistent() {
     }
     let samples = 320 * grid_len(5) as u64;
     assert_eq!(row("tessellate_memory")["samples"], samples);
+    // Set-up and evaluation apart at levels 2 and 5, each row with its level's samples;
+    // the sum row is the sum of the two; level 5 is --tess-level, so tessellate_memory is
+    // its evaluation row.
+    for (k, level) in [2u64, 5].into_iter().enumerate() {
+        let [setup, eval, both] = [0, 1, 2].map(|j| &rows[3 * k + j]);
+        for r in [setup, eval, both] {
+            assert_eq!(r["level"], level);
+            assert_eq!(r["samples"], 320 * grid_len(level as u32) as u64);
+        }
+        // The sum of the two to the last bits (serde_json's reading of a float may be an
+        // ulp off).
+        let sum = setup["seconds"].as_f64().unwrap() + eval["seconds"].as_f64().unwrap();
+        assert!((both["seconds"].as_f64().unwrap() / sum - 1.0).abs() < QUOTIENT);
+    }
+    assert_eq!(row("tessellate_memory")["seconds"], rows[4]["seconds"]);
+    assert_eq!(row("tessellate_memory")["level"], 5);
+    assert_eq!(row("load_obj")["level"], serde_json::Value::Null);
     let file = row("tessellate_ply_file");
     assert_eq!(file["samples"], samples);
     // PLY: header, then 24 bytes per vertex record and 13 per triangle. The sphere is

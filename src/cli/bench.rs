@@ -101,7 +101,8 @@ pub struct BenchArgs {
     /// (scripts/gpu-check.sh).
     #[arg(long)]
     pub gpu_check: bool,
-    /// End to end: grid level of the tessellation.
+    /// End to end: grid level of the rows `tessellate_memory` (evaluation only) and
+    /// `tessellate_ply_file`.
     #[arg(
         long,
         default_value_t = 32,
@@ -109,6 +110,18 @@ pub struct BenchArgs {
         value_parser = whole_number(1, u32::MAX)
     )]
     pub tess_level: u32,
+    /// End to end: levels of the rows that tessellate into memory with set-up and
+    /// evaluation timed apart (`tessellate_setup`, `tessellate_eval`,
+    /// `tessellate_setup_eval`): the levels users run. `--tess-level` is the level of the
+    /// `tessellate_memory` and file rows.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_values_t = [4u32, 8, 16],
+        allow_negative_numbers = true,
+        value_parser = whole_number(1, u32::MAX)
+    )]
+    pub memory_levels: Vec<u32>,
     /// End to end: level at which the mesh is tessellated into the OBJ that is loaded and
     /// given to stats (4: the bunny becomes a 1.1 M-triangle mesh).
     #[arg(

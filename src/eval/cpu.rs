@@ -10,8 +10,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::{
-    evaluate_f32_via_f64, grid_barycentrics, grid_corners, grid_len, Chunk, ChunkF32, EdgePairs,
-    Evaluator, PairChunk, PairProducts, Pattern,
+    evaluate_f32_via_f64, grid_barycentrics, grid_corners, grid_len, staged_chunks, Chunk,
+    ChunkF32, EdgePairs, Evaluator, PairChunk, PairProducts, Pattern,
 };
 use crate::patch::basis::Weights;
 use crate::patch::PatchTable;
@@ -277,6 +277,30 @@ impl Evaluator for CpuEvaluator {
                 self.grid_f32(table, &weights, sink)
             }
             Pattern::Points(_) => evaluate_f32_via_f64(self, table, pattern, sink),
+        }
+    }
+
+    /// Grids run the stage in the pool job of the f32 kernel that evaluated the chunk;
+    /// point lists stage the chunks of their f64 evaluation ([`staged_chunks`]).
+    fn evaluate_f32_staged(
+        &self,
+        table: &PatchTable,
+        pattern: &Pattern,
+        stage: &mut (dyn FnMut(ChunkF32<'_>) + Send),
+        sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
+    ) -> Result<()> {
+        match pattern {
+            Pattern::Grid { level } => {
+                grid_fits(*level, table.stride * 12 + 24)?;
+                let weights = GridWeightsF32::new(table.kind, *level);
+                self.grid_f32_staged(table, &weights, stage, sink)
+            }
+            Pattern::Points(_) => staged_chunks(
+                1,
+                |s| evaluate_f32_via_f64(self, table, pattern, s),
+                stage,
+                sink,
+            ),
         }
     }
 }

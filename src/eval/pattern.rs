@@ -36,6 +36,15 @@ impl Pattern {
     pub fn is_empty(&self, patches: usize) -> bool {
         self.len(patches) == 0
     }
+
+    /// Samples of one item of the pattern's chunks ([`crate::Chunk::first`] counts items):
+    /// a grid's patches, or points.
+    pub fn item_len(&self) -> usize {
+        match self {
+            Pattern::Grid { level } => grid_len(*level),
+            Pattern::Points(_) => 1,
+        }
+    }
 }
 
 /// One use of an edge by a patch: the patch, and the barycentric slots of the edge's start

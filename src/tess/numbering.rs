@@ -137,9 +137,15 @@ impl Order {
         self.block_first.len() as u32 - 1
     }
 
-    fn end_patch(&mut self) {
-        let made = [self.corner_first.len(), self.block_first.len()];
-        self.interior.push(made.map(|m| m as u32));
+    /// Ends the corners of a patch: its corner items are made.
+    fn end_corners(&mut self) {
+        self.interior.push([self.corner_first.len() as u32, 0]);
+    }
+
+    /// Ends the edges of patch `t` (after [`end_corners`](Self::end_corners) of every
+    /// patch): its blocks are made.
+    fn end_patch(&mut self, t: usize) {
+        self.interior[t][1] = self.block_first.len() as u32;
     }
 
     /// The item of corner `corner` (3t + k).
@@ -254,6 +260,53 @@ fn split_edges(mesh: &Mesh, adjacency: &Adjacency, attrs: Option<&CornerAttribut
     split
 }
 
+/// Numbers the corners of every patch, in order, into `records` (one item per (vertex,
+/// normal, attributes)) and `positions` (one per vertex), ending each patch's corners;
+/// returns how many record items are a vertex's second or later group (creases, seams).
+fn number_corners(
+    mesh: &Mesh,
+    attrs: Option<&CornerAttributes>,
+    records: &mut Order,
+    positions: &mut Order,
+) -> usize {
+    // Per vertex: its position item, and the record item of its first (normal, attributes)
+    // group; the other groups (few vertices) by key.
+    let mut vertex_item = vec![NONE; mesh.positions.len()];
+    let mut first_group = vec![NONE; mesh.positions.len()];
+    let mut groups: HashMap<(u32, [u64; 3], [u32; 6]), u32> = HashMap::new();
+    let key_of = |c: usize| {
+        let (t, k) = (c / 3, c % 3);
+        let akey = attrs.map_or([0; 6], |a| attribute_key(a, t, k));
+        (normal_key(mesh.corner_normals[t][k]), akey)
+    };
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for (k, &v) in tri.iter().enumerate() {
+            let c = 3 * t + k;
+            let slot = &mut vertex_item[v as usize];
+            if *slot == NONE {
+                *slot = positions.make_corner(c);
+            }
+            positions.corner.push(*slot);
+            let first = &mut first_group[v as usize];
+            let r = if *first == NONE {
+                *first = records.make_corner(c);
+                *first
+            } else if key_of(records.corner_first[*first as usize] as usize) == key_of(c) {
+                *first
+            } else {
+                let (n, a) = key_of(c);
+                *groups
+                    .entry((v, n, a))
+                    .or_insert_with(|| records.make_corner(c))
+            };
+            records.corner.push(r);
+        }
+        records.end_corners();
+        positions.end_corners();
+    }
+    groups.len()
+}
+
 impl Numbering {
     /// Numbers the stitched output of `mesh` (whose adjacency is `adjacency`); corners and
     /// edges are split by `attrs` too where given.
@@ -286,27 +339,22 @@ impl Numbering {
                 u / 3
             )));
         }
-        let split = split_edges(mesh, adjacency, attrs);
         let mut records = Order::with_capacity(nf);
         let mut positions = Order::with_capacity(nf);
-        let mut groups: HashMap<(u32, [u64; 3], [u32; 6]), u32> = HashMap::new();
-        let mut vertex_item = vec![NONE; mesh.positions.len()];
+        // Corner items and blocks are numbered apart (each patch's corners come before its
+        // edges): first the corners of every patch, then the edges.
+        let other_groups = number_corners(mesh, attrs, &mut records, &mut positions);
+        // A vertex with one normal has no crease at it: without a second (normal,
+        // attributes) group at any vertex, no edge is split.
+        let split = if other_groups > 0 || attrs.is_some() {
+            split_edges(mesh, adjacency, attrs)
+        } else {
+            vec![false; adjacency.edges.len()]
+        };
         // Per edge: its position block, and its owner's record block.
         let mut edge_item = vec![NONE; adjacency.edges.len()];
         let mut owner_block = vec![NONE; adjacency.edges.len()];
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            for (k, &v) in tri.iter().enumerate() {
-                let c = 3 * t + k;
-                let slot = &mut vertex_item[v as usize];
-                if *slot == NONE {
-                    *slot = positions.make_corner(c);
-                }
-                positions.corner.push(*slot);
-                let akey = attrs.map_or([0; 6], |a| attribute_key(a, t, k));
-                let key = (v, normal_key(mesh.corner_normals[t][k]), akey);
-                let r = *groups.entry(key).or_insert_with(|| records.make_corner(c));
-                records.corner.push(r);
-            }
+        for t in 0..nf {
             for k in 0..3 {
                 let u = 3 * t + k;
                 let e = use_edge[u] as usize;
@@ -322,8 +370,8 @@ impl Numbering {
                 };
                 records.block.push(b);
             }
-            records.end_patch();
-            positions.end_patch();
+            records.end_patch(t);
+            positions.end_patch(t);
         }
         Ok(Numbering {
             use_edge,

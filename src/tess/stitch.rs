@@ -52,7 +52,9 @@ use std::ops::Range;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::eval::{grid_len, grid_triangles, Chunk, Evaluator, PatchPoint, Pattern, Vector};
+use crate::eval::{
+    grid_len, grid_triangles, Evaluator, PatchPoint, Pattern, Vector, STAGE_SAMPLES,
+};
 use crate::mesh::{Adjacency, CornerAttributes, Mesh};
 use crate::patch::PatchTable;
 use crate::progress::{NoProgress, Progress};
@@ -62,6 +64,9 @@ use crate::tess::numbering::{
     corner_grid, edge_grid, interior_rows, Bases, Item, Numbering, Order,
 };
 use crate::{Error, Result};
+
+mod stitcher;
+use stitcher::Stitcher;
 
 const NONE: u32 = u32::MAX;
 
@@ -113,21 +118,28 @@ pub struct StitchPlan {
     pub triangles: usize,
     /// What stitching found in the input topology.
     pub report: StitchReport,
-    tris: Vec<[u32; 3]>,
-    vertices: usize,
+    /// Patches (triangles of the mesh).
+    patches: usize,
+    /// Vertices the triangles use: the store slots of corner samples.
+    corner_items: usize,
+    /// Edges: the blocks of shared positions on edges.
+    blocks: usize,
     /// Per edge use 3t + k: the edge (index in the adjacency).
     use_edge: Vec<u32>,
-    /// Per edge use: its local direction (corner k → k + 1) runs from the higher to the
-    /// lower vertex id, against the canonical sample order.
-    use_rev: Vec<bool>,
-    vertex_owner: Vec<u32>,
-    vertex_pos: Vec<u32>,
-    edge_owner: Vec<u32>,
-    edge_pos: Vec<u32>,
+    // Per corner 3t + k, all read in patch order while stitching: what it does
+    // ([`OWNS`], [`NEW_REC`]), its store slot (its vertex, numbered by first use), its
+    // position id and its record id.
+    corner_flags: Vec<u8>,
+    corner_slot: Vec<u32>,
+    corner_pos: Vec<u32>,
     corner_rec: Vec<u32>,
-    corner_new_rec: Vec<bool>,
+    // Per edge use 3t + k: what it does ([`OWNS`], [`NEW_REC`], [`REV`]), its edge's
+    // block of shared positions (edges numbered by first use), the position id and the
+    // record id of its canonical sample 1.
+    use_flags: Vec<u8>,
+    use_block: Vec<u32>,
+    use_pos: Vec<u32>,
     use_rec: Vec<u32>,
-    use_new_rec: Vec<bool>,
     interior_pos: Vec<u32>,
     interior_rec: Vec<u32>,
     /// Per level, computed once: grid index of each corner, of the sample at step
@@ -140,6 +152,16 @@ pub struct StitchPlan {
     /// The mesh's per-corner attributes, when it has any.
     attrs: Option<Box<CornerAttributes>>,
 }
+
+/// A corner or edge use that is its vertex's or edge's first use: it stores its samples for
+/// the others and makes their positions.
+const OWNS: u8 = 1;
+/// A corner or edge use that makes its records (always where it [`OWNS`]; also a corner
+/// with a normal or attributes of its own, a use of a split edge).
+const NEW_REC: u8 = 2;
+/// An edge use whose local direction (corner k → k + 1) runs from the higher to the lower
+/// vertex id, against the canonical sample order.
+const REV: u8 = 4;
 
 /// Linear interpolation of three corner values at barycentric coordinates `b`, in f64.
 fn interpolate<const N: usize>(corners: &[[f32; N]; 3], b: [f64; 3]) -> [f32; N] {
@@ -157,8 +179,9 @@ struct AdaptivePlan {
     /// Inner level of each patch, as given (the pattern raises it where it must,
     /// [`layout::effective_inner`]).
     inner: Vec<u32>,
-    /// Store slot of each edge's first sample (after the input vertices).
-    edge_store: Vec<u32>,
+    /// Store slot of each block's first sample (after the corner slots), blocks in the
+    /// order they are made.
+    block_store: Vec<u32>,
 }
 
 impl StitchPlan {
@@ -179,12 +202,6 @@ impl StitchPlan {
         if let Some(n) = levels.uniform_level() {
             return Self::new(mesh, adjacency, n);
         }
-        let mut edge_store = Vec::with_capacity(levels.edges.len());
-        let mut slot = 0u64;
-        for &l in &levels.edges {
-            edge_store.push(slot.min(NONE as u64) as u32);
-            slot += l as u64 - 1;
-        }
         let top = levels
             .edges
             .iter()
@@ -195,7 +212,8 @@ impl StitchPlan {
         let adaptive = AdaptivePlan {
             edge_level: levels.edges.clone(),
             inner: levels.inner.clone(),
-            edge_store,
+            // Once the blocks are numbered (`resolve`).
+            block_store: Vec::new(),
         };
         Self::build(mesh, adjacency, top, Some(Box::new(adaptive)))
     }
@@ -222,7 +240,6 @@ impl StitchPlan {
         let attrs = (a.uvs.is_some() || a.colors.is_some()).then(|| Box::new(a.clone()));
         let mut numbering = Numbering::new(mesh, adjacency, attrs.as_deref())?;
         let nv = mesh.positions.len();
-        let ne = adjacency.edges.len();
         let uniform = adaptive.is_none();
         let mut plan = StitchPlan {
             level,
@@ -235,18 +252,18 @@ impl StitchPlan {
                 split_edges: numbering.split.iter().filter(|&&s| s).count(),
                 extra_records: 0,
             },
-            tris: mesh.triangles.clone(),
-            vertices: nv,
+            patches: nf,
+            corner_items: 0,
+            blocks: 0,
             use_edge: std::mem::take(&mut numbering.use_edge),
-            use_rev: std::mem::take(&mut numbering.use_rev),
-            vertex_owner: vec![NONE; nv],
-            vertex_pos: vec![NONE; nv],
-            edge_owner: vec![NONE; ne],
-            edge_pos: vec![NONE; ne],
+            corner_flags: Vec::new(),
+            corner_slot: Vec::new(),
+            corner_pos: Vec::new(),
             corner_rec: Vec::new(),
-            corner_new_rec: Vec::new(),
+            use_flags: Vec::new(),
+            use_block: Vec::new(),
+            use_pos: Vec::new(),
             use_rec: Vec::new(),
-            use_new_rec: Vec::new(),
             interior_pos: Vec::new(),
             interior_rec: Vec::new(),
             corner_g: [0, 1, 2].map(|k| corner_grid(n, k) as u32),
@@ -290,60 +307,101 @@ impl StitchPlan {
             )));
         }
         plan.triangles = triangles as usize;
-        plan.resolve(&numbering, &interiors);
+        plan.resolve(numbering, &interiors);
         Ok(plan)
     }
 
     /// Takes the ids of `numbering` at the plan's levels (`interiors`: each patch's interior
-    /// samples, for per-edge levels).
-    fn resolve(&mut self, numbering: &Numbering, interiors: &[u64]) {
+    /// samples, for per-edge levels), per corner and edge use in patch order (what the
+    /// stitcher reads of each patch lies together, whatever the vertex and edge ids).
+    fn resolve(&mut self, mut numbering: Numbering, interiors: &[u64]) {
+        let block_sizes = |order: &Order| -> Vec<u64> {
+            order
+                .block_first
+                .iter()
+                .map(|&u| self.edge_samples(self.use_edge[u as usize] as usize) as u64)
+                .collect()
+        };
         let bases = |order: &Order| match &self.adaptive {
             None => Bases::grid(self.level),
-            Some(_) => Bases::prefix(
-                order
-                    .block_first
-                    .iter()
-                    .map(|&u| self.edge_samples(self.use_edge[u as usize] as usize) as u64),
-                interiors.iter().copied(),
-            ),
+            Some(_) => Bases::prefix(block_sizes(order), interiors.iter().copied()),
         };
         let (records, positions) = (&numbering.records, &numbering.positions);
         let (rb, pb) = (bases(records), bases(positions));
+        // Per-edge levels: each block's first store slot.
+        let block_store: Option<Vec<u32>> = self.adaptive.as_ref().map(|_| {
+            let mut slot = 0u64;
+            block_sizes(positions)
+                .into_iter()
+                .map(|size| {
+                    let first = slot as u32;
+                    slot += size;
+                    first
+                })
+                .collect()
+        });
         // Every id fits: the caller checked the bound on records.
         let id = |b: &Bases, item: Item| b.base(item) as u32;
-        let uses = 0..3 * self.tris.len();
-        self.corner_rec = uses
-            .clone()
-            .map(|c| id(&rb, records.corner_item(c)))
-            .collect();
-        self.corner_new_rec = uses.clone().map(|c| records.makes_corner(c)).collect();
-        self.use_rec = uses
-            .clone()
-            .map(|u| id(&rb, records.block_item(u)))
-            .collect();
-        self.use_new_rec = uses.map(|u| records.makes_block(u)).collect();
-        let patches = 0..self.tris.len();
+        let flag = |yes: bool, f: u8| if yes { f } else { 0 };
+        // One pass over the corners and one over the edge uses, in parallel, each filling
+        // its three arrays in blocks of uses.
+        const BLOCK: usize = 1 << 12;
+        let uses = 3 * self.patches;
+        let (mut flags, mut pos, mut rec) = (vec![0u8; uses], vec![0u32; uses], vec![0u32; uses]);
+        flags
+            .par_chunks_mut(BLOCK)
+            .zip(pos.par_chunks_mut(BLOCK))
+            .zip(rec.par_chunks_mut(BLOCK))
+            .enumerate()
+            .for_each(|(i, ((f, p), r))| {
+                for (j, ((f, p), r)) in f.iter_mut().zip(p).zip(r).enumerate() {
+                    let c = i * BLOCK + j;
+                    *f = flag(positions.makes_corner(c), OWNS)
+                        | flag(records.makes_corner(c), NEW_REC);
+                    *p = id(&pb, positions.corner_item(c));
+                    *r = id(&rb, records.corner_item(c));
+                }
+            });
+        (self.corner_flags, self.corner_pos, self.corner_rec) = (flags, pos, rec);
+        let rev = &numbering.use_rev;
+        let (mut flags, mut pos, mut rec) = (vec![0u8; uses], vec![0u32; uses], vec![0u32; uses]);
+        flags
+            .par_chunks_mut(BLOCK)
+            .zip(pos.par_chunks_mut(BLOCK))
+            .zip(rec.par_chunks_mut(BLOCK))
+            .enumerate()
+            .for_each(|(i, ((f, p), r))| {
+                for (j, ((f, p), r)) in f.iter_mut().zip(p).zip(r).enumerate() {
+                    let u = i * BLOCK + j;
+                    *f = flag(positions.makes_block(u), OWNS)
+                        | flag(records.makes_block(u), NEW_REC)
+                        | flag(rev[u], REV);
+                    *p = id(&pb, positions.block_item(u));
+                    *r = id(&rb, records.block_item(u));
+                }
+            });
+        (self.use_flags, self.use_pos, self.use_rec) = (flags, pos, rec);
+        let patches = 0..self.patches;
         self.interior_rec = patches
             .clone()
+            .into_par_iter()
             .map(|p| id(&rb, records.interior_item(p)))
             .collect();
         self.interior_pos = patches
+            .into_par_iter()
             .map(|p| id(&pb, positions.interior_item(p)))
             .collect();
-        for &c in &positions.corner_first {
-            let (t, k) = (c as usize / 3, c as usize % 3);
-            let v = self.tris[t][k] as usize;
-            self.vertex_owner[v] = t as u32;
-            self.vertex_pos[v] = id(&pb, positions.corner_item(c as usize));
-        }
-        for &u in &positions.block_first {
-            let e = self.use_edge[u as usize] as usize;
-            self.edge_owner[e] = u;
-            self.edge_pos[e] = id(&pb, positions.block_item(u as usize));
-        }
         self.positions = pb.base(positions.end()) as usize;
         self.records = rb.base(records.end()) as usize;
         self.report.extra_records = self.records - self.positions;
+        self.corner_items = positions.corner_first.len();
+        self.blocks = positions.block_first.len();
+        if let (Some(a), Some(b)) = (&mut self.adaptive, block_store) {
+            a.block_store = b;
+        }
+        // Vertices and edges numbered by first use: the corner items and blocks.
+        self.corner_slot = std::mem::take(&mut numbering.positions.corner);
+        self.use_block = std::mem::take(&mut numbering.positions.block);
     }
 
     /// Whether the output records carry texture coordinates
@@ -369,7 +427,7 @@ impl StitchPlan {
 
     /// Number of patches.
     pub fn patches(&self) -> usize {
-        self.tris.len()
+        self.patches
     }
 
     /// Whether every patch is the grid of [`level`](Self::level) (evaluated with
@@ -438,24 +496,28 @@ impl StitchPlan {
         }
     }
 
-    /// Input vertices, input edges (for the boundary store).
-    fn store_len(&self) -> usize {
+    /// Samples of the store of shared edge samples: every block's (the store of corner
+    /// samples has [`corner_items`](Self::corner_items)).
+    fn block_store_len(&self) -> usize {
         match &self.adaptive {
-            Some(a) => self.vertices + a.edge_level.iter().map(|&l| l as usize - 1).sum::<usize>(),
-            None => self.vertices + self.edge_pos.len() * (self.level as usize - 1),
+            Some(a) => a.edge_level.iter().map(|&l| l as usize - 1).sum::<usize>(),
+            None => self.blocks * (self.level as usize - 1),
         }
     }
 
-    /// Store slot of edge `e`'s canonical sample m (1..n).
-    fn edge_slot(&self, e: u32, m: u32) -> usize {
+    /// Slot in the block store of block `b`'s canonical sample 1 (its samples follow).
+    #[inline]
+    fn block_slot(&self, b: u32) -> usize {
         match &self.adaptive {
-            Some(a) => self.vertices + a.edge_store[e as usize] as usize + (m as usize - 1),
-            None => self.vertices + e as usize * (self.level as usize - 1) + (m as usize - 1),
+            Some(a) => a.block_store[b as usize] as usize,
+            None => b as usize * (self.level as usize - 1),
         }
     }
 
     /// Where patch `p`'s corners, edge samples and interior lie in its samples. A uniform
-    /// plan answers from its per-level tables; otherwise `scratch` holds the answer.
+    /// plan answers from its per-level tables (inline: the stitcher asks for every patch);
+    /// otherwise `scratch` holds the answer.
+    #[inline]
     fn local_map<'s>(&'s self, p: usize, scratch: &'s mut LocalScratch) -> LocalMap<'s> {
         match &self.adaptive {
             None => {
@@ -466,25 +528,28 @@ impl StitchPlan {
                     interior: &self.interior,
                 }
             }
-            Some(_) => {
-                let (e, inner) = self.patch_levels(p);
-                let (ranges, interior) = layout::local_edges(e, inner);
-                scratch.edges.clear();
-                let mut ends = [0usize; 3];
-                for (k, r) in ranges.into_iter().enumerate() {
-                    scratch.edges.extend(r);
-                    ends[k] = scratch.edges.len();
-                }
-                scratch.interior.clear();
-                scratch.interior.push(interior);
-                let (a, rest) = scratch.edges.split_at(ends[0]);
-                let (b, c) = rest.split_at(ends[1] - ends[0]);
-                LocalMap {
-                    corner: [0, 1, 2],
-                    edges: [a, b, c],
-                    interior: &scratch.interior,
-                }
-            }
+            Some(_) => self.local_map_adaptive(p, scratch),
+        }
+    }
+
+    /// [`local_map`](Self::local_map) of a patch of a non-uniform plan, into `scratch`.
+    fn local_map_adaptive<'s>(&self, p: usize, scratch: &'s mut LocalScratch) -> LocalMap<'s> {
+        let (e, inner) = self.patch_levels(p);
+        let (ranges, interior) = layout::local_edges(e, inner);
+        scratch.edges.clear();
+        let mut ends = [0usize; 3];
+        for (k, r) in ranges.into_iter().enumerate() {
+            scratch.edges.extend(r);
+            ends[k] = scratch.edges.len();
+        }
+        scratch.interior.clear();
+        scratch.interior.push(interior);
+        let (a, rest) = scratch.edges.split_at(ends[0]);
+        let (b, c) = rest.split_at(ends[1] - ends[0]);
+        LocalMap {
+            corner: [0, 1, 2],
+            edges: [a, b, c],
+            interior: &scratch.interior,
         }
     }
 
@@ -514,23 +579,21 @@ impl StitchPlan {
             pos.resize(len, NONE);
         }
         let map = self.local_map(p, scratch);
-        let tri = self.tris[p];
-        for (k, &v) in tri.iter().enumerate() {
+        for k in 0..3 {
             let g = map.corner[k] as usize;
             rec[g] = self.corner_rec[3 * p + k];
-            pos[g] = self.vertex_pos[v as usize];
+            pos[g] = self.corner_pos[3 * p + k];
         }
         for k in 0..3 {
             let u = 3 * p + k;
-            let e = self.use_edge[u] as usize;
-            let (r0, p0) = (self.use_rec[u], self.edge_pos[e]);
+            let (r0, p0) = (self.use_rec[u], self.use_pos[u]);
             let eg = map.edges[k];
             // Canonical sample m (1..n) lies at step n − m on a reversed use.
             let mut put = |m: u32, g: u32| {
                 rec[g as usize] = r0 + m;
                 pos[g as usize] = p0 + m;
             };
-            if self.use_rev[u] {
+            if self.use_flags[u] & REV != 0 {
                 eg.iter().rev().zip(0..).for_each(|(&g, m)| put(m, g));
             } else {
                 eg.iter().zip(0..).for_each(|(&g, m)| put(m, g));
@@ -667,15 +730,13 @@ impl<V> StitchSink<V> for CountingSink {
     }
 }
 
-/// Patches whose output is built in parallel before the sink sees them in order (bounds
-/// the stitcher's buffers): 32, fewer at high levels, so that a batch holds about 2^18
-/// grid points (one patch at least).
+/// Most patches of the grid of `level` whose output the stitcher builds in parallel
+/// before the sink sees them in order (a run; it holds two, the one the sink reads and the
+/// one built meanwhile): a run holds at most `STAGE_SAMPLES` (2^14) grid points, one patch
+/// at least.
 pub fn batch_patches(level: u32) -> usize {
-    (BATCH_POINTS / grid_len(level).max(1)).clamp(1, 32)
+    (STAGE_SAMPLES / grid_len(level).max(1)).max(1)
 }
-
-/// Grid points a batch of patches aims at ([`batch_patches`]).
-const BATCH_POINTS: usize = 1 << 18;
 
 /// What a stitched evaluation holds while it streams ([`memory_estimate`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -753,461 +814,6 @@ pub fn memory_estimate(
         store_bytes: store_points.saturating_mul(sample_bytes),
         chunk_bytes,
         batch_bytes,
-    }
-}
-
-/// One patch's output, built in parallel, handed to the sink in order. `records` and
-/// `new_positions` keep the length of the patch's samples (a patch never has more), filled
-/// up to `nrec` and `npos`, so nothing is cleared or reallocated between patches of one
-/// size.
-struct PatchBuf<V> {
-    new_positions: Vec<V>,
-    npos: usize,
-    records: Vec<VertexRecord<V>>,
-    nrec: usize,
-    triangles: Vec<[u32; 3]>,
-    position_triangles: Vec<[u32; 3]>,
-    grid_positions: Vec<V>,
-    local_rec: Vec<u32>,
-    local_pos: Vec<u32>,
-    /// A non-uniform patch's own triangles (sample indices) and local map.
-    local_triangles: Vec<[u32; 3]>,
-    scratch: LocalScratch,
-    snap: f64,
-    /// Attributes of the new records; a non-uniform patch's barycentric coordinates.
-    attributes: Vec<RecordAttributes>,
-    bary: Vec<[f64; 3]>,
-}
-
-impl<V> Default for PatchBuf<V> {
-    fn default() -> Self {
-        PatchBuf {
-            new_positions: Vec::new(),
-            npos: 0,
-            records: Vec::new(),
-            nrec: 0,
-            triangles: Vec::new(),
-            position_triangles: Vec::new(),
-            grid_positions: Vec::new(),
-            local_rec: Vec::new(),
-            local_pos: Vec::new(),
-            local_triangles: Vec::new(),
-            scratch: LocalScratch::default(),
-            snap: 0.0,
-            attributes: Vec::new(),
-            bary: Vec::new(),
-        }
-    }
-}
-
-/// Turns the chunks of an evaluation into stitched output, patch by patch.
-///
-/// Each chunk is stitched in three passes: the owners of vertices and edges in the chunk
-/// store their samples (in patch order, a few per patch); every patch's output is then
-/// built in parallel (rayon), a batch of patches ([`batch_patches`]) at a time, reading
-/// shared samples from the store; the sink receives each batch's patches in order, on the
-/// calling thread, while the thread pool builds the next batch. A uniform plan takes the
-/// chunks of a [`Pattern::Grid`] evaluation ([`push_chunk`](Self::push_chunk)); any plan
-/// takes runs of whole patches in their sample order ([`push_patches`](Self::push_patches)).
-pub struct Stitcher<'a, V = DVec3> {
-    plan: &'a StitchPlan,
-    store: Vec<V>,
-    next_patch: usize,
-    /// Largest distance between a patch's own evaluation of a shared point and the shared
-    /// position it was mapped onto (0 for the owner; rounding for a surface whose patches
-    /// meet; the size of the crack otherwise).
-    pub max_snap: f64,
-    grid: Vec<[u32; 3]>,
-    bufs: Vec<PatchBuf<V>>,
-    offsets: Vec<usize>,
-    scratch: LocalScratch,
-    /// Barycentric coordinates of the grid (uniform plans with attributes).
-    grid_bary: Vec<[f64; 3]>,
-}
-
-impl<'a, V: Vector> Stitcher<'a, V> {
-    pub fn new(plan: &'a StitchPlan) -> Stitcher<'a, V> {
-        Stitcher {
-            plan,
-            store: vec![V::NAN; plan.store_len()],
-            next_patch: 0,
-            max_snap: 0.0,
-            grid: if plan.is_uniform() {
-                grid_triangles(plan.level)
-            } else {
-                Vec::new()
-            },
-            bufs: Vec::new(),
-            offsets: Vec::new(),
-            scratch: LocalScratch::default(),
-            grid_bary: if plan.is_uniform() && plan.has_attributes() {
-                crate::eval::grid_barycentrics(plan.level)
-            } else {
-                Vec::new()
-            },
-        }
-    }
-
-    /// All patches seen.
-    pub fn is_complete(&self) -> bool {
-        self.next_patch == self.plan.patches()
-    }
-
-    /// Consumes one chunk of a [`Pattern::Grid`] evaluation at the plan's level (chunks
-    /// must arrive in patch order; uniform plans only).
-    pub fn push_chunk(&mut self, chunk: &Chunk<'_, V>, sink: &mut dyn StitchSink<V>) -> Result<()> {
-        let plan = self.plan;
-        let per = grid_len(plan.level);
-        if !plan.is_uniform()
-            || chunk.first != self.next_patch
-            || !chunk.positions.len().is_multiple_of(per)
-            || chunk.normals.len() != chunk.positions.len()
-            || chunk.first + chunk.positions.len() / per > plan.patches()
-        {
-            return Err(Error::Invalid(format!(
-                "stitching: chunk at patch {} with {} samples does not continue patch {} of {} (grid of {per}{})",
-                chunk.first,
-                chunk.positions.len(),
-                self.next_patch,
-                plan.patches(),
-                if plan.is_uniform() { "" } else { "; the plan has per-edge levels" }
-            )));
-        }
-        let count = chunk.positions.len() / per;
-        self.offsets.clear();
-        self.offsets.extend((0..=count).map(|j| j * per));
-        self.push_run(chunk.positions, chunk.normals, sink)
-    }
-
-    /// Consumes the samples of whole patches, from patch `first` on (the next one), each
-    /// in its sample order ([`StitchPlan::patch_points`]): what a [`Pattern::Points`]
-    /// evaluation of those points gives.
-    pub fn push_patches(
-        &mut self,
-        first: usize,
-        positions: &[V],
-        normals: &[V],
-        sink: &mut dyn StitchSink<V>,
-    ) -> Result<()> {
-        let plan = self.plan;
-        self.offsets.clear();
-        self.offsets.push(0);
-        let mut p = first;
-        let mut end = 0;
-        while end < positions.len() && p < plan.patches() {
-            end += plan.patch_len(p);
-            self.offsets.push(end);
-            p += 1;
-        }
-        if first != self.next_patch || end != positions.len() || normals.len() != end {
-            return Err(Error::Invalid(format!(
-                "stitching: {} samples from patch {first} are not whole patches continuing patch {} of {}",
-                positions.len(),
-                self.next_patch,
-                plan.patches()
-            )));
-        }
-        self.push_run(positions, normals, sink)
-    }
-
-    /// Stitches the patches from `next_patch` whose samples lie at `offsets`.
-    fn push_run(
-        &mut self,
-        positions: &[V],
-        normals: &[V],
-        sink: &mut dyn StitchSink<V>,
-    ) -> Result<()> {
-        let plan = self.plan;
-        let first = self.next_patch;
-        let count = self.offsets.len() - 1;
-        let offsets = std::mem::take(&mut self.offsets);
-        let at = |j: usize| offsets[j]..offsets[j + 1];
-        // Owners store their shared samples, in patch order.
-        for j in 0..count {
-            self.store_owned(first + j, &positions[at(j)]);
-        }
-        let needs = sink.needs();
-        let batch = batch_patches(plan.level).min(count.max(1));
-        // Two sets of buffers: the sink reads one batch while the next is built (the
-        // second holds the largest batch after the first).
-        let sets = (2 * batch).min(count).max(batch);
-        if self.bufs.len() < sets {
-            self.bufs.resize_with(sets, PatchBuf::default);
-        }
-        let (store, grid, grid_bary) = (&self.store, &self.grid, &self.grid_bary);
-        let build_batch = |start: usize, len: usize, bufs: &mut [PatchBuf<V>]| {
-            let build = |(j, buf): (usize, &mut PatchBuf<V>)| {
-                let k = start + j;
-                build_patch(
-                    plan,
-                    store,
-                    grid,
-                    first + k,
-                    &positions[at(k)],
-                    &normals[at(k)],
-                    needs,
-                    buf,
-                );
-                if let Some(attrs) = &plan.attrs {
-                    build_attributes(plan, attrs, grid_bary, first + k, buf);
-                }
-            };
-            let bufs = &mut bufs[..len];
-            if len > 1 {
-                bufs.par_iter_mut().enumerate().for_each(build);
-            } else {
-                bufs.iter_mut().enumerate().for_each(build);
-            }
-        };
-        let max_snap = &mut self.max_snap;
-        let (cur, next) = self.bufs.split_at_mut(batch);
-        // The sink reads each batch, in patch order, while the pool builds the next.
-        let result = crate::pipelined::double_buffered(
-            cur,
-            next,
-            count,
-            batch,
-            build_batch,
-            |start, len, ready| {
-                for (j, buf) in ready[..len].iter().enumerate() {
-                    *max_snap = max_snap.max(buf.snap);
-                    sink.patch(&PatchOut {
-                        patch: first + start + j,
-                        new_positions: &buf.new_positions[..buf.npos],
-                        new_records: &buf.records[..buf.nrec],
-                        new_attributes: if plan.attrs.is_some() {
-                            &buf.attributes
-                        } else {
-                            &[]
-                        },
-                        triangles: &buf.triangles,
-                        position_triangles: &buf.position_triangles,
-                        grid_positions: &buf.grid_positions,
-                        grid_triangles: if plan.is_uniform() {
-                            grid
-                        } else {
-                            &buf.local_triangles
-                        },
-                    })?;
-                }
-                Ok(())
-            },
-        );
-        self.offsets = offsets;
-        result?;
-        self.next_patch = first + count;
-        Ok(())
-    }
-
-    /// Stores the samples patch `p` owns (its first uses of vertices and edges).
-    fn store_owned(&mut self, p: usize, pos: &[V]) {
-        let plan = self.plan;
-        let map = plan.local_map(p, &mut self.scratch);
-        for (k, &vk) in plan.tris[p].iter().enumerate() {
-            if plan.vertex_owner[vk as usize] == p as u32 {
-                self.store[vk as usize] = pos[map.corner[k] as usize];
-            }
-        }
-        for k in 0..3 {
-            let u = 3 * p + k;
-            let e = plan.use_edge[u];
-            if plan.edge_owner[e as usize] == u as u32 {
-                let eg = map.edges[k];
-                let s0 = plan.edge_slot(e, 1);
-                let dst = &mut self.store[s0..s0 + eg.len()];
-                if plan.use_rev[u] {
-                    for (d, &g) in dst.iter_mut().zip(eg.iter().rev()) {
-                        *d = pos[g as usize];
-                    }
-                } else {
-                    for (d, &g) in dst.iter_mut().zip(eg) {
-                        *d = pos[g as usize];
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// Builds patch `p`'s output into `buf` (its shared samples already in `store`).
-#[allow(clippy::too_many_arguments)]
-fn build_patch<V: Vector>(
-    plan: &StitchPlan,
-    store: &[V],
-    grid: &[[u32; 3]],
-    p: usize,
-    pos: &[V],
-    nrm: &[V],
-    needs: Needs,
-    buf: &mut PatchBuf<V>,
-) {
-    let per = pos.len();
-    if buf.records.len() != per {
-        let blank = VertexRecord {
-            position: V::NAN,
-            normal: V::NAN,
-            position_id: NONE,
-        };
-        buf.records.clear();
-        buf.records.resize(per, blank);
-    }
-    if needs.positions && buf.new_positions.len() != per {
-        buf.new_positions.clear();
-        buf.new_positions.resize(per, V::NAN);
-    }
-    buf.grid_positions.clear();
-    if needs.grid_positions {
-        buf.grid_positions.extend_from_slice(pos);
-    }
-    let (mut nrec, mut npos) = (0, 0);
-    let records = &mut buf.records[..];
-    let new_positions = &mut buf.new_positions[..];
-    let grid_positions = &mut buf.grid_positions[..];
-    let map = plan.local_map(p, &mut buf.scratch);
-    // Largest squared snap distance.
-    let mut snap2 = 0f64;
-    // Sample g (position id `pid`) maps onto the shared sample q.
-    let mut visit = |g: usize, q: V, pid: u32, owner: bool, new_rec: bool| {
-        if owner {
-            if needs.positions {
-                new_positions[npos] = q;
-                npos += 1;
-            }
-        } else {
-            snap2 = snap2.max(pos[g].to_dvec3().distance_squared(q.to_dvec3()));
-        }
-        if needs.grid_positions {
-            grid_positions[g] = q;
-        }
-        if new_rec {
-            records[nrec] = VertexRecord {
-                position: q,
-                normal: nrm[g],
-                position_id: pid,
-            };
-            nrec += 1;
-        }
-    };
-    for (k, &vk) in plan.tris[p].iter().enumerate() {
-        let v = vk as usize;
-        visit(
-            map.corner[k] as usize,
-            store[v],
-            plan.vertex_pos[v],
-            plan.vertex_owner[v] == p as u32,
-            plan.corner_new_rec[3 * p + k],
-        );
-    }
-    for k in 0..3 {
-        let u = 3 * p + k;
-        let e = plan.use_edge[u];
-        let owner = plan.edge_owner[e as usize] == u as u32;
-        let new_rec = plan.use_new_rec[u];
-        let eg = map.edges[k];
-        let s0 = plan.edge_slot(e, 1);
-        let shared = &store[s0..s0 + eg.len()];
-        let pid0 = plan.edge_pos[e as usize];
-        // Canonical sample m (1..n) lies at step n − m on a reversed use.
-        if plan.use_rev[u] {
-            for ((&q, &g), pid) in shared.iter().zip(eg.iter().rev()).zip(pid0..) {
-                visit(g as usize, q, pid, owner, new_rec);
-            }
-        } else {
-            for ((&q, &g), pid) in shared.iter().zip(eg).zip(pid0..) {
-                visit(g as usize, q, pid, owner, new_rec);
-            }
-        }
-    }
-    buf.snap = snap2.sqrt();
-    let mut id = plan.interior_pos[p];
-    for row in map.interior {
-        let len = row.len();
-        if needs.positions {
-            new_positions[npos..npos + len].copy_from_slice(&pos[row.clone()]);
-            npos += len;
-        }
-        let out = &mut records[nrec..nrec + len];
-        // Field by field: a whole-record store goes through the stack, and the misaligned
-        // reload stalls store forwarding on every sample.
-        for ((r, position), normal) in out.iter_mut().zip(&pos[row.clone()]).zip(&nrm[row.clone()])
-        {
-            r.position = *position;
-            r.normal = *normal;
-            r.position_id = id;
-            id += 1;
-        }
-        nrec += len;
-    }
-    buf.nrec = nrec;
-    buf.npos = npos;
-    buf.triangles.clear();
-    buf.position_triangles.clear();
-    let tris: &[[u32; 3]] = if plan.is_uniform() {
-        grid
-    } else {
-        buf.local_triangles.clear();
-        if needs.triangles || needs.grid_positions {
-            plan.patch_local_triangles(p, &mut buf.local_triangles);
-        }
-        &buf.local_triangles
-    };
-    if needs.triangles {
-        plan.local_ids_with(p, &mut buf.local_rec, &mut buf.local_pos, &mut buf.scratch);
-        let (rec, pid) = (&buf.local_rec, &buf.local_pos);
-        buf.triangles
-            .extend(tris.iter().map(|t| t.map(|i| rec[i as usize])));
-        buf.position_triangles
-            .extend(tris.iter().map(|t| t.map(|i| pid[i as usize])));
-    }
-}
-
-/// Builds the attributes of patch `p`'s new records into `buf.attributes`, in record order
-/// (corners, edge uses in canonical order, interior), each interpolated at its sample's
-/// barycentric coordinates in patch `p` (`grid_bary` for a uniform plan).
-fn build_attributes<V>(
-    plan: &StitchPlan,
-    attrs: &CornerAttributes,
-    grid_bary: &[[f64; 3]],
-    p: usize,
-    buf: &mut PatchBuf<V>,
-) {
-    let bary: &[[f64; 3]] = if plan.is_uniform() {
-        grid_bary
-    } else {
-        buf.bary.clear();
-        plan.patch_points(p, &mut buf.bary);
-        &buf.bary
-    };
-    let uv = attrs.uvs.as_ref().map(|u| &u[p]);
-    let color = attrs.colors.as_ref().map(|c| &c[p]);
-    let at = |g: u32| {
-        let b = bary[g as usize];
-        RecordAttributes {
-            uv: uv.map_or([0.0; 2], |u| interpolate(u, b)),
-            color: color.map_or([0.0; 4], |c| interpolate(c, b)),
-        }
-    };
-    let out = &mut buf.attributes;
-    out.clear();
-    let map = plan.local_map(p, &mut buf.scratch);
-    for k in 0..3 {
-        if plan.corner_new_rec[3 * p + k] {
-            out.push(at(map.corner[k]));
-        }
-    }
-    for k in 0..3 {
-        let u = 3 * p + k;
-        if plan.use_new_rec[u] {
-            // Canonical sample m (1..n) lies at step n − m on a reversed use.
-            if plan.use_rev[u] {
-                out.extend(map.edges[k].iter().rev().map(|&g| at(g)));
-            } else {
-                out.extend(map.edges[k].iter().map(|&g| at(g)));
-            }
-        }
-    }
-    for row in map.interior {
-        out.extend(row.clone().map(|g| at(g as u32)));
     }
 }
 
@@ -1348,20 +954,10 @@ pub fn stitch_into<V: Vector>(
             plan.patches()
         )));
     }
-    let mut stitcher = Stitcher::<V>::new(plan);
+    let mut stitcher = Stitcher::<V>::new(plan, sink.needs());
     progress.start("evaluating", plan.patches() as u64);
     if plan.is_uniform() {
-        let per = grid_len(plan.level);
-        V::evaluate(
-            evaluator,
-            table,
-            &Pattern::Grid { level: plan.level },
-            &mut |chunk| {
-                stitcher.push_chunk(&chunk, sink)?;
-                progress.inc((chunk.positions.len() / per) as u64);
-                Ok(())
-            },
-        )?;
+        stitcher.run_grid(evaluator, table, sink, progress)?;
     } else {
         let mut run = PatchRuns::new(plan);
         let (mut pos, mut nrm) = (Vec::new(), Vec::new());
@@ -1386,7 +982,7 @@ pub fn stitch_into<V: Vector>(
             "stitching: the evaluator did not deliver every patch".into(),
         ));
     }
-    Ok(stitcher.max_snap)
+    Ok(stitcher.max_snap())
 }
 
 /// Stitches the whole grid evaluation of `level` in memory, in precision `V`.

@@ -344,8 +344,10 @@ fn memory_estimate_counts_the_store_and_bounds_batches() {
     // Level 8: 45 points per patch, all 320 patches in one chunk of 14400 samples,
     // positions and normals, twice.
     assert_eq!(m.chunk_bytes, 14400 * 2 * 2 * 12);
-    // Batches: 32 patches at ordinary levels, one at level 5000 (12.5 M points).
-    assert_eq!(batch_patches(32), 32);
+    // Runs of at most 2^14 grid points: 29 patches of 561 points at level 32, 364 of 45
+    // at level 8, one at level 5000 (12.5 M points).
+    assert_eq!(batch_patches(32), 29);
+    assert_eq!(batch_patches(8), 364);
     assert_eq!(batch_patches(5000), 1);
     // Absurd levels saturate instead of wrapping.
     let huge = memory_estimate(3, 3, 1, u32::MAX, 24, 1 << 22, Needs::ALL);

@@ -12,17 +12,21 @@ use crate::cli::TEMP_FILES;
 use crate::eval::cpu::{CpuEvaluator, F32Kernel};
 use crate::eval::grid_len;
 use crate::io::writers::{ply_file_bytes, write_stitched, MeshFormat};
-use crate::mesh::{LoadOptions, Mesh};
+use crate::mesh::{Adjacency, LoadOptions, Mesh};
+use crate::patch::repair::repair_line;
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 use crate::progress::NoProgress;
-use crate::tess::stitch::{stitch_into, CountingSink, StitchPlan};
+use crate::tess::stitch::{stitch_into, CountingSink, Needs, StitchPlan};
 
 /// One end-to-end measurement.
 #[derive(Clone, Debug, Serialize)]
 pub struct EndToEndRow {
-    /// What was timed: "tessellate_memory", "tessellate_ply_file", "plain_write",
-    /// "piped_write", "load_obj", "count_words", "wc_w", "stats".
+    /// What was timed: "tessellate_setup", "tessellate_eval", "tessellate_setup_eval"
+    /// (once per level of `--memory-levels`), "tessellate_memory", "tessellate_ply_file",
+    /// "plain_write", "piped_write", "load_obj", "count_words", "wc_w", "stats".
     pub step: String,
+    /// Grid level of a tessellation row (none for the others).
+    pub level: Option<u32>,
     /// How, in words.
     pub what: String,
     pub seconds: f64,
@@ -60,6 +64,8 @@ pub struct EndToEndReport {
     pub triangles: usize,
     pub scheme: String,
     pub tess_level: u32,
+    /// Levels of the rows with set-up and evaluation apart.
+    pub memory_levels: Vec<u32>,
     pub stats_level: u32,
     /// Triangles of the mesh given to stats and loaded from OBJ.
     pub stats_triangles: usize,
@@ -192,8 +198,13 @@ fn best_of(
 
 /// `bench --end-to-end`: the commands a user runs, timed in one process on the first mesh
 /// (default the bunny) with the first scheme (default G1), CPU backend:
-/// - `tessellate_memory`: f32 grid kernel → stitcher in f32 → a sink that keeps nothing
-///   (best of 2);
+/// - at each of `--memory-levels` (4, 8, 16): `tessellate_setup`, what `tessellate`
+///   builds before it evaluates (patch table, the certificate of its fold warning,
+///   adjacency, stitch plan; once), `tessellate_eval`, the evaluation into memory (f32 grid
+///   kernel → stitcher in f32 → a sink that keeps nothing; best of 2), and
+///   `tessellate_setup_eval`, their sum;
+/// - `tessellate_memory`: the evaluation into memory at `--tess-level` (best of 2; the
+///   `tessellate_eval` measurement where that level is one of `--memory-levels`);
 /// - `tessellate_ply_file`: the same into a binary PLY file (atomic write, fsync), beside
 ///   `plain_write` of the same byte count and `piped_write` (the same bytes through the
 ///   writers' own output path, nothing computed); the three alternate, plain first, best of
@@ -226,8 +237,15 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
 
     let budget = a.memory.budget();
     let mesh = load_mesh(spec)?;
-    let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default())?;
-    let adjacency = mesh.adjacency();
+    let levels = time_memory_levels(&mesh, scheme, &cpu, &budget, &a.memory_levels, &say)?;
+    rows.0.extend(levels.rows);
+    let (table, adjacency) = match levels.built {
+        Some(built) => built,
+        None => (
+            PatchTable::build(&mesh, scheme, &SchemeOptions::default())?,
+            mesh.adjacency(),
+        ),
+    };
     let level = a.tess_level;
     let (need, _, _) = tessellation_need(
         &mesh,
@@ -241,27 +259,36 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
     let plan = StitchPlan::new(&mesh, &adjacency, level)?;
     let samples = (grid_len(level) * table.len()) as u64;
 
-    say(&format!(
-        "tessellate {} level {level} into memory",
-        mesh.name
-    ));
-    let memory = best_of(2, || {
-        let mut sink = CountingSink::default();
-        stitch_into::<[f32; 3]>(&plan, &table, &cpu, &mut sink, &NoProgress)?;
-        anyhow::ensure!(sink.records == plan.records, "stitching lost records");
-        Ok(())
-    })?;
+    // The evaluation of this level, where a row of `--memory-levels` measured it.
+    let measured = levels.evals.iter().find(|e| e.0 == level).map(|e| e.1);
+    let memory = match measured {
+        Some(t) => t,
+        None => {
+            say(&format!(
+                "tessellate {} level {level} into memory",
+                mesh.name
+            ));
+            time_evaluation(&plan, &table, &cpu)?
+        }
+    };
     rows.push(
         "tessellate_memory",
         format!(
-            "f32 kernel -> stitcher (f32) -> sink keeping nothing; {} positions, {} records",
-            plan.positions, plan.records
+            "f32 kernel -> stitcher (f32) -> sink keeping nothing; {} positions, {} records{}",
+            plan.positions,
+            plan.records,
+            if measured.is_some() {
+                " (the measurement of row tessellate_eval of this level)"
+            } else {
+                ""
+            }
         ),
         memory,
         Some(samples),
         None,
         None,
-    );
+    )
+    .level = Some(level);
 
     say("plain writes alternating with tessellations into a binary PLY file");
     let bytes = ply_file_bytes(&plan, "bench");
@@ -273,7 +300,8 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
         Some(samples),
         Some(bytes),
         Some(writes.plain.0),
-    );
+    )
+    .level = Some(level);
     rows.push(
         "plain_write",
         "the same byte count in 1 MiB blocks, fsync; best of 2, alternating with the others".into(),
@@ -325,6 +353,7 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
         triangles: mesh.triangles.len(),
         scheme: scheme.to_string(),
         tess_level: level,
+        memory_levels: a.memory_levels.clone(),
         stats_level: a.stats_level,
         stats_triangles: big.triangles.len(),
         rows: rows.0,
@@ -340,6 +369,149 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
 /// Wall and CPU seconds of a step (see [`timed`]).
 type WallCpu = (f64, Option<f64>);
 
+/// The best of 2 evaluations of `plan` into memory: the f32 kernel → the stitcher in f32
+/// → a sink that keeps nothing ([`CountingSink`]).
+fn time_evaluation(
+    plan: &StitchPlan,
+    table: &PatchTable,
+    cpu: &CpuEvaluator,
+) -> anyhow::Result<WallCpu> {
+    best_of(2, || {
+        let mut sink = CountingSink::default();
+        stitch_into::<[f32; 3]>(plan, table, cpu, &mut sink, &NoProgress)?;
+        anyhow::ensure!(sink.records == plan.records, "stitching lost records");
+        Ok(())
+    })
+}
+
+/// What `tessellate` builds before it evaluates a uniform level: the patch table (G1's
+/// construction included), the validity certificate behind its fold warning
+/// ([`repair_line`], which counts the verdicts of every patch), the adjacency and, after
+/// the memory check, the stitch plan of `level`; with the seconds of each of the four.
+struct SetUp {
+    table: PatchTable,
+    adjacency: Adjacency,
+    plan: StitchPlan,
+    parts: [f64; 4],
+}
+
+impl SetUp {
+    fn build(
+        mesh: &Mesh,
+        scheme: Scheme,
+        level: u32,
+        budget: &crate::cli::common::Budget,
+    ) -> anyhow::Result<SetUp> {
+        let t = Instant::now();
+        let table = PatchTable::build(mesh, scheme, &SchemeOptions::default())?;
+        let t_table = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        std::hint::black_box(repair_line(&mesh.name, &table, None));
+        let t_certificate = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let adjacency = mesh.adjacency();
+        let t_adjacency = t.elapsed().as_secs_f64();
+        let (need, _, _) = tessellation_need(
+            mesh,
+            adjacency.edges.len(),
+            table.stride,
+            level,
+            Needs::RECORDS,
+            (0, 0),
+        );
+        budget.check("bench", &format!("--memory-levels {level}"), need, "")?;
+        let t = Instant::now();
+        let plan = StitchPlan::new(mesh, &adjacency, level)?;
+        let t_plan = t.elapsed().as_secs_f64();
+        Ok(SetUp {
+            table,
+            adjacency,
+            plan,
+            parts: [t_table, t_certificate, t_adjacency, t_plan],
+        })
+    }
+}
+
+/// The rows of [`time_memory_levels`], the evaluation time of each level, and the table
+/// and adjacency of the last level's set-up (for the rows that follow).
+struct MemoryLevels {
+    rows: Vec<EndToEndRow>,
+    evals: Vec<(u32, WallCpu)>,
+    built: Option<(PatchTable, Adjacency)>,
+}
+
+/// For each of `levels`, a tessellation of `mesh` into memory as `tessellate` runs it,
+/// set-up and evaluation apart: `tessellate_setup` ([`SetUp`], once: a fresh run's
+/// figure), `tessellate_eval` ([`time_evaluation`], best of 2) and `tessellate_setup_eval`
+/// (the sum of the two), each with the level's grid samples.
+fn time_memory_levels(
+    mesh: &Mesh,
+    scheme: Scheme,
+    cpu: &CpuEvaluator,
+    budget: &crate::cli::common::Budget,
+    levels: &[u32],
+    say: &dyn Fn(&str),
+) -> anyhow::Result<MemoryLevels> {
+    let mut out = MemoryLevels {
+        rows: Vec::new(),
+        evals: Vec::new(),
+        built: None,
+    };
+    let mut rows = EndToEndRows::default();
+    for &level in levels {
+        say(&format!(
+            "tessellate {} level {level} into memory: set-up, evaluation",
+            mesh.name
+        ));
+        let mut built = None;
+        let setup = timed(|| {
+            built = Some(SetUp::build(mesh, scheme, level, budget)?);
+            Ok(())
+        })?;
+        let s = built.expect("built in the timed step");
+        let eval = time_evaluation(&s.plan, &s.table, cpu)?;
+        let samples = Some((grid_len(level) * s.table.len()) as u64);
+        let [table, certificate, adjacency, plan] = s.parts;
+        rows.push(
+            "tessellate_setup",
+            format!(
+                "patch table {table:.3} s (G1 construction included), certificate {certificate:.3} s (the fold warning's count), adjacency {adjacency:.3} s, stitch plan {plan:.3} s; once"
+            ),
+            setup,
+            samples,
+            None,
+            None,
+        )
+        .level = Some(level);
+        rows.push(
+            "tessellate_eval",
+            format!(
+                "f32 kernel -> stitcher (f32) -> sink keeping nothing; {} positions, {} records; best of 2",
+                s.plan.positions, s.plan.records
+            ),
+            eval,
+            samples,
+            None,
+            None,
+        )
+        .level = Some(level);
+        let both = (setup.0 + eval.0, setup.1.zip(eval.1).map(|(a, b)| a + b));
+        rows.push(
+            "tessellate_setup_eval",
+            "tessellate_setup + tessellate_eval: into memory from a loaded mesh".into(),
+            both,
+            samples,
+            None,
+            None,
+        )
+        .level = Some(level);
+        out.evals.push((level, eval));
+        out.built = Some((s.table, s.adjacency));
+    }
+    out.rows = rows.0;
+    Ok(out)
+}
+
 /// The rows of the end-to-end report, in the order measured.
 #[derive(Default)]
 struct EndToEndRows(Vec<EndToEndRow>);
@@ -354,9 +526,10 @@ impl EndToEndRows {
         samples: Option<u64>,
         bytes: Option<u64>,
         baseline: Option<f64>,
-    ) {
+    ) -> &mut EndToEndRow {
         self.0.push(EndToEndRow {
             step: step.into(),
+            level: None,
             what,
             seconds,
             cpu_seconds,
@@ -366,6 +539,7 @@ impl EndToEndRows {
             mb_per_s: bytes.map(|b| b as f64 / seconds / 1e6),
             ratio_to_baseline: baseline.map(|b| seconds / b),
         });
+        self.0.last_mut().expect("a row was pushed")
     }
 }
 
@@ -523,8 +697,8 @@ pub fn end_to_end_text(r: &EndToEndReport) -> String {
     let m = &r.machine;
     let mut s = format!(
         "machine: {} · {} CPUs, {} threads · {} · CPU kernel {} · files in {}\n\
-         mesh: {} ({} triangles), scheme {}, tessellation level {}; stats and OBJ: level {} ({} triangles)\n\n\
-         | step | seconds | CPU s | M samples/s | MB/s | × baseline | what |\n|---|---|---|---|---|---|---|\n",
+         mesh: {} ({} triangles), scheme {}, tessellation level {} (into memory also at {}); stats and OBJ: level {} ({} triangles)\n\n\
+         | step | level | seconds | CPU s | M samples/s | MB/s | × baseline | what |\n|---|---|---|---|---|---|---|---|\n",
         m.cpu,
         m.cpus,
         m.threads,
@@ -535,6 +709,11 @@ pub fn end_to_end_text(r: &EndToEndReport) -> String {
         r.triangles,
         r.scheme,
         r.tess_level,
+        r.memory_levels
+            .iter()
+            .map(|l| l.to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
         r.stats_level,
         r.stats_triangles
     );
@@ -543,8 +722,9 @@ pub fn end_to_end_text(r: &EndToEndReport) -> String {
     };
     for row in &r.rows {
         s += &format!(
-            "| {} | {:.3} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {:.3} | {} | {} | {} | {} | {} |\n",
             row.step,
+            row.level.map_or("–".to_string(), |l| l.to_string()),
             row.seconds,
             opt(row.cpu_seconds, 1.0, 2),
             opt(row.samples_per_s, 1e6, 1),

@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use super::CpuEvaluator;
 #[cfg(doc)] // links in the documentation
 use crate::eval::Evaluator;
-use crate::eval::{grid_barycentrics, grid_corners, Chunk, ChunkF32};
+use crate::eval::{grid_barycentrics, grid_corners, Chunk, ChunkF32, STAGE_SAMPLES};
 use crate::patch::PatchTable;
 use crate::Result;
 
@@ -532,9 +532,16 @@ fn run_patches_f32(
             let c = table.patch(i);
             let o = c[0];
             let mut cp = [[0f32; 3]; crate::patch::basis::MAX_POINTS];
-            for (j, x) in c.iter().enumerate() {
-                let v = if j < g.geometry { *x - o } else { *x };
-                cp[j] = [v.x as f32, v.y as f32, v.z as f32];
+            // Geometry relative to the first point, the normal field as it is: two loops
+            // without a branch per point.
+            let (geometry, field) = c.split_at(g.geometry.min(c.len()));
+            let (cp_geometry, cp_field) = cp.split_at_mut(geometry.len());
+            for (d, x) in cp_geometry.iter_mut().zip(geometry) {
+                let v = *x - o;
+                *d = [v.x as f32, v.y as f32, v.z as f32];
+            }
+            for (d, x) in cp_field.iter_mut().zip(field) {
+                *d = [x.x as f32, x.y as f32, x.z as f32];
             }
             let f = table.flat_normals[i];
             let origin = [o.x as f32, o.y as f32, o.z as f32];
@@ -567,11 +574,38 @@ impl CpuEvaluator {
         weights: &GridWeightsF32,
         sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
     ) -> Result<()> {
+        self.grid_f32_chunks(table, weights, PIPELINE_SAMPLES, &mut |_| {}, sink)
+    }
+
+    /// [`Self::grid_f32`] with a stage run on each chunk in the thread-pool job that
+    /// evaluated it, before the sink gets the chunk (see
+    /// [`Evaluator::evaluate_f32_staged`]); chunks of at most `STAGE_SAMPLES` samples, so
+    /// that the chunk and what the stage builds of it stay in the core's cache.
+    pub(crate) fn grid_f32_staged(
+        &self,
+        table: &PatchTable,
+        weights: &GridWeightsF32,
+        stage: &mut (dyn FnMut(ChunkF32<'_>) + Send),
+        sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
+    ) -> Result<()> {
+        self.grid_f32_chunks(table, weights, STAGE_SAMPLES, stage, sink)
+    }
+
+    /// The f32 kernel in chunks of at most `most` samples (and `chunk_samples`; one patch
+    /// at least), each staged in the pool job that evaluated it.
+    fn grid_f32_chunks(
+        &self,
+        table: &PatchTable,
+        weights: &GridWeightsF32,
+        most: usize,
+        stage: &mut (dyn FnMut(ChunkF32<'_>) + Send),
+        sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
+    ) -> Result<()> {
         check_weights(table, weights)?;
         let per = weights.per;
         let kernel = self.f32_kernel;
         let n = table.len();
-        let chunk = self.chunk_samples.min(PIPELINE_SAMPLES);
+        let chunk = self.chunk_samples.min(most);
         let patches_per_chunk = (chunk / per).max(1).min(n.max(1));
         let buffers = |patches: usize| {
             (
@@ -588,21 +622,21 @@ impl CpuEvaluator {
                 0
             }),
         );
-        // The kernel fills the next chunk on the pool while the sink reads this one.
+        // The kernel fills the next chunk on the pool, and the stage takes it there, while
+        // the sink reads this one.
         crate::pipelined::double_buffered(
             &mut cur,
             &mut next,
             n,
             patches_per_chunk,
             |first, count, (p, q)| {
-                run_patches_f32(
-                    table,
-                    weights,
-                    kernel,
+                let (p, q) = (&mut p[..count * per], &mut q[..count * per]);
+                run_patches_f32(table, weights, kernel, first, p, q);
+                stage(Chunk {
                     first,
-                    &mut p[..count * per],
-                    &mut q[..count * per],
-                )
+                    positions: p,
+                    normals: q,
+                })
             },
             |first, count, (p, q)| {
                 sink(Chunk {
