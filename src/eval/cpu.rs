@@ -281,7 +281,7 @@ impl Evaluator for CpuEvaluator {
     }
 
     /// Grids run the stage in the pool job of the f32 kernel that evaluated the chunk;
-    /// point lists stage the chunks of their f64 evaluation ([`staged_chunks`]).
+    /// point lists stage the chunks of their f64 evaluation (`staged_chunks`).
     fn evaluate_f32_staged(
         &self,
         table: &PatchTable,

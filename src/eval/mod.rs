@@ -104,7 +104,7 @@ pub trait Vector: Copy + Send + Sync + PartialEq + std::fmt::Debug + 'static {
     /// [`Vector::evaluate`] with a stage before the sink (see
     /// [`Evaluator::evaluate_f32_staged`]): f32 runs the evaluator's
     /// `evaluate_f32_staged`; the default stages the chunks of [`Vector::evaluate`]
-    /// ([`staged_chunks`]).
+    /// (`staged_chunks`).
     fn evaluate_staged(
         evaluator: &dyn Evaluator,
         table: &PatchTable,
@@ -428,7 +428,7 @@ pub trait Evaluator {
     /// stage k + 1 possibly while the sink reads chunk k. The CPU's grid kernel runs the
     /// stage in the thread-pool job that evaluated the chunk, so the stage's own parallel
     /// work stays on the pool while the calling thread feeds the sink; the default splits
-    /// the chunks of [`Self::evaluate_f32`] ([`staged_chunks`]).
+    /// the chunks of [`Self::evaluate_f32`] (`staged_chunks`).
     fn evaluate_f32_staged(
         &self,
         table: &PatchTable,
