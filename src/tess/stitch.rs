@@ -184,6 +184,27 @@ struct AdaptivePlan {
     block_store: Vec<u32>,
 }
 
+/// The flags, position ids and record ids of `uses` corners or edge uses, `item(u)` each,
+/// filled in parallel in blocks of uses.
+fn fill_uses(
+    uses: usize,
+    item: impl Fn(usize) -> (u8, u32, u32) + Sync,
+) -> (Vec<u8>, Vec<u32>, Vec<u32>) {
+    const BLOCK: usize = 1 << 12;
+    let (mut flags, mut pos, mut rec) = (vec![0u8; uses], vec![0u32; uses], vec![0u32; uses]);
+    flags
+        .par_chunks_mut(BLOCK)
+        .zip(pos.par_chunks_mut(BLOCK))
+        .zip(rec.par_chunks_mut(BLOCK))
+        .enumerate()
+        .for_each(|(i, ((f, p), r))| {
+            for (j, ((f, p), r)) in f.iter_mut().zip(p).zip(r).enumerate() {
+                (*f, *p, *r) = item(i * BLOCK + j);
+            }
+        });
+    (flags, pos, rec)
+}
+
 impl StitchPlan {
     /// Plans the stitched output of `mesh` on the grid of level `level` (≥ 1).
     pub fn new(mesh: &Mesh, adjacency: &Adjacency, level: u32) -> Result<StitchPlan> {
@@ -343,44 +364,25 @@ impl StitchPlan {
         // Every id fits: the caller checked the bound on records.
         let id = |b: &Bases, item: Item| b.base(item) as u32;
         let flag = |yes: bool, f: u8| if yes { f } else { 0 };
-        // One pass over the corners and one over the edge uses, in parallel, each filling
-        // its three arrays in blocks of uses.
-        const BLOCK: usize = 1 << 12;
+        // One pass over the corners and one over the edge uses, in parallel.
         let uses = 3 * self.patches;
-        let (mut flags, mut pos, mut rec) = (vec![0u8; uses], vec![0u32; uses], vec![0u32; uses]);
-        flags
-            .par_chunks_mut(BLOCK)
-            .zip(pos.par_chunks_mut(BLOCK))
-            .zip(rec.par_chunks_mut(BLOCK))
-            .enumerate()
-            .for_each(|(i, ((f, p), r))| {
-                for (j, ((f, p), r)) in f.iter_mut().zip(p).zip(r).enumerate() {
-                    let c = i * BLOCK + j;
-                    *f = flag(positions.makes_corner(c), OWNS)
-                        | flag(records.makes_corner(c), NEW_REC);
-                    *p = id(&pb, positions.corner_item(c));
-                    *r = id(&rb, records.corner_item(c));
-                }
-            });
-        (self.corner_flags, self.corner_pos, self.corner_rec) = (flags, pos, rec);
+        (self.corner_flags, self.corner_pos, self.corner_rec) = fill_uses(uses, |c| {
+            (
+                flag(positions.makes_corner(c), OWNS) | flag(records.makes_corner(c), NEW_REC),
+                id(&pb, positions.corner_item(c)),
+                id(&rb, records.corner_item(c)),
+            )
+        });
         let rev = &numbering.use_rev;
-        let (mut flags, mut pos, mut rec) = (vec![0u8; uses], vec![0u32; uses], vec![0u32; uses]);
-        flags
-            .par_chunks_mut(BLOCK)
-            .zip(pos.par_chunks_mut(BLOCK))
-            .zip(rec.par_chunks_mut(BLOCK))
-            .enumerate()
-            .for_each(|(i, ((f, p), r))| {
-                for (j, ((f, p), r)) in f.iter_mut().zip(p).zip(r).enumerate() {
-                    let u = i * BLOCK + j;
-                    *f = flag(positions.makes_block(u), OWNS)
-                        | flag(records.makes_block(u), NEW_REC)
-                        | flag(rev[u], REV);
-                    *p = id(&pb, positions.block_item(u));
-                    *r = id(&rb, records.block_item(u));
-                }
-            });
-        (self.use_flags, self.use_pos, self.use_rec) = (flags, pos, rec);
+        (self.use_flags, self.use_pos, self.use_rec) = fill_uses(uses, |u| {
+            (
+                flag(positions.makes_block(u), OWNS)
+                    | flag(records.makes_block(u), NEW_REC)
+                    | flag(rev[u], REV),
+                id(&pb, positions.block_item(u)),
+                id(&rb, records.block_item(u)),
+            )
+        });
         let patches = 0..self.patches;
         self.interior_rec = patches
             .clone()
