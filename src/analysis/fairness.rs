@@ -407,11 +407,11 @@ fn energy_density(a: &[DVec3; 5], flat: DVec3) -> Option<f64> {
         return None;
     }
     let (e, f, g) = (su.dot(su), su.dot(sv), sv.dot(sv));
-    // L, M, N times |S_s × S_t|.
+    // L, M, N times w = |S_s × S_t|: 2H = (eN − 2fM + gL) / w³ and K = (LN − M²) / w⁴ in
+    // these, so (4H² − 2K) w = ((eN − 2fM + gL)² − 2w²(LN − M²)) / w⁵.
     let (l, m, n) = (suu.dot(c), suv.dot(c), svv.dot(c));
-    let two_h = (e * n - 2.0 * f * m + g * l) / (w2 * w);
-    let k = (l * n - m * m) / (w2 * w2);
-    let density = (two_h * two_h - 2.0 * k) * w;
+    let two_h = e * n - 2.0 * f * m + g * l;
+    let density = (two_h * two_h - 2.0 * w2 * (l * n - m * m)) / (w2 * w2 * w);
     density.is_finite().then_some(density)
 }
 
@@ -949,6 +949,8 @@ impl EdgeProbe {
 pub struct G2Defect {
     /// Non-crease interior edges measured.
     pub edges: usize,
+    /// Non-crease interior edges left out: a side not certified valid ([`fairness`] only).
+    pub uncertified_edges: usize,
     /// Edge samples measured (21 per edge, less those with a singular side).
     pub samples: usize,
     /// Samples left out: S_s × S_t vanishes on a side.
@@ -995,8 +997,20 @@ const EDGE_BLOCK: usize = 1024;
 /// The G2 defect of `table` (the whole mesh's) over the non-crease interior edges of
 /// `mesh`, at the edge samples of the continuity statistics. Parallel, deterministic.
 pub fn g2_defect(mesh: &Mesh, adjacency: &Adjacency, table: &PatchTable) -> Result<G2Defect> {
+    g2_defect_of(mesh, adjacency, table, None)
+}
+
+/// [`g2_defect`] over the edges whose two patches are certified valid (`verdicts`, where
+/// given); the others are counted in [`G2Defect::uncertified_edges`].
+fn g2_defect_of(
+    mesh: &Mesh,
+    adjacency: &Adjacency,
+    table: &PatchTable,
+    verdicts: Option<&[Verdict]>,
+) -> Result<G2Defect> {
     same_size(mesh, table)?;
     let pattern = edge_pairs(mesh, adjacency);
+    let mut uncertified = 0;
     let edges: Vec<([u32; 2], [EdgeSide; 2])> = adjacency
         .interior_edges()
         .zip(&pattern.pairs)
@@ -1005,6 +1019,12 @@ pub fn g2_defect(mesh: &Mesh, adjacency: &Adjacency, table: &PatchTable) -> Resu
                 normal_key(use_normal(mesh, e.uses[0], x))
                     != normal_key(use_normal(mesh, e.uses[1], x))
             })
+        })
+        .filter(|(_, sides)| {
+            let valid = verdicts
+                .is_none_or(|v| sides.iter().all(|s| v[s.patch as usize] == Verdict::Valid));
+            uncertified += !valid as usize;
+            valid
         })
         .map(|(e, sides)| (e.v, *sides))
         .collect();
@@ -1044,6 +1064,7 @@ pub fn g2_defect(mesh: &Mesh, adjacency: &Adjacency, table: &PatchTable) -> Resu
     };
     Ok(G2Defect {
         edges: edges.len(),
+        uncertified_edges: uncertified,
         samples: total.samples,
         singular_samples: total.singular,
         max: total.max,
@@ -1126,6 +1147,12 @@ impl FairnessReport {
                 self.unresolved_patches, self.unresolved_energy
             ));
         }
+        if g.uncertified_edges > 0 {
+            notes.push(format!(
+                "{} edges beside them left out of the G2 defect",
+                g.uncertified_edges
+            ));
+        }
         if g.singular_samples > 0 {
             notes.push(format!(
                 "{} singular edge samples left out",
@@ -1145,7 +1172,7 @@ impl FairnessReport {
 
 /// The fairness measures of `table` (the whole mesh's patches of one scheme): the bending
 /// energy of its patches certified valid ([`BendingEnergy::total_certified`], the
-/// certificate run here) and its G2 defect ([`g2_defect`]).
+/// certificate run here) and its G2 defect ([`g2_defect`]) across the edges between them.
 pub fn fairness(
     mesh: &Mesh,
     adjacency: &Adjacency,
@@ -1154,7 +1181,8 @@ pub fn fairness(
 ) -> Result<FairnessReport> {
     same_size(mesh, table)?;
     let rule = BendingEnergy::new(table.kind, opts)?;
-    let energy = rule.total_certified(table, &check_table(table))?;
+    let verdicts = check_table(table);
+    let energy = rule.total_certified(table, &verdicts)?;
     Ok(FairnessReport {
         energy: energy.energy,
         uncertified_patches: energy.uncertified_patches,
@@ -1164,7 +1192,7 @@ pub fn fairness(
         rule: RULE,
         subdivisions: opts.subdivisions,
         tolerance: opts.tolerance,
-        g2: g2_defect(mesh, adjacency, table)?,
+        g2: g2_defect_of(mesh, adjacency, table, Some(&verdicts))?,
     })
 }
 
