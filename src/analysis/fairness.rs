@@ -178,17 +178,16 @@ fn monomial2(c: f64, p: [u32; 3], b: [f64; 3]) -> (f64, [f64; 3], [[f64; 3]; 3])
             .map(|q| v[q])
             .product::<f64>()
     };
-    let mut g = [0.0; 3];
-    let mut h = [[0.0; 3]; 3];
-    for m in 0..3 {
-        g[m] = c * d1(m) * others(m, m);
-        h[m][m] = c * d2(m) * others(m, m);
-        for n in 0..3 {
-            if n != m {
-                h[m][n] = c * d1(m) * d1(n) * others(m, n);
+    let g = std::array::from_fn(|m| c * d1(m) * others(m, m));
+    let h = std::array::from_fn(|m| {
+        std::array::from_fn(|n| {
+            if n == m {
+                c * d2(m) * others(m, m)
+            } else {
+                c * d1(m) * d1(n) * others(m, n)
             }
-        }
-    }
+        })
+    });
     (c * v[0] * v[1] * v[2], g, h)
 }
 
@@ -303,7 +302,7 @@ fn duffy_triangle(k: usize) -> [(f64, f64); 3] {
     let mids = [(0.5, 0.0), (0.5, 0.5), (0.0, 0.5)];
     // Corner m with the midpoints of its edges m (to m + 1) and m − 1 (from m − 1).
     let m = k / 2;
-    let mid = if k % 2 == 0 {
+    let mid = if k.is_multiple_of(2) {
         mids[m]
     } else {
         mids[(m + 2) % 3]

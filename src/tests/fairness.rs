@@ -16,8 +16,8 @@ use crate::{
 /// ∫ (κ₁² + κ₂²) dA of the torus of major radius R and tube radius r. With u around the
 /// axis and v around the tube, κ₁ = 1/r, κ₂ = cos v / (R + r cos v) and
 /// dA = r (R + r cos v) du dv, so the integrand is (R + r cos v)/r + r cos² v/(R + r cos v).
-/// Over v: ∫ (R + r cos v)/r = 2πR/r; writing cos² v = ((R + r cos v)² − 2R(R + r cos v)
-/// + R²)/r², ∫ cos² v/(R + r cos v) = (2πR − 4πR + 2πR²/√(R² − r²))/r². Times 2π for u:
+/// Over v: ∫ (R + r cos v)/r = 2πR/r; writing cos² v as ((R + r cos v)² − 2R(R + r cos v)
+/// plus R²)/r², ∫ cos² v/(R + r cos v) = (2πR − 4πR + 2πR²/√(R² − r²))/r². Times 2π for u:
 /// 4π²R / r + 4π²(R²/√(R² − r²) − R)/r = 4π² R² / (r √(R² − r²)).
 fn torus_energy(big_r: f64, r: f64) -> f64 {
     4.0 * PI * PI * big_r * big_r / (r * (big_r * big_r - r * r).sqrt())

@@ -21,6 +21,8 @@ mod hardening_patch;
 mod paper;
 #[cfg(feature = "gpu")]
 mod render;
+#[cfg(feature = "gpu")]
+mod render_isophotes;
 mod render_shader;
 mod schemes;
 #[cfg(feature = "gpu")]
