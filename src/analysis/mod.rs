@@ -1,7 +1,8 @@
 //! Studies of evaluated surfaces: continuity statistics across edges ([`stats`]), the
-//! distance study against exact surfaces ([`distance`]) and the paper's Table 1
-//! ([`table1`]).
+//! distance study against exact surfaces ([`distance`]), the paper's Table 1
+//! ([`table1`]) and the fairness measures ([`fairness`]: bending energy, G2 defect).
 
 pub mod distance;
+pub mod fairness;
 pub mod stats;
 pub mod table1;

@@ -188,6 +188,7 @@ fn normal_pictures(ctx: &PaperRun) -> anyhow::Result<()> {
                 panel: 400,
                 view,
                 up: glam::DVec3::Z,
+                ..Default::default()
             },
             ctx.evaluator.as_ref(),
             &path,

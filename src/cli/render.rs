@@ -20,8 +20,8 @@ use crate::mesh::Mesh;
 use crate::patch::repair::{repair, repair_line, RepairOptions};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 use crate::render::{
-    max_panel, render_panels, render_tessellated, write_png, RenderOptions, Row, SurfaceSize,
-    MIN_PANEL,
+    max_panel, render_panels, render_tessellated, write_png, RenderOptions, Row, Shading,
+    SurfaceSize, MIN_PANEL,
 };
 use crate::tess::stitch::stitch;
 
@@ -61,6 +61,11 @@ pub struct RenderArgs {
     /// Direction that points up in the picture, "x,y,z".
     #[arg(long, default_value = "0,1,0", value_parser = parse_vec, allow_hyphen_values = true)]
     pub up: DVec3,
+    /// How each panel shows its normal component n·L (L = x, y, z): through the colour
+    /// ramp (normals), or as isophotes, bands of 1/12 alternately light and dark whose
+    /// boundaries are the curves n·L = k/12 (kinks in them show where curvature jumps).
+    #[arg(long, value_enum, default_value = "normals")]
+    pub shading: Shading,
     /// Evaluation backend and precision (help text set on the struct).
     #[command(flatten)]
     pub backend: BackendArgs,
@@ -258,14 +263,18 @@ pub fn render_schemes(
             panels: scheme_panels(&m, &table, level, opts, evaluator)?,
         });
     }
+    let what = match opts.shading {
+        Shading::Normals => "unit normal components",
+        Shading::Isophotes => "isophotes of the unit normal components",
+    };
     let caption = format!(
-        "{}, level {level}: unit normal components, view {:.2},{:.2},{:.2}",
+        "{}, level {level}: {what}, view {:.2},{:.2},{:.2}",
         out::escape(&mesh.name),
         opts.view.x,
         opts.view.y,
         opts.view.z
     );
-    write_png(output, &TEMP_FILES, &caption, &rows)?;
+    write_png(output, &TEMP_FILES, &caption, &rows, opts.shading)?;
     Ok(())
 }
 
@@ -314,6 +323,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         panel: a.size,
         view: a.view,
         up: a.up,
+        shading: a.shading,
     };
     render_schemes(
         &mesh,

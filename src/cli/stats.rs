@@ -21,6 +21,16 @@ pub struct StatsArgs {
     /// printed).
     #[arg(long, short)]
     pub quiet: bool,
+    /// Also measure fairness (on the CPU, from the whole patch table): the bending energy
+    /// ∫(κ1²+κ2²)dA from the patches' exact first and second derivatives, and the G2
+    /// defect, the jump of the normal curvature across each non-crease interior edge at its
+    /// 21 samples (max and mean). Quadrature: each patch cut into six Duffy triangles
+    /// collapsed at its corners, 2×2 square cells each, 3×3 Gauss-Legendre nodes per cell,
+    /// a cell refined where its children's sum differs by more than 1e-4 of the patch's
+    /// energy. Patches the validity certificate does not prove valid (folds: unbounded
+    /// energy) are left out of both and counted.
+    #[arg(long)]
+    pub fairness: bool,
 }
 
 pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
@@ -29,6 +39,7 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
     budget.check_load("stats", &a.input.mesh)?;
     let mesh = a.input.load_mesh()?;
     budget.check_stats("stats", &mesh)?;
+    check_fairness(a, &mesh)?;
     if a.backend.backend == super::common::Backend::Gpu {
         return run_gpu(a, &mesh);
     }
@@ -44,7 +55,46 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
         evaluator.as_ref(),
     )?;
     report.repair = repair;
-    print_report(a, report)
+    let fairness = if a.fairness {
+        let table =
+            crate::patch::PatchTable::build(&mesh, a.input.scheme, &a.input.scheme_options())?;
+        Some(measure_fairness(&mesh, &table)?)
+    } else {
+        None
+    };
+    print_report(a, report, fairness)
+}
+
+/// Refuses `--fairness` where the whole patch table, the adjacency and the edge list it
+/// needs (beside the mesh) exceed the memory budget.
+fn check_fairness(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
+    if !a.fairness {
+        return Ok(());
+    }
+    let stride = a.input.scheme.kind().layout().stride as u64;
+    let patches = mesh.triangles.len() as u64;
+    // 24 bytes per control point and flat normal; about 1.5 edges per triangle, each some
+    // 80 bytes in the adjacency and the list of edge sides.
+    a.memory.budget().check(
+        "stats",
+        &format!("--fairness on {patches} patches"),
+        patches.saturating_mul(stride * 24 + 24 + 120),
+        &format!("the patch table of {stride} control points each and the edges"),
+    )
+}
+
+/// The fairness measures of `table` (the whole mesh's).
+fn measure_fairness(
+    mesh: &Mesh,
+    table: &crate::patch::PatchTable,
+) -> anyhow::Result<crate::analysis::fairness::FairnessReport> {
+    let adjacency = mesh.adjacency();
+    Ok(crate::analysis::fairness::fairness(
+        mesh,
+        &adjacency,
+        table,
+        &Default::default(),
+    )?)
 }
 
 /// `stats --backend gpu`: the edge samples evaluated and reduced on the device
@@ -83,23 +133,48 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
     );
     report.patches = crate::patch::validity::count(&table);
     report.repair = repair;
-    print_report(a, report)
+    let fairness = if a.fairness {
+        Some(measure_fairness(mesh, &table)?)
+    } else {
+        None
+    };
+    print_report(a, report, fairness)
 }
 
 /// The report on stdout: JSON, or text whose mesh name is escaped ([`out::escape`]), then
-/// an empty line.
+/// an empty line. With `--fairness`, its measures: a `fairness` object after the report's
+/// fields, or two more lines.
 fn print_report(
     a: &StatsArgs,
     mut report: crate::analysis::stats::StatsReport,
+    fairness: Option<crate::analysis::fairness::FairnessReport>,
 ) -> anyhow::Result<()> {
     note_undecided(a, &report.patches);
     if a.json {
-        out::stdout_json(&serde_json::to_string(&report)?)?;
+        let json = match &fairness {
+            None => serde_json::to_string(&report)?,
+            Some(f) => serde_json::to_string(&WithFairness {
+                report: &report,
+                fairness: f,
+            })?,
+        };
+        out::stdout_json(&json)?;
     } else {
         report.mesh = out::escape(&report.mesh).into_owned();
-        out::stdout_line(&format!("{}\n", report.to_text()))?;
+        let extra = fairness
+            .map(|f| format!("\n{}", f.to_text()))
+            .unwrap_or_default();
+        out::stdout_line(&format!("{}{extra}\n", report.to_text()))?;
     }
     Ok(())
+}
+
+/// `stats --json --fairness`: the report's fields, then `fairness`.
+#[derive(serde::Serialize)]
+struct WithFairness<'a> {
+    #[serde(flatten)]
+    report: &'a crate::analysis::stats::StatsReport,
+    fairness: &'a crate::analysis::fairness::FairnessReport,
 }
 
 /// A note on stderr where the certificate left patches undecided (not with `--quiet`).

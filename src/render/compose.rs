@@ -1,12 +1,14 @@
 //! The picture around the panels (feature `cli`): a caption, rows of panels titled n_x,
-//! n_y, n_z, and the colour ramp's legend, drawn with plotters (the shipped font) into an
-//! RGB canvas and written as a PNG through the atomic-write helper.
+//! n_y, n_z, and the legend (the colour ramp, or the isophotes' bands), drawn with
+//! plotters (the shipped font) into an RGB canvas and written as a PNG through the
+//! atomic-write helper.
 
 use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::{ramp, Panels};
+use super::isophotes::{isophote, BANDS_PER_UNIT};
+use super::{ramp, Panels, Shading};
 use crate::io::plot::{register_font, write_png_rgb};
 use crate::io::TempFiles;
 use crate::{Error, Result};
@@ -22,9 +24,15 @@ const TITLE: u32 = 34;
 const LEGEND: u32 = 70;
 
 /// Composes rows of panels under `caption`, each panel titled n_x, n_y, n_z, with the
-/// colour ramp's legend below, and writes a PNG to `path` atomically (the temporary file
-/// listed in `temp`).
-pub fn write_png(path: &Path, temp: &TempFiles, caption: &str, rows: &[Row]) -> Result<()> {
+/// legend of `shading` (the colour ramp, or the isophotes' bands) below, and writes a PNG
+/// to `path` atomically (the temporary file listed in `temp`).
+pub fn write_png(
+    path: &Path,
+    temp: &TempFiles,
+    caption: &str,
+    rows: &[Row],
+    shading: Shading,
+) -> Result<()> {
     let panel = rows
         .first()
         .map(|r| r.panels.panel)
@@ -58,7 +66,11 @@ pub fn write_png(path: &Path, temp: &TempFiles, caption: &str, rows: &[Row]) -> 
     for x in 0..bar_w {
         let v = -1.0 + 2.0 * (x as f64 + 0.5) / bar_w as f64;
         for y in 0..18 {
-            put(bar_x + x, bar_y + y, ramp(v));
+            let colour = match shading {
+                Shading::Normals => ramp(v),
+                Shading::Isophotes => isophote(v),
+            };
+            put(bar_x + x, bar_y + y, colour);
         }
     }
 
@@ -95,8 +107,12 @@ pub fn write_png(path: &Path, temp: &TempFiles, caption: &str, rows: &[Row]) -> 
             )
             .map_err(|e| e.to_string())?;
         }
+        let legend = match shading {
+            Shading::Normals => "normal component".to_string(),
+            Shading::Isophotes => format!("bands of 1/{BANDS_PER_UNIT}"),
+        };
         root.draw_text(
-            "normal component",
+            &legend,
             &font(15),
             (bar_x as i32 + bar_w as i32 + 10, bar_y as i32 + 1),
         )

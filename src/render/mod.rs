@@ -1,8 +1,10 @@
 //! Pictures of the normal field (the paper's figures 13–16): the welded surface drawn
 //! headless by a wgpu render pass, coloured by n_x, n_y and n_z in three panels with one
-//! colour ramp, under an orthographic camera fitted to the surface's bounding box.
+//! colour ramp ([`Shading::Normals`]) or as isophotes of them ([`Shading::Isophotes`]),
+//! under an orthographic camera fitted to the surface's bounding box.
 //!
 //! - [`camera`]: the orthographic camera (a frame and the map into clip space);
+//! - [`isophotes`]: the bands of the isophote shading and its fragment shader;
 //! - `pipeline` (feature `gpu`): the render pass on a `wgpu::Device`/`Queue` and the
 //!   read-back of the panels; its WGSL is `shaders/render.wgsl`, headed by constants
 //!   generated from [`RAMP`];
@@ -21,6 +23,7 @@ use crate::{Error, Result};
 pub mod camera;
 #[cfg(feature = "cli")]
 pub mod compose;
+pub mod isophotes;
 #[cfg(feature = "gpu")]
 pub mod pipeline;
 
@@ -63,6 +66,18 @@ pub fn ramp(v: f64) -> [u8; 3] {
     })
 }
 
+/// How the panels are coloured.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum Shading {
+    /// Each panel's normal component (n_x, n_y, n_z) through the colour ramp.
+    #[default]
+    Normals,
+    /// Isophotes of the same components: bands of 1/12, alternately light and dark
+    /// ([`isophotes`]).
+    Isophotes,
+}
+
 /// How to draw: [`RenderOptions::default()`] and the `with_*` methods.
 #[derive(Clone, Debug)]
 #[non_exhaustive]
@@ -74,6 +89,8 @@ pub struct RenderOptions {
     /// Direction that points up in the picture, projected perpendicular to `view` (default
     /// +y).
     pub up: DVec3,
+    /// How the panels are coloured (default: the normal components' colour ramp).
+    pub shading: Shading,
 }
 
 impl RenderOptions {
@@ -97,6 +114,13 @@ impl RenderOptions {
         self.up = up;
         self
     }
+
+    #[cfg(test)]
+    /// Sets [`RenderOptions::shading`].
+    pub fn with_shading(mut self, shading: Shading) -> Self {
+        self.shading = shading;
+        self
+    }
 }
 
 impl Default for RenderOptions {
@@ -105,6 +129,7 @@ impl Default for RenderOptions {
             panel: 512,
             view: DVec3::Z,
             up: DVec3::Y,
+            shading: Shading::Normals,
         }
     }
 }

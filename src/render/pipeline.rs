@@ -10,7 +10,8 @@
 use wgpu::util::DeviceExt;
 
 use super::camera::Camera;
-use super::{Panels, RenderOptions, BACKGROUND, RAMP, RAMP_SEGMENTS};
+use super::isophotes::isophote_wgsl;
+use super::{Panels, RenderOptions, Shading, BACKGROUND, RAMP, RAMP_SEGMENTS};
 use crate::gpu::tessellator::{decode_bounds, vertex_layout, GpuTessellator, VERTEX_BYTES};
 use crate::gpu::GpuContext;
 use crate::tess::stitch::StitchedMesh;
@@ -51,6 +52,18 @@ pub fn shader_source() -> String {
         segments = RAMP_SEGMENTS,
         last = RAMP_SEGMENTS - 1,
     )
+}
+
+/// The source and fragment entry point of `shading`: the render module's WGSL as it is
+/// for the normal components; with the isophote entry point appended for isophotes.
+pub fn shaded_source(shading: Shading) -> (String, &'static str) {
+    match shading {
+        Shading::Normals => (shader_source(), "fs"),
+        Shading::Isophotes => (
+            format!("{}\n{}", shader_source(), isophote_wgsl()),
+            "fs_isophotes",
+        ),
+    }
 }
 
 /// How many indices a draw takes.
@@ -122,7 +135,14 @@ pub fn render_panels_on(
         indices: &indices,
         count: IndexCount::Direct(count),
     };
-    let rgba = draw(&gpu.device, &gpu.queue, &geometry, &camera.rows(), size)?;
+    let rgba = draw_shaded(
+        &gpu.device,
+        &gpu.queue,
+        &geometry,
+        &camera.rows(),
+        size,
+        opts.shading,
+    )?;
     gpu.check()?;
     Ok(Panels { panel: size, rgba })
 }
@@ -196,16 +216,18 @@ pub fn render_tessellated(
         indices: tess.indices(),
         count: IndexCount::Indirect(tess.indirect()),
     };
-    let rgba = draw(dev, queue, &geometry, &camera.rows(), size)?;
+    let rgba = draw_shaded(dev, queue, &geometry, &camera.rows(), size, opts.shading)?;
     gpu.check()?;
     Ok(Panels { panel: size, rgba })
 }
 
-/// The render pipeline of `shaders/render.wgsl` and its uniform layout.
-fn pipeline(dev: &wgpu::Device) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout) {
+/// The render pipeline of `shaders/render.wgsl` (with `shading`'s fragment entry point) and
+/// its uniform layout.
+fn pipeline(dev: &wgpu::Device, shading: Shading) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout) {
+    let (source, fragment) = shaded_source(shading);
     let module = dev.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("render"),
-        source: wgpu::ShaderSource::Wgsl(shader_source().into()),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
     });
     let bgl = dev.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("render uniforms"),
@@ -252,7 +274,7 @@ fn pipeline(dev: &wgpu::Device) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout)
         },
         fragment: Some(wgpu::FragmentState {
             module: &module,
-            entry_point: Some("fs"),
+            entry_point: Some(fragment),
             compilation_options: Default::default(),
             targets: &[Some(wgpu::ColorTargetState {
                 format: COLOR,
@@ -266,8 +288,9 @@ fn pipeline(dev: &wgpu::Device) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout)
     (pipeline, bgl)
 }
 
-/// Draws `geometry` under the map `rows` into three `size`-pixel panels side by side;
-/// returns their RGBA rows, top to bottom, 4 bytes per pixel.
+/// Draws `geometry` under the map `rows` into three `size`-pixel panels side by side,
+/// coloured by the normal components' ramp; returns their RGBA rows, top to bottom, 4
+/// bytes per pixel.
 pub fn draw(
     dev: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -275,8 +298,20 @@ pub fn draw(
     rows: &[[f32; 4]; 3],
     size: u32,
 ) -> Result<Vec<u8>> {
+    draw_shaded(dev, queue, geometry, rows, size, Shading::Normals)
+}
+
+/// [`draw`] with the panels coloured by `shading`.
+pub fn draw_shaded(
+    dev: &wgpu::Device,
+    queue: &wgpu::Queue,
+    geometry: &Geometry<'_>,
+    rows: &[[f32; 4]; 3],
+    size: u32,
+    shading: Shading,
+) -> Result<Vec<u8>> {
     let width = 3 * size;
-    let (pipeline, bgl) = pipeline(dev);
+    let (pipeline, bgl) = pipeline(dev, shading);
     let bind_groups: Vec<wgpu::BindGroup> = (0..3u32)
         .map(|component| {
             let uniforms = Uniforms {

@@ -13,6 +13,7 @@ mod eval_cases;
 mod adaptive;
 mod cpu_fast;
 mod creases;
+mod fairness;
 mod g1_patch;
 #[cfg(feature = "gpu")]
 mod gpu;
@@ -20,6 +21,8 @@ mod hardening_patch;
 mod paper;
 #[cfg(feature = "gpu")]
 mod render;
+#[cfg(feature = "gpu")]
+mod render_isophotes;
 mod render_shader;
 mod schemes;
 #[cfg(feature = "gpu")]
