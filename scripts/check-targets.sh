@@ -50,9 +50,20 @@ for t in "${TARGETS[@]}"; do
     else
       check --lib --no-default-features --features gpu --target "$t"
     fi
+  elif [ "$t" = x86_64-unknown-linux-gnu ] && [ "${CHECK_TARGETS_HOST_BUILT:-}" = 1 ] &&
+    [ "$(rustc -vV | sed -n 's/^host: //p')" = "$t" ]; then
+    # scripts/test.sh has just built and tested the library with the default features
+    # (`gpu` and `cli`) for this very target.
+    echo "skip cargo check --lib --features gpu --target $t (cargo test built it in this run)"
   else
     check --lib --features gpu --target "$t"
   fi
 done
 check --lib --no-default-features --target wasm32-unknown-unknown
-check --lib --no-default-features
+if [ "${CHECK_TARGETS_HOST_BUILT:-}" = 1 ]; then
+  # The Python package (scripts/python_test.sh, later in scripts/test.sh) builds the library
+  # without default features for this machine.
+  echo "skip cargo check --lib --no-default-features (the Python package builds it in this run)"
+else
+  check --lib --no-default-features
+fi

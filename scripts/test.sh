@@ -55,22 +55,41 @@ setup_done() { # PID LOG
   [ "$rc" = 0 ] || { echo "set-up failed (exit $rc), see above" >&2; exit 1; }
 }
 
-echo "== cargo test --release"
+# Each step's wall time and the CPU time its processes used (bash's `times`), for the
+# 25-minute CI budget.
+step_start=$SECONDS
+step_name=""
+step() { # NAME (the next step; none at the end)
+  if [ -n "$step_name" ]; then
+    local cpu
+    cpu=$(times | tail -1 | awk '{ print $1 " user " $2 " sys" }')
+    echo "-- $step_name: $((SECONDS - step_start)) s wall (children's CPU so far: $cpu)"
+  fi
+  step_name=${1:-}
+  step_start=$SECONDS
+  [ -z "$step_name" ] || echo "== $step_name"
+}
+
+step "cargo test --release"
 cargo test --release 2>&1
 
-echo "== other platforms and CPU-only: scripts/check-targets.sh"
-# The web's GPU build is compiled by the browser step (scripts/build-web.sh) below.
-CHECK_TARGETS_WEB_BUILT_LATER=1 scripts/check-targets.sh
+step "other platforms and CPU-only: scripts/check-targets.sh"
+# What this run compiles anyway is not checked twice: the web's GPU build (the browser
+# step, scripts/build-web.sh), this machine's with the default features (cargo test above)
+# and without them (the Python package).
+CHECK_TARGETS_WEB_BUILT_LATER=1 CHECK_TARGETS_HOST_BUILT=1 scripts/check-targets.sh
 
-echo "== blender add-on integration test"
+step "blender add-on integration test"
 setup_done "$blender_setup" .cache/blender-setup.log
 # The binary cargo test built above (the heavy crates are compiled once per run).
 G1TESS_BIN=target/release/g1tess scripts/blender_test.sh
 
-echo "== python package, gmsh and dask tests"
+step "python package, gmsh and dask tests"
 setup_done "$python_setup" .cache/python-setup.log
 G1TESS_BIN=target/release/g1tess scripts/python_test.sh
 
-echo "== browser tests: the WebGPU viewer in headless Chromium"
+step "browser tests: the WebGPU viewer in headless Chromium"
 setup_done "$web_setup" .cache/web-setup.log
 G1TESS_BIN=target/release/g1tess scripts/test-browser.sh
+step
+echo "== all tests passed in $SECONDS s"
