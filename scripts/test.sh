@@ -59,11 +59,14 @@ setup_done() { # PID LOG
 # 25-minute CI budget.
 step_start=$SECONDS
 step_name=""
+step_times=$(mktemp)
+trap 'rm -f "$step_times"' EXIT
 step() { # NAME (the next step; none at the end)
   if [ -n "$step_name" ]; then
-    local cpu
-    cpu=$(times | tail -1 | awk '{ print $1 " user " $2 " sys" }')
-    echo "-- $step_name: $((SECONDS - step_start)) s wall (children's CPU so far: $cpu)"
+    # `times` in this shell, not in a subshell: its second line is the children's CPU.
+    times >"$step_times"
+    echo "-- $step_name: $((SECONDS - step_start)) s wall (CPU so far, user and system:" \
+      "$(tail -1 "$step_times"))"
   fi
   step_name=${1:-}
   step_start=$SECONDS

@@ -72,11 +72,11 @@ pub const DEFAULT_TOLERANCE: f64 = 1e-4;
 #[non_exhaustive]
 pub struct FairnessOptions {
     /// Cells per side of each of a patch's six Duffy squares (k; default
-    /// [`DEFAULT_SUBDIVISIONS`], 1 to [`MAX_SUBDIVISIONS`]).
+    /// 2, 1 to 8).
     pub subdivisions: u32,
     /// A cell's integral is taken from its quarters where they differ from the cell's own
     /// by at most this fraction of the patch's energy, and refined otherwise (default
-    /// [`DEFAULT_TOLERANCE`]; above 0 and below 1).
+    /// 1e-4; above 0 and below 1).
     pub tolerance: f64,
 }
 
@@ -540,7 +540,7 @@ pub struct EnergyTotal {
 pub struct PatchEnergy {
     /// The estimate: +∞ where a node is singular, NaN for too few points.
     pub energy: f64,
-    /// Every cell met the tolerance within [`MAX_DEPTH`] and [`MAX_REFINED`]; where not,
+    /// Every cell met the tolerance within 40 halvings and 1,024 refined cells; where not,
     /// `energy` is the finest estimate reached, typically growing without bound with the
     /// refinement (an integrand that is not integrable).
     pub resolved: bool,
@@ -1103,7 +1103,8 @@ pub struct FairnessReport {
     pub unresolved_patches: usize,
     /// Their estimates' sum (a lower bound where they diverge).
     pub unresolved_energy: f64,
-    /// The quadrature ([`RULE`]).
+    /// The quadrature, in words: six Duffy triangles per patch, k × k square cells each,
+    /// 3 × 3 Gauss–Legendre per cell, adaptive.
     pub rule: &'static str,
     /// Cells per side of each Duffy square (k).
     pub subdivisions: u32,
