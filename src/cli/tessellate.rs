@@ -372,6 +372,16 @@ struct EdgeKinds {
 
 impl EdgeKinds {
     fn new(mesh: &Mesh, adjacency: &Adjacency, plan: &StitchPlan) -> EdgeKinds {
+        let split = plan.report.split_edges;
+        // The plan splits every edge whose uses disagree on an end normal (and more): where
+        // it splits none, there is no crease and no seam to look for.
+        if split == 0 {
+            return EdgeKinds {
+                creases: 0,
+                seams: 0,
+                split,
+            };
+        }
         let ends = split_ends(mesh, adjacency);
         let by_normal = ends.iter().filter(|s| s[0] || s[1]).count();
         let creases = ends
@@ -379,7 +389,6 @@ impl EdgeKinds {
             .zip(&adjacency.edges)
             .filter(|(s, e)| e.is_interior() && (s[0] || s[1]))
             .count();
-        let split = plan.report.split_edges;
         EdgeKinds {
             creases,
             // The plan splits an edge where the normals or the attributes disagree.

@@ -314,10 +314,16 @@ impl<'a> EdgeIndex<'a> {
 
     /// Every edge in order (lower vertex, then upper vertex).
     pub fn edges(&self) -> Edges<'_> {
+        self.edges_from(0..self.offsets.len() - 1)
+    }
+
+    /// The edges whose lower vertex is in `vertices`, in order.
+    fn edges_from(&self, vertices: std::ops::Range<usize>) -> Edges<'_> {
         Edges {
             index: self,
-            vertex: 0,
-            pos: 0,
+            vertex: vertices.start,
+            pos: self.offsets[vertices.start] as usize,
+            end: vertices.end,
         }
     }
 }
@@ -328,6 +334,8 @@ pub struct Edges<'i> {
     index: &'i EdgeIndex<'i>,
     vertex: usize,
     pos: usize,
+    /// The vertex after the last whose edges are walked.
+    end: usize,
 }
 
 impl<'i> Iterator for Edges<'i> {
@@ -341,7 +349,7 @@ impl<'i> Iterator for Edges<'i> {
             half_edges,
             ..
         } = self.index;
-        let vertices = offsets.len() - 1;
+        let vertices = self.end;
         while self.vertex < vertices && self.pos >= offsets[self.vertex + 1] as usize {
             self.vertex += 1;
         }
@@ -384,19 +392,25 @@ pub struct Adjacency {
 }
 
 impl Adjacency {
-    /// The edges of `triangles` and their counts.
+    /// The edges of `triangles` and their counts. The edges are materialised in parallel,
+    /// a range of lower vertices per task, and joined in order.
     pub fn new(triangles: &[[u32; 3]]) -> Adjacency {
         let index = EdgeIndex::new(triangles);
-        let mut buf = Vec::new();
-        let edges = index
-            .edges()
-            .map(|e| {
-                buf.clear();
-                buf.extend(e.half_edges.iter().map(|&h| EdgeUse::from_half_edge(h)));
-                MeshEdge {
-                    v: e.v,
-                    uses: EdgeUses::new(&buf),
-                }
+        let vertices = index.offsets.len() - 1;
+        let pieces = (16 * rayon::current_num_threads()).clamp(1, vertices.max(1));
+        let edges = (0..pieces)
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let mut buf = Vec::new();
+                let range = i * vertices / pieces..(i + 1) * vertices / pieces;
+                index.edges_from(range).map(move |e| {
+                    buf.clear();
+                    buf.extend(e.half_edges.iter().map(|&h| EdgeUse::from_half_edge(h)));
+                    MeshEdge {
+                        v: e.v,
+                        uses: EdgeUses::new(&buf),
+                    }
+                })
             })
             .collect();
         let c = index.counts;

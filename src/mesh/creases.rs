@@ -10,6 +10,7 @@
 //! identical, which is what a file's shared `vn` index or one estimated normal gives.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::normals::{corner_weights, face_normal, NormalWeighting};
 use super::{Adjacency, EdgeUse, Mesh};
@@ -40,7 +41,7 @@ pub fn use_normal(mesh: &Mesh, u: EdgeUse, v: u32) -> DVec3 {
 pub fn split_ends(mesh: &Mesh, adjacency: &Adjacency) -> Vec<[bool; 2]> {
     adjacency
         .edges
-        .iter()
+        .par_iter()
         .map(|e| {
             std::array::from_fn(|end| {
                 let v = e.v[end];

@@ -1,6 +1,7 @@
 //! Vertex-normal estimation from face normals.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// How face normals are weighted when a vertex normal is estimated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -16,9 +17,18 @@ pub enum NormalWeighting {
     Angle,
 }
 
+/// Triangles whose corner weights are computed together (in parallel) while the previous
+/// block's are summed.
+const WEIGHT_BLOCK: usize = 1 << 14;
+
 /// One unit normal per vertex from the incident faces. A vertex whose weighted sum vanishes
 /// (or that no face uses) gets the sum of the unweighted unit face normals, and failing
 /// that +z, so the result is always a finite unit vector.
+///
+/// The face normals and corner weights (an `acos` per corner by default) are computed in
+/// parallel, a block of triangles at a time, while the block before is added up in one task
+/// in triangle order: each vertex's sum takes its terms in the same order as a serial loop,
+/// so the result does not depend on the threads.
 pub fn vertex_normals(
     positions: &[DVec3],
     triangles: &[[u32; 3]],
@@ -26,16 +36,38 @@ pub fn vertex_normals(
 ) -> Vec<DVec3> {
     let mut acc = vec![DVec3::ZERO; positions.len()];
     let mut fallback = vec![DVec3::ZERO; positions.len()];
-    for t in triangles {
-        let Some((unit, w)) = corner_weights(t.map(|v| positions[v as usize]), weighting) else {
-            continue;
-        };
-        for k in 0..3 {
-            acc[t[k] as usize] += w[k] * unit;
-            fallback[t[k] as usize] += unit;
+    let weigh = |block: &[[u32; 3]], out: &mut Vec<Option<(DVec3, [f64; 3])>>| {
+        block
+            .par_iter()
+            .map(|t| corner_weights(t.map(|v| positions[v as usize]), weighting))
+            .collect_into_vec(out);
+    };
+    let mut add = |block: &[[u32; 3]], weights: &[Option<(DVec3, [f64; 3])>]| {
+        for (t, cw) in block.iter().zip(weights) {
+            let Some((unit, w)) = *cw else {
+                continue;
+            };
+            for k in 0..3 {
+                acc[t[k] as usize] += w[k] * unit;
+                fallback[t[k] as usize] += unit;
+            }
         }
+    };
+    let blocks: Vec<&[[u32; 3]]> = triangles.chunks(WEIGHT_BLOCK).collect();
+    let (mut cur, mut next) = (Vec::new(), Vec::new());
+    if let Some(first) = blocks.first() {
+        weigh(first, &mut cur);
     }
-    acc.iter()
+    for (b, block) in blocks.iter().enumerate() {
+        match blocks.get(b + 1) {
+            Some(following) => {
+                rayon::join(|| add(block, &cur), || weigh(following, &mut next));
+            }
+            None => add(block, &cur),
+        }
+        std::mem::swap(&mut cur, &mut next);
+    }
+    acc.par_iter()
         .zip(&fallback)
         .map(|(a, f)| {
             a.try_normalize()

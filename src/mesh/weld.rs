@@ -13,6 +13,7 @@
 //! different thing and lives with the writers.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::LoadReport;
 use crate::{Error, Result};
@@ -203,6 +204,17 @@ pub fn weld_with<P: Payload>(
     // input triangle references (REF) and which representatives a kept triangle uses (KEEP).
     const REF: u8 = 1;
     const KEEP: u8 = 2;
+    // Whether each triangle collapses, in parallel (the loop below is in order).
+    let collapsed: Vec<bool> = triangles
+        .par_iter()
+        .map(|t| {
+            let w = t.map(|v| rep[v as usize]);
+            w[0] == w[1]
+                || w[1] == w[2]
+                || w[2] == w[0]
+                || !super::normals::has_area(w.map(|v| positions[v as usize]))
+        })
+        .collect();
     let mut state = vec![0u8; n];
     let mut kept = 0usize;
     for i in 0..triangles.len() {
@@ -211,11 +223,7 @@ pub fn weld_with<P: Payload>(
             state[v as usize] |= REF;
         }
         let w = t.map(|v| rep[v as usize]);
-        if w[0] == w[1]
-            || w[1] == w[2]
-            || w[2] == w[0]
-            || !super::normals::has_area(w.map(|v| positions[v as usize]))
-        {
+        if collapsed[i] {
             report.degenerate_triangles_dropped += 1;
             continue;
         }

@@ -307,11 +307,14 @@ impl StitchPlan {
         let mut bound = nv as u64;
         let mut triangles = 0u64;
         let mut interiors = Vec::with_capacity(if uniform { 0 } else { nf });
-        for p in 0..nf {
+        // Every patch of a uniform plan has the same counts: nf times the first's.
+        let counted = if uniform { nf.min(1) } else { nf };
+        for p in 0..counted {
             let (e, inner) = plan.patch_levels(p);
             let interior = layout::interior_count(e, inner) as u64;
-            bound += 3 + e.iter().map(|&l| l as u64 - 1).sum::<u64>() + interior;
-            triangles += layout::triangle_count(e, inner) as u64;
+            let copies = if uniform { nf as u64 } else { 1 };
+            bound += copies * (3 + e.iter().map(|&l| l as u64 - 1).sum::<u64>() + interior);
+            triangles += copies * layout::triangle_count(e, inner) as u64;
             if !uniform {
                 interiors.push(interior);
             }
