@@ -155,6 +155,9 @@ pub use analysis::fairness::{
     fairness, g2_defect, BendingEnergy, EnergyTotal, FairnessOptions, FairnessReport, G2Defect,
     PatchEnergy,
 };
+/// The fair G1 surface: normals and tangent lengths chosen to lower the bending energy
+/// under the validity certificate.
+pub use analysis::fair::{fair, FairOptions, FairReport};
 
 /// Writers: tessellated meshes, high-order MSH meshes, control nets, and the temporary
 /// files they go through until they are complete.
