@@ -149,15 +149,15 @@ pub use tess::stitch::{
 /// Statistics: the continuity of the surface across edges, and the statistics report.
 pub use analysis::stats::{continuity, stats_report, Continuity, CosStats, StatsReport};
 
+/// The fair G1 surface: normals and tangent lengths chosen to lower the bending energy
+/// under the validity certificate.
+pub use analysis::fair::{fair, FairOptions, FairReport};
 /// Fairness: the bending energy ∫ (κ₁² + κ₂²) dA of the patches (per patch or in total)
 /// and the jump of normal curvature across edges (the G2 defect).
 pub use analysis::fairness::{
     fairness, g2_defect, BendingEnergy, EnergyTotal, FairnessOptions, FairnessReport, G2Defect,
     PatchEnergy,
 };
-/// The fair G1 surface: normals and tangent lengths chosen to lower the bending energy
-/// under the validity certificate.
-pub use analysis::fair::{fair, FairOptions, FairReport};
 
 /// Writers: tessellated meshes, high-order MSH meshes, control nets, and the temporary
 /// files they go through until they are complete.

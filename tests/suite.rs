@@ -30,6 +30,8 @@ mod docs;
 mod errors;
 #[cfg(feature = "cli")]
 mod export_net;
+#[cfg(feature = "cli")]
+mod fair_cli;
 mod formats;
 mod fuzz;
 #[cfg(feature = "cli")]

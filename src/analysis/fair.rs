@@ -113,7 +113,7 @@ impl FairOptions {
                 "fair: arm range [{lo}, {hi}] does not hold 1 within (0, ∞)"
             )));
         }
-        if !(self.tolerance >= 0.0) {
+        if self.tolerance.is_nan() || self.tolerance < 0.0 {
             return Err(Error::Invalid(format!(
                 "fair: tolerance {} is not a number ≥ 0",
                 self.tolerance
@@ -239,7 +239,9 @@ pub fn fair(mesh: &Mesh, opts: &FairOptions) -> Result<(Mesh, FairReport)> {
     let measure = |m: &Mesh| -> Result<(PatchCounts, EnergyTotal)> {
         let table = PatchTable::build(m, Scheme::G1, &opts.scheme_options)?;
         let verdicts = check_table(&table);
-        let counts = verdicts.iter().fold(PatchCounts::default(), PatchCounts::with);
+        let counts = verdicts
+            .iter()
+            .fold(PatchCounts::default(), PatchCounts::with);
         Ok((counts, exact.total_certified(&table, &verdicts)?))
     };
     let (before, energy_before) = measure(mesh)?;

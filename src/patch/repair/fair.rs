@@ -5,8 +5,8 @@
 //! whole normal groups ([`Groups`]: a group is never split, so a smooth edge stays smooth
 //! and no crease is made) and the arm factors of interior edges, the same in both uses (the
 //! arm step's rule, `arm.rs`). Every change is kept only where [`Checker::judge`] certifies
-//! every patch it touches that was certified before, so no certified patch is lost; a
-//! patch not certified may become certified on the way, never the other way.
+//! every patch it touches that was certified before, so no certified patch is lost, and
+//! no undecided patch folds; a patch not certified may become certified on the way.
 //!
 //! 1. *Start*: where the input has uncertified patches, the repair's crease-free phase and
 //!    its arm step (never cuts, isolations or flattenings), then every bounded normal
@@ -126,7 +126,7 @@ pub(crate) fn run(mesh: &Mesh, params: &Params, energy: Energy<'_>) -> Result<(M
     }
     let cx = Checker::new(mesh, Scheme::G1, &params.scheme_options);
     let (ok, e) = judge_and_integrate(&work, &cx, energy)?;
-    out.start_left = ok.iter().filter(|&&x| !x).count();
+    out.start_left = ok.iter().filter(|&&x| x > 0).count();
     let mut st = State {
         work,
         groups,
@@ -212,20 +212,24 @@ fn clamp_to_bound(work: &mut Mesh, groups: &Groups, input: &[DVec3], bound: f64)
     moved
 }
 
-/// The search's verdict (valid or not) and the energy of every patch of `work`, in blocks.
+/// The search's verdict ([`severity`]) and the energy of every patch of `work`, in blocks.
 fn judge_and_integrate(
     work: &Mesh,
     cx: &Checker,
     energy: Energy<'_>,
-) -> Result<(Vec<bool>, Vec<f64>)> {
+) -> Result<(Vec<u8>, Vec<f64>)> {
     let nt = work.triangles.len() as u32;
     let (mut ok, mut e) = (Vec::new(), Vec::new());
     for start in (0..nt).step_by(BLOCK) {
         let tris: Vec<u32> = (start..(start + BLOCK as u32).min(nt)).collect();
         let v = cx.verdicts_of(work, &tris)?;
         let table = cx.ring_patches(work, &tris)?;
-        ok.extend(v.iter().map(|v| *v == Verdict::Valid));
-        e.par_extend((0..tris.len()).into_par_iter().map(|i| energy(table.patch(i))));
+        ok.extend(v.iter().map(severity));
+        e.par_extend(
+            (0..tris.len())
+                .into_par_iter()
+                .map(|i| energy(table.patch(i))),
+        );
     }
     Ok((ok, e))
 }
@@ -262,8 +266,8 @@ struct State<'a> {
     input: Vec<DVec3>,
     cx: Checker,
     energy: Energy<'a>,
-    /// Whether each patch is certified (the search's verdict).
-    ok: Vec<bool>,
+    /// The [`severity`] of each patch's verdict (the search's).
+    ok: Vec<u8>,
     /// Fixed-rule energy of each patch.
     e: Vec<f64>,
     params: Params,
@@ -297,20 +301,21 @@ impl State<'_> {
         score(ring.iter().map(|&t| self.e[t as usize]))
     }
 
-    /// Whether the judge keeps every certified patch of `ring` certified on the current
-    /// mesh; where it does, the verdicts and `es` (the energies) are stored.
+    /// Whether no patch of `ring` gets a worse verdict on the current mesh (a certified
+    /// one stays certified, an undecided one does not fold); where none does, the
+    /// verdicts and `es` (the energies) are stored.
     fn keep(&mut self, ring: &[u32], es: Vec<f64>) -> Result<bool> {
-        let v = self.cx.verdicts_of(&self.work, ring)?;
-        let valid = |i: usize| v[i] == Verdict::Valid;
-        if ring
+        let v: Vec<u8> = self
+            .cx
+            .verdicts_of(&self.work, ring)?
             .iter()
-            .enumerate()
-            .any(|(i, &t)| self.ok[t as usize] && !valid(i))
-        {
+            .map(severity)
+            .collect();
+        if ring.iter().zip(&v).any(|(&t, &s)| s > self.ok[t as usize]) {
             return Ok(false);
         }
-        for (i, (&t, e)) in ring.iter().zip(es).enumerate() {
-            self.ok[t as usize] = valid(i);
+        for ((&t, e), s) in ring.iter().zip(es).zip(v) {
+            self.ok[t as usize] = s;
             self.e[t as usize] = e;
         }
         Ok(true)
@@ -405,6 +410,15 @@ impl State<'_> {
         }
         self.edge_steps[i] = d[0].hypot(d[1]).clamp(2.0 * MIN_STEP, MAX_STEP[1]);
         Ok(Step::Moved)
+    }
+}
+
+/// 0 for a valid patch, 1 for an undecided one, 2 for a folded one.
+fn severity(v: &Verdict) -> u8 {
+    match v {
+        Verdict::Valid => 0,
+        Verdict::Undecided => 1,
+        Verdict::Folded { .. } => 2,
     }
 }
 
@@ -517,8 +531,8 @@ fn compass(
             0.0
         };
     }
-    let on_compass = (newton[0] == 0.0 && newton[1].abs() == h)
-        || (newton[1] == 0.0 && newton[0].abs() == h);
+    let on_compass =
+        (newton[0] == 0.0 && newton[1].abs() == h) || (newton[1] == 0.0 && newton[0].abs() == h);
     if newton != [0.0; 2] && !on_compass {
         offer(newton, f(newton)?);
     }
