@@ -2,8 +2,10 @@
 //! energy ∫ (κ₁² + κ₂²) dA while the surface stays G1, watertight, interpolating and
 //! certified free of folds ([`fair`]). The search itself is in the repair's module (it
 //! moves normal groups and arm factors under the validity certificate, as the repair
-//! does); the energy it minimises is [`BendingEnergy::points_fixed`], and the report gives
-//! the adaptive [`BendingEnergy::total_certified`] before and after. Method, sources and
+//! does); the energy it minimises is the adaptive [`BendingEnergy::points`] with one cell
+//! per Duffy square (the fixed rule, [`BendingEnergy::points_fixed`], missed the energy
+//! concentrated near a fold between its nodes, and the search found such places), and the
+//! report gives [`BendingEnergy::total_certified`] (two cells per square) before and after. Method, sources and
 //! figures: `docs/fair.md`.
 
 use serde::Serialize;
@@ -42,8 +44,8 @@ pub struct FairOptions {
     pub arms: bool,
     /// Smallest and largest arm factor (default [0.5, 2]).
     pub arm_range: [f64; 2],
-    /// Cells per side of each Duffy square of the fixed quadrature the search minimises
-    /// (default 1: 216 nodes per patch).
+    /// Cells per side of each Duffy square of the adaptive quadrature the search
+    /// minimises (default 1: 270 nodes per patch before any refinement).
     pub subdivisions: u32,
     /// Options of the G1 scheme (the table is built with them afterwards).
     pub scheme_options: SchemeOptions,
@@ -89,7 +91,7 @@ impl FairOptions {
         self.arm_range = range;
         self
     }
-    /// With the subdivisions of the search's fixed quadrature.
+    /// With the subdivisions of the search's quadrature.
     pub fn with_subdivisions(mut self, subdivisions: u32) -> Self {
         self.subdivisions = subdivisions;
         self
@@ -169,8 +171,8 @@ pub struct FairReport {
     pub arm_scale_range: [f64; 2],
     /// Sweeps run.
     pub sweeps: usize,
-    /// The search's objective (the fixed rule, summed over the patches where it is
-    /// finite) at its start and end.
+    /// The search's objective (the adaptive rule with [`FairOptions::subdivisions`],
+    /// summed over the patches where it is finite) at its start and end.
     pub objective: [f64; 2],
 }
 
@@ -232,7 +234,7 @@ pub fn fair(mesh: &Mesh, opts: &FairOptions) -> Result<(Mesh, FairReport)> {
     opts.check()?;
     let kind = Scheme::G1.kind();
     let exact = BendingEnergy::new(kind, &FairnessOptions::default())?;
-    let fixed = BendingEnergy::new(
+    let search_rule = BendingEnergy::new(
         kind,
         &FairnessOptions::default().with_subdivisions(opts.subdivisions),
     )?;
@@ -255,7 +257,7 @@ pub fn fair(mesh: &Mesh, opts: &FairOptions) -> Result<(Mesh, FairReport)> {
         arm_range: opts.arm_range,
         scheme_options: opts.scheme_options,
     };
-    let energy = |p: &[glam::DVec3]| fixed.points_fixed(p);
+    let energy = |p: &[glam::DVec3]| search_rule.points(p);
     let (out_mesh, out) = run(mesh, &params, &energy)?;
     let (after, energy_after) = measure(&out_mesh)?;
     let report = FairReport {

@@ -14,7 +14,7 @@
 //! 2. *Sweeps*: each normal group in turn (a fixed order), its normal n = normalise(n₀ +
 //!    a t₁ + b t₂) over (a, b): four compass points at ± h and the Newton point of the
 //!    parabolas through them (per axis), the best of those that lowers the energy of the
-//!    patches around the group ([`Energy`], the fixed rule) tried under the certificate;
+//!    patches around the group ([`Energy`]) tried under the certificate;
 //!    then each interior edge's two arm factors (log scale) alike. Trials compare first
 //!    the number of patches with a node where they fold (fewer is better), then the sum of
 //!    the others' energies ([`Score`]). The step h of each
@@ -37,7 +37,7 @@ use super::geometry::{angle_deg, new_creases};
 use super::groups::{set_group, Groups};
 use crate::mesh::Mesh;
 use crate::patch::validity::Verdict;
-use crate::patch::{Scheme, SchemeOptions};
+use crate::patch::{PatchTable, Scheme, SchemeOptions};
 use crate::Result;
 
 /// The energy of one patch from its control points (+∞ where it folds).
@@ -90,7 +90,7 @@ pub(crate) struct Outcome {
     pub refused: usize,
     /// Groups left alone: at a hub.
     pub groups_left_out: usize,
-    /// Fixed-rule energy of the patches where it is finite, after the start and at the end.
+    /// Energy of the patches where it is finite, after the start and at the end.
     pub objective: [f64; 2],
     /// Largest angle between a group's normal and its input one (degrees).
     pub max_normal_change_deg: f64,
@@ -126,7 +126,7 @@ pub(crate) fn run(mesh: &Mesh, params: &Params, energy: Energy<'_>) -> Result<(M
     }
     let cx = Checker::new(mesh, Scheme::G1, &params.scheme_options);
     let (ok, e) = judge_and_integrate(&work, &cx, energy)?;
-    out.start_left = ok.iter().filter(|&&x| x > 0).count();
+    out.start_left = ok.iter().filter(|x| x[0] > 0).count();
     let mut st = State {
         work,
         groups,
@@ -212,19 +212,22 @@ fn clamp_to_bound(work: &mut Mesh, groups: &Groups, input: &[DVec3], bound: f64)
     moved
 }
 
-/// The search's verdict ([`severity`]) and the energy of every patch of `work`, in blocks.
+/// The [`verdicts`] and the energy of every patch of `work`, in blocks.
 fn judge_and_integrate(
     work: &Mesh,
     cx: &Checker,
     energy: Energy<'_>,
-) -> Result<(Vec<u8>, Vec<f64>)> {
+) -> Result<(Vec<[u8; 2]>, Vec<f64>)> {
     let nt = work.triangles.len() as u32;
     let (mut ok, mut e) = (Vec::new(), Vec::new());
     for start in (0..nt).step_by(BLOCK) {
         let tris: Vec<u32> = (start..(start + BLOCK as u32).min(nt)).collect();
-        let v = cx.verdicts_of(work, &tris)?;
         let table = cx.ring_patches(work, &tris)?;
-        ok.extend(v.iter().map(severity));
+        ok.par_extend(
+            (0..tris.len())
+                .into_par_iter()
+                .map(|i| verdicts(cx, work, &table, i, tris[i])),
+        );
         e.par_extend(
             (0..tris.len())
                 .into_par_iter()
@@ -266,9 +269,9 @@ struct State<'a> {
     input: Vec<DVec3>,
     cx: Checker,
     energy: Energy<'a>,
-    /// The [`severity`] of each patch's verdict (the search's).
-    ok: Vec<u8>,
-    /// Fixed-rule energy of each patch.
+    /// The [`verdicts`] of each patch.
+    ok: Vec<[u8; 2]>,
+    /// Energy of each patch.
     e: Vec<f64>,
     params: Params,
     /// Step of each group and of each edge.
@@ -278,7 +281,7 @@ struct State<'a> {
 }
 
 impl State<'_> {
-    /// The fixed-rule energy of the patches where it is finite (in order): the sweeps'
+    /// The energy of the patches where it is finite (in order): the sweeps'
     /// measure of progress.
     fn objective(&self) -> f64 {
         self.e.iter().filter(|e| e.is_finite()).sum()
@@ -301,17 +304,21 @@ impl State<'_> {
         score(ring.iter().map(|&t| self.e[t as usize]))
     }
 
-    /// Whether no patch of `ring` gets a worse verdict on the current mesh (a certified
-    /// one stays certified, an undecided one does not fold); where none does, the
-    /// verdicts and `es` (the energies) are stored.
+    /// Whether no patch of `ring` gets a worse verdict ([`verdicts`]) on the current mesh:
+    /// a certified one stays certified, an undecided one does not fold; where none does,
+    /// the verdicts and `es` (the energies) are stored.
     fn keep(&mut self, ring: &[u32], es: Vec<f64>) -> Result<bool> {
-        let v: Vec<u8> = self
-            .cx
-            .verdicts_of(&self.work, ring)?
-            .iter()
-            .map(severity)
+        let table = self.cx.ring_patches(&self.work, ring)?;
+        let (cx, work) = (&self.cx, &self.work);
+        let v: Vec<[u8; 2]> = (0..ring.len())
+            .into_par_iter()
+            .map(|i| verdicts(cx, work, &table, i, ring[i]))
             .collect();
-        if ring.iter().zip(&v).any(|(&t, &s)| s > self.ok[t as usize]) {
+        let worse = |t: u32, s: &[u8; 2]| {
+            let was = self.ok[t as usize];
+            s[0] > was[0] || s[1] > was[1]
+        };
+        if ring.iter().zip(&v).any(|(&t, s)| worse(t, s)) {
             return Ok(false);
         }
         for ((&t, e), s) in ring.iter().zip(es).zip(v) {
@@ -411,6 +418,19 @@ impl State<'_> {
         self.edge_steps[i] = d[0].hypot(d[1]).clamp(2.0 * MIN_STEP, MAX_STEP[1]);
         Ok(Step::Moved)
     }
+}
+
+/// The [`severity`] of the search's verdict ([`Checker::judge`]) on patch `i` of `table`
+/// (triangle `t` of `work`) and of the certificate's alone ([`Checker::certify`]; 0 where
+/// the search's is valid): the search counts as undecided a patch whose cubic Lagrange
+/// element may fold or that is inside out, whatever the certificate says, so a fold there
+/// shows in the second only.
+fn verdicts(cx: &Checker, work: &Mesh, table: &PatchTable, i: usize, t: u32) -> [u8; 2] {
+    let judged = severity(&cx.judge(table, i, work.corner_normals[t as usize]));
+    if judged == 0 {
+        return [0, 0];
+    }
+    [judged, severity(&cx.certify(table, i))]
 }
 
 /// 0 for a valid patch, 1 for an undecided one, 2 for a folded one.
