@@ -149,6 +149,9 @@ pub use tess::stitch::{
 /// Statistics: the continuity of the surface across edges, and the statistics report.
 pub use analysis::stats::{continuity, stats_report, Continuity, CosStats, StatsReport};
 
+/// The fair G1 surface: normals and tangent lengths chosen to lower the bending energy
+/// under the validity certificate.
+pub use analysis::fair::{fair, FairOptions, FairReport};
 /// Fairness: the bending energy ∫ (κ₁² + κ₂²) dA of the patches (per patch or in total)
 /// and the jump of normal curvature across edges (the G2 defect).
 pub use analysis::fairness::{

@@ -31,6 +31,8 @@ mod errors;
 #[cfg(feature = "cli")]
 mod export_net;
 #[cfg(feature = "cli")]
+mod fair_cli;
+#[cfg(feature = "cli")]
 mod fairness_cli;
 mod formats;
 mod fuzz;

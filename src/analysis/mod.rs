@@ -3,6 +3,7 @@
 //! ([`table1`]) and the fairness measures ([`fairness`]: bending energy, G2 defect).
 
 pub mod distance;
+pub mod fair;
 pub mod fairness;
 pub mod stats;
 pub mod table1;

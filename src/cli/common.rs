@@ -8,6 +8,7 @@ use super::out;
 #[cfg(feature = "gpu")]
 use std::sync::{Arc, OnceLock};
 
+use crate::analysis::fair::{fair, FairOptions, FairReport};
 use crate::mesh::{LoadOptions, Mesh, NormalWeighting};
 use crate::patch::repair::{repair, repair_line, RepairOptions, RepairReport};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
@@ -37,6 +38,15 @@ pub struct InputArgs {
     /// certified valid); prints what changed.
     #[arg(long)]
     pub repair_folds: bool,
+    /// Choose vertex normals and G1 tangent lengths that lower the bending energy, keeping
+    /// the vertices, G1 on every smooth edge, every certified patch certified and every
+    /// crease as it is (--scheme g1; method in docs/fair.md); prints what changed.
+    #[arg(long, conflicts_with = "repair_folds")]
+    pub fair: bool,
+    /// With --fair: largest change, in degrees, of a normal given in the file (estimated
+    /// normals are free). 0 to 180.
+    #[arg(long, value_name = "DEG", default_value_t = 15.0)]
+    pub normal_bound: f64,
 }
 
 impl InputArgs {
@@ -59,12 +69,34 @@ impl InputArgs {
         RepairOptions::default().with_scheme_options(self.scheme_options())
     }
 
+    /// With `--fair`, the fair mesh and the report ([`fair`]); otherwise `None`. Refused
+    /// for a scheme other than G1.
+    pub fn faired(&self, mesh: &Mesh) -> anyhow::Result<Option<(Mesh, FairReport)>> {
+        if !self.fair {
+            return Ok(None);
+        }
+        anyhow::ensure!(
+            self.scheme == Scheme::G1,
+            "--fair chooses the normals and tangent lengths of the G1 surface: use it with \
+             --scheme g1"
+        );
+        let opts = FairOptions::default()
+            .with_normal_bound_deg(self.normal_bound)
+            .with_scheme_options(self.scheme_options());
+        Ok(Some(fair(mesh, &opts)?))
+    }
+
     /// With `--repair-folds`, `mesh` repaired for the scheme (once: what follows works on
-    /// the repaired mesh) and the repair's report; otherwise `mesh` itself and no report.
+    /// the repaired mesh) and the repair's report; with `--fair`, the fair mesh (its
+    /// report's line printed on stderr); otherwise `mesh` itself and no report.
     pub fn repaired<'a>(
         &self,
         mesh: &'a Mesh,
     ) -> anyhow::Result<(std::borrow::Cow<'a, Mesh>, Option<RepairReport>)> {
+        if let Some((m, report)) = self.faired(mesh)? {
+            out::stderr_line(&report.to_text(&mesh.name));
+            return Ok((std::borrow::Cow::Owned(m), None));
+        }
         if !self.repair_folds {
             return Ok((std::borrow::Cow::Borrowed(mesh), None));
         }

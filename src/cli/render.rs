@@ -306,7 +306,12 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         "--size {} is larger than the {max} pixels this device can draw per panel",
         a.size
     );
-    let mesh = a.input.load_mesh()?;
+    let mut mesh = a.input.load_mesh()?;
+    // With --fair every row draws the fair mesh.
+    if let Some((m, report)) = a.input.faired(&mesh)? {
+        out::stderr_line(&report.to_text(&mesh.name));
+        mesh = m;
+    }
     // The surface is drawn in f32.
     if let Some(note) = super::common::f32_range(&mesh)? {
         out::stderr_line(&note);

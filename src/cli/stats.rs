@@ -46,8 +46,8 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
     let mut backend = a.backend.clone();
     backend.quiet |= a.quiet;
     let evaluator = backend.evaluator(crate::gpu::Precision::F64)?;
-    // With --repair-folds the statistics are those of the repaired mesh.
-    let (mesh, repair) = a.input.repaired(&mesh)?;
+    // With --repair-folds (--fair) the statistics are those of the repaired (fair) mesh.
+    let (mesh, repair, fair) = repaired_or_faired(a, &mesh)?;
     let mut report = stats_report(
         &mesh,
         a.input.scheme,
@@ -62,7 +62,7 @@ pub fn run(a: &StatsArgs) -> anyhow::Result<()> {
     } else {
         None
     };
-    print_report(a, report, fairness)
+    print_report(a, report, fairness, fair)
 }
 
 /// Refuses `--fairness` where the whole patch table, the adjacency and the edge list it
@@ -117,8 +117,9 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
         patches.saturating_mul(stride * 24),
         &format!("{stride} control points each, beside the mesh"),
     )?;
-    // With --repair-folds the statistics are those of the repaired mesh, as on the CPU.
-    let (mesh, repair) = a.input.repaired(mesh)?;
+    // With --repair-folds (--fair) the statistics are those of the repaired (fair) mesh,
+    // as on the CPU.
+    let (mesh, repair, fair) = repaired_or_faired(a, mesh)?;
     let mesh = mesh.as_ref();
     let table = crate::patch::PatchTable::build(mesh, a.input.scheme, &a.input.scheme_options())?;
     let adjacency = mesh.adjacency();
@@ -138,7 +139,7 @@ fn run_gpu(a: &StatsArgs, mesh: &Mesh) -> anyhow::Result<()> {
     } else {
         None
     };
-    print_report(a, report, fairness)
+    print_report(a, report, fairness, fair)
 }
 
 /// The report on stdout: JSON, or text whose mesh name is escaped ([`out::escape`]), then
@@ -148,33 +149,61 @@ fn print_report(
     a: &StatsArgs,
     mut report: crate::analysis::stats::StatsReport,
     fairness: Option<crate::analysis::fairness::FairnessReport>,
+    fair: Option<crate::analysis::fair::FairReport>,
 ) -> anyhow::Result<()> {
     note_undecided(a, &report.patches);
     if a.json {
-        let json = match &fairness {
-            None => serde_json::to_string(&report)?,
-            Some(f) => serde_json::to_string(&WithFairness {
+        let json = if fairness.is_none() && fair.is_none() {
+            serde_json::to_string(&report)?
+        } else {
+            serde_json::to_string(&WithFairness {
                 report: &report,
-                fairness: f,
-            })?,
+                fairness: fairness.as_ref(),
+                fair: fair.as_ref(),
+            })?
         };
         out::stdout_json(&json)?;
     } else {
+        let fair_line = fair
+            .map(|f| format!("\n{}", f.to_text(&out::escape(&report.mesh))))
+            .unwrap_or_default();
         report.mesh = out::escape(&report.mesh).into_owned();
         let extra = fairness
             .map(|f| format!("\n{}", f.to_text()))
             .unwrap_or_default();
-        out::stdout_line(&format!("{}{extra}\n", report.to_text()))?;
+        out::stdout_line(&format!("{}{fair_line}{extra}\n", report.to_text()))?;
     }
     Ok(())
 }
 
-/// `stats --json --fairness`: the report's fields, then `fairness`.
+/// `stats --json` with `--fairness` or `--fair`: the report's fields, then `fairness` and
+/// `fair` where present.
 #[derive(serde::Serialize)]
 struct WithFairness<'a> {
     #[serde(flatten)]
     report: &'a crate::analysis::stats::StatsReport,
-    fairness: &'a crate::analysis::fairness::FairnessReport,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    fairness: Option<&'a crate::analysis::fairness::FairnessReport>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    fair: Option<&'a crate::analysis::fair::FairReport>,
+}
+
+/// The mesh the statistics are of: repaired with `--repair-folds`, fair with `--fair`
+/// (with the report, for the output), else `mesh` itself.
+#[allow(clippy::type_complexity)]
+fn repaired_or_faired<'a>(
+    a: &StatsArgs,
+    mesh: &'a Mesh,
+) -> anyhow::Result<(
+    std::borrow::Cow<'a, Mesh>,
+    Option<crate::patch::repair::RepairReport>,
+    Option<crate::analysis::fair::FairReport>,
+)> {
+    if let Some((m, report)) = a.input.faired(mesh)? {
+        return Ok((std::borrow::Cow::Owned(m), None, Some(report)));
+    }
+    let (m, repair) = a.input.repaired(mesh)?;
+    Ok((m, repair, None))
 }
 
 /// A note on stderr where the certificate left patches undecided (not with `--quiet`).

@@ -114,19 +114,20 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     let uniform = a.tolerance.is_none() && a.tolerance_rel.is_none();
     // At one level on the input mesh (no repair), the plan needs neither the table nor the
     // certificate: the numbering (one pass in order) is built beside them.
-    let (mesh, table, folds, adjacency, early_plan) = if uniform && !a.input.repair_folds {
-        let adjacency = mesh.adjacency();
-        let (prepared, plan) = rayon::join(
-            || a.input.table_of(&mesh),
-            || StitchPlan::new(&mesh, &adjacency, a.level),
-        );
-        let (table, folds) = prepared?;
-        (mesh, table, folds, adjacency, Some(plan))
-    } else {
-        let (mesh, table, folds) = a.input.prepare(mesh)?;
-        let adjacency = mesh.adjacency();
-        (mesh, table, folds, adjacency, None)
-    };
+    let (mesh, table, folds, adjacency, early_plan) =
+        if uniform && !a.input.repair_folds && !a.input.fair {
+            let adjacency = mesh.adjacency();
+            let (prepared, plan) = rayon::join(
+                || a.input.table_of(&mesh),
+                || StitchPlan::new(&mesh, &adjacency, a.level),
+            );
+            let (table, folds) = prepared?;
+            (mesh, table, folds, adjacency, Some(plan))
+        } else {
+            let (mesh, table, folds) = a.input.prepare(mesh)?;
+            let adjacency = mesh.adjacency();
+            (mesh, table, folds, adjacency, None)
+        };
     if let Some(line) = folds {
         out::stderr_line(&line);
     }

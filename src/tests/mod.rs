@@ -13,6 +13,7 @@ mod eval_cases;
 mod adaptive;
 mod cpu_fast;
 mod creases;
+mod fair;
 mod fairness;
 mod g1_patch;
 #[cfg(feature = "gpu")]

@@ -126,7 +126,7 @@ impl<'a> Search<'a> {
     /// The search's start on `mesh`: every patch judged (a certified G1 patch whose cubic
     /// Lagrange element may fold, or that is inside out, counts as undecided), or, where
     /// the certificate certifies every patch, their counts.
-    fn start(
+    pub(super) fn start(
         mesh: &'a Mesh,
         scheme: Scheme,
         opts: &SchemeOptions,
@@ -192,6 +192,11 @@ impl<'a> Search<'a> {
             groups,
             faces,
         }))
+    }
+
+    /// [`RepairReport::normal_change_lower_bound_deg`] of the input.
+    pub(super) fn lower_bound_deg(&self) -> f64 {
+        self.input.lower_bound
     }
 
     /// The patches not certified now, in order.

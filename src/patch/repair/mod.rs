@@ -46,6 +46,7 @@ mod arm;
 mod bound;
 mod check;
 mod driver;
+pub(crate) mod fair;
 mod fallback;
 mod fins;
 mod geometry;

@@ -1,0 +1,238 @@
+//! The fair G1 optimiser ([`crate::fair`]) against independent checks: the certificate's
+//! verdicts and the continuity statistics of the table built from its mesh, the vertices
+//! bit for bit, the crease edges counted by the statistics, the bending energy against the
+//! fold repair's, and a discrete bending energy of the tessellated surface (welded by
+//! position) that converges as the level rises on a surface without folds or kinks.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use super::common::load;
+use crate::{
+    check_table, continuity, fair, fairness, repair, stitch, CpuEvaluator, FairOptions, FairReport,
+    FairnessOptions, LoadOptions, Mesh, PatchTable, RepairOptions, Scheme, SchemeOptions, Verdict,
+};
+
+/// Σ over the interior edges of the tessellated G1 surface of `mesh` at `level` (positions
+/// welded, as the stitcher shares them) of 3 θ² |e|² / (A₁ + A₂), θ the angle between the
+/// two triangles' normals, A their areas (the discrete shell bending energy of Grinspun et
+/// al. 2003, whose sum approaches ∫ (κ₁² + κ₂²) dA on a smooth surface). Edges on crease
+/// curves (their two triangles use different vertex records, the stitcher's split normals)
+/// are left out: there the sum grows with the level without bound.
+fn discrete_energy(mesh: &Mesh, level: u32) -> f64 {
+    let table = PatchTable::build(mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let (out, _, _) = stitch(mesh, &table, &CpuEvaluator::default(), level).unwrap();
+    let pos = |r: u32| out.positions[out.record_position[r as usize] as usize];
+    // Per welded edge (position ids, lower first): the uses (triangle, records at the ends
+    // in the edge's order).
+    let mut uses: HashMap<[u32; 2], Vec<(usize, [u32; 2])>> = HashMap::new();
+    for (t, tri) in out.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (ra, rb) = (tri[k], tri[(k + 1) % 3]);
+            let (a, b) = (
+                out.record_position[ra as usize],
+                out.record_position[rb as usize],
+            );
+            let (key, recs) = if a < b {
+                ([a, b], [ra, rb])
+            } else {
+                ([b, a], [rb, ra])
+            };
+            uses.entry(key).or_default().push((t, recs));
+        }
+    }
+    let normal_area = |t: usize| {
+        let [a, b, c] = out.triangles[t].map(pos);
+        let n = (b - a).cross(c - a);
+        (n.normalize(), 0.5 * n.length())
+    };
+    let mut sum = 0.0;
+    for (key, u) in &uses {
+        if u.len() != 2 || u[0].1 != u[1].1 {
+            continue;
+        }
+        let ((n1, a1), (n2, a2)) = (normal_area(u[0].0), normal_area(u[1].0));
+        let theta = n1.cross(n2).length().atan2(n1.dot(n2));
+        let e = out.positions[key[0] as usize] - out.positions[key[1] as usize];
+        sum += 3.0 * theta * theta * e.length_squared() / (a1 + a2);
+    }
+    sum
+}
+
+/// The bending energy (adaptive, default rule) of the certified G1 patches of `mesh`.
+fn exact_energy(mesh: &Mesh) -> f64 {
+    let table = PatchTable::build(mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    fairness(mesh, &mesh.adjacency(), &table, &FairnessOptions::default())
+        .unwrap()
+        .energy
+}
+
+/// What every fair mesh must satisfy whatever the input: the vertices and triangles bit
+/// for bit, G1 on every non-crease edge (1 − |cos| ≤ 1e-12, and 1 − min cos where nothing
+/// folds: the rounding of the statistics' normals, measured ≤ 5e-16) and watertight (gap ≤ 1e-12 of the bounding box),
+/// the same crease edges as the input, the report's verdicts the certificate's, and the
+/// normals within the bound where it applies.
+fn check_fair(mesh: &Mesh, faired: &Mesh, report: &FairReport) {
+    assert_eq!(faired.positions, mesh.positions);
+    assert_eq!(faired.triangles, mesh.triangles);
+    let table = PatchTable::build(faired, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let c = continuity(
+        faired,
+        &faired.adjacency(),
+        &table,
+        &CpuEvaluator::default(),
+    )
+    .unwrap();
+    let table0 = PatchTable::build(mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let c0 = continuity(mesh, &mesh.adjacency(), &table0, &CpuEvaluator::default()).unwrap();
+    // A folded patch meets its neighbour at cos = -1 (the tangent plane shared, turned
+    // over): the statistics' G1 measure is then 1 - |cos|.
+    assert!(
+        c.max_one_minus_abs_cos <= 1e-12,
+        "{}",
+        c.max_one_minus_abs_cos
+    );
+    if report.after.folded == 0 {
+        assert!(1.0 - c.cos.min <= 1e-12, "{}", c.cos.min);
+    }
+    let (lo, hi) = mesh
+        .positions
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    assert!(c.max_gap <= 1e-12 * (hi - lo).length(), "{}", c.max_gap);
+    assert_eq!(c.crease_edges, c0.crease_edges);
+    assert_eq!(report.creases_made, 0);
+    let counts = check_table(&table)
+        .iter()
+        .fold(Default::default(), crate::PatchCounts::with);
+    assert_eq!(counts, report.after);
+    if let Some(b) = report.normal_bound_deg {
+        // The bound is kept with a relative margin of 1e-9 (the clamp's), so the largest
+        // change reaches it at most.
+        assert!(report.max_normal_change_deg <= b, "{report:?}");
+    }
+}
+
+/// Spot (estimated normals, all free): nothing folds before or after; two sweeps bring
+/// the bending energy from 1028.5 to 614.5 (0.597 of it; six sweeps, the default, 0.578:
+/// the repair leaves spot as it is, so the aim of half the repair's energy is not
+/// met here, see `docs/fair.md`); the discrete energy at level 16 is within 15 % of level
+/// 8's.
+#[test]
+fn fair_spot_keeps_g1_and_lowers_the_energy() {
+    let mesh = load("spot.obj");
+    let (faired, report) = fair(&mesh, &FairOptions::default().with_sweeps(2)).unwrap();
+    check_fair(&mesh, &faired, &report);
+    assert_eq!((report.after.folded, report.after.undecided), (0, 0));
+    assert_eq!(report.normal_bound_deg, None);
+    let before = exact_energy(&mesh);
+    let after = exact_energy(&faired);
+    // The report's figures are the fairness measure's (same rule, same patches).
+    assert_eq!(report.energy_before.energy, before);
+    assert_eq!(report.energy_after.energy, after);
+    // Measured 0.597; 0.65 leaves room for other rounding of the trials only.
+    assert!(after < 0.65 * before, "{before} -> {after}");
+    let (d8, d16) = (discrete_energy(&faired, 8), discrete_energy(&faired, 16));
+    assert!(
+        (d16 / d8 - 1.0).abs() < 0.15,
+        "level 8 {d8}, level 16 {d16}"
+    );
+}
+
+/// Fandisk with creases at 30° (normals estimated per smoothing group, all free): two
+/// sweeps bring the energy to 0.652 of the repair's (72.136 with the crease the repair
+/// makes; the aim, half, is not met), no crease is made, and the discrete energy
+/// away from the creases converges (level 16 within 15 % of level 8). The input's one
+/// undecided patch stays undecided: the crease-free start does not certify it (the
+/// repair's fallback does, by making a crease), nor do the sweeps.
+#[test]
+fn fair_fandisk_lowers_the_energy_without_a_crease() {
+    let opts = LoadOptions::default().with_crease_angle(Some(30.0));
+    let mesh = Mesh::load(&super::common::shared_spec("fandisk.obj"), &opts).unwrap();
+    let (faired, report) = fair(&mesh, &FairOptions::default().with_sweeps(2)).unwrap();
+    check_fair(&mesh, &faired, &report);
+    assert_eq!((report.after.folded, report.after.undecided), (0, 1));
+    let (repaired, _) = repair(&mesh, Scheme::G1, &RepairOptions::default()).unwrap();
+    let (after, repaired) = (exact_energy(&faired), exact_energy(&repaired));
+    // Measured 0.652; 0.7 leaves room for other rounding of the trials only.
+    assert!(after <= 0.7 * repaired, "{after} vs repair {repaired}");
+    let (d8, d16) = (discrete_energy(&faired, 8), discrete_energy(&faired, 16));
+    assert!(
+        (d16 / d8 - 1.0).abs() < 0.15,
+        "level 8 {d8}, level 16 {d16}"
+    );
+}
+
+/// Suzanne with its file normals, bounded to 15°: the input forces creases at 3 groups
+/// (doubled triangles) and no G1 repair can move its normals less than 27.1°, so some
+/// patches stay uncertified (six sweeps: 76 folded before, 42 after, energy of the others
+/// 6.05e4 -> 1.41e4); the bound holds, no crease is made, no patch certified at the start
+/// is lost, and the result is the same on one thread and on two.
+#[test]
+fn fair_suzanne_keeps_the_bound_and_is_deterministic() {
+    let mesh = load("suzanne.obj");
+    let opts = FairOptions::default().with_sweeps(2);
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| fair(&mesh, &opts).unwrap())
+    };
+    let (faired, report) = run(2);
+    check_fair(&mesh, &faired, &report);
+    assert_eq!(report.normal_bound_deg, Some(15.0));
+    assert_eq!(report.crease_forced_groups, 3);
+    assert!((report.normal_change_lower_bound_deg - 27.107).abs() < 1e-3);
+    // Every patch the start certified stays certified: what is left is what the start
+    // left (the search's verdict is stricter than the certificate's).
+    let table = PatchTable::build(&faired, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let valid = check_table(&table)
+        .iter()
+        .filter(|v| **v == Verdict::Valid)
+        .count();
+    assert!(valid + report.start_uncertified >= mesh.triangles.len());
+    let (one, report1) = run(1);
+    assert_eq!(one.corner_normals, faired.corner_normals);
+    assert_eq!(one.attributes.arm_scales, faired.attributes.arm_scales);
+    assert_eq!(report1, report);
+}
+
+/// The figures of `docs/fair.md`: `FAIR_MESH=path [FAIR_CREASE=deg] cargo test --release
+/// --lib fair_figures -- --ignored --nocapture` prints the report, the fold repair's
+/// energy for comparison, and the discrete energy of the fair surface at levels 4, 8, 16.
+#[test]
+#[ignore]
+fn fair_figures() {
+    let Ok(path) = std::env::var("FAIR_MESH") else {
+        return;
+    };
+    let crease = std::env::var("FAIR_CREASE")
+        .ok()
+        .map(|s| s.parse().unwrap());
+    let mesh = Mesh::load(&path, &LoadOptions::default().with_crease_angle(crease)).unwrap();
+    let t = std::time::Instant::now();
+    let (faired, report) = fair(&mesh, &FairOptions::default()).unwrap();
+    let time = t.elapsed().as_secs_f64();
+    println!("{}", report.to_text(&mesh.name));
+    println!("{}", serde_json::to_string(&report).unwrap());
+    println!("fair: {time:.2} s");
+    let (repaired, r) = repair(&mesh, Scheme::G1, &RepairOptions::default()).unwrap();
+    println!(
+        "repair: energy {:.6e}, {} creases made, largest normal change {:.2}°",
+        exact_energy(&repaired),
+        r.edges_made_creases,
+        r.max_normal_change_deg
+    );
+    for level in [4, 8, 16] {
+        println!(
+            "discrete energy level {level}: input {:.6e} repair {:.6e} fair {:.6e}",
+            discrete_energy(&mesh, level),
+            discrete_energy(&repaired, level),
+            discrete_energy(&faired, level)
+        );
+    }
+}
