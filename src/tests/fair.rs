@@ -149,6 +149,8 @@ fn fair_spot_keeps_g1_and_lowers_the_energy() {
 /// undecided patch stays undecided: the crease-free start does not certify it (the
 /// repair's fallback does, by making a crease), nor do the sweeps.
 #[test]
+#[ignore = "a minute or more on two cores (13k triangles, two sweeps, the repair beside): \
+            run with --ignored; the test run's time budget keeps spot, Suzanne and the torus"]
 fn fair_fandisk_lowers_the_energy_without_a_crease() {
     let opts = LoadOptions::default().with_crease_angle(Some(30.0));
     let mesh = Mesh::load(&super::common::shared_spec("fandisk.obj"), &opts).unwrap();
@@ -166,23 +168,41 @@ fn fair_fandisk_lowers_the_energy_without_a_crease() {
     );
 }
 
-/// Suzanne with its file normals, bounded to 15°: the input forces creases at 3 groups
-/// (doubled triangles) and no G1 repair can move its normals less than 27.1°, so some
-/// patches stay uncertified (six sweeps: 76 folded before, 42 after, energy of the others
-/// 6.05e4 -> 1.41e4); the bound holds, no crease is made, no patch certified at the start
-/// is lost, and the result is the same on one thread and on two.
+/// The fair surface is the same on one thread and on two: normals, arm factors and the
+/// report (the built-in torus of 200 triangles with averaged normals, the default sweeps).
 #[test]
-fn fair_suzanne_keeps_the_bound_and_is_deterministic() {
-    let mesh = load("suzanne.obj");
-    let opts = FairOptions::default().with_sweeps(2);
+fn fair_is_the_same_on_one_thread_and_on_two() {
+    let mesh = load("torus200");
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| fair(&mesh, &opts).unwrap())
+            .install(|| fair(&mesh, &FairOptions::default()).unwrap())
     };
     let (faired, report) = run(2);
+    check_fair(&mesh, &faired, &report);
+    assert!(
+        report.normal_moves > 0 && report.arm_edges_scaled > 0,
+        "{report:?}"
+    );
+    let (one, report1) = run(1);
+    assert_eq!(one.corner_normals, faired.corner_normals);
+    assert_eq!(one.attributes.arm_scales, faired.attributes.arm_scales);
+    assert_eq!(report1, report);
+}
+
+/// Suzanne with its file normals, bounded to 15°: the input forces creases at 3 groups
+/// (doubled triangles) and no G1 repair can move its normals less than 27.1°, so some
+/// patches stay uncertified (six sweeps: 76 folded before, 42 after, energy of the others
+/// 6.05e4 -> 1.41e4); the bound holds, no crease is made and no patch certified at the
+/// start is lost.
+#[test]
+fn fair_suzanne_keeps_the_bound() {
+    let mesh = load("suzanne.obj");
+    // One sweep: what is checked here does not depend on how far the energy falls.
+    let opts = FairOptions::default().with_sweeps(1);
+    let (faired, report) = fair(&mesh, &opts).unwrap();
     check_fair(&mesh, &faired, &report);
     assert_eq!(report.normal_bound_deg, Some(15.0));
     assert_eq!(report.crease_forced_groups, 3);
@@ -195,10 +215,6 @@ fn fair_suzanne_keeps_the_bound_and_is_deterministic() {
         .filter(|v| **v == Verdict::Valid)
         .count();
     assert!(valid + report.start_uncertified >= mesh.triangles.len());
-    let (one, report1) = run(1);
-    assert_eq!(one.corner_normals, faired.corner_normals);
-    assert_eq!(one.attributes.arm_scales, faired.attributes.arm_scales);
-    assert_eq!(report1, report);
 }
 
 /// The figures of `docs/fair.md`: `FAIR_MESH=path [FAIR_CREASE=deg] cargo test --release
