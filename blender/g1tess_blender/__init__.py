@@ -273,22 +273,45 @@ def export_input(context, obj, stem, use_world_space=True, normals="AUTO", apply
     return path
 
 
-def tessellate_command(binary, pn_path, out_path, scheme, level, tolerance_rel=None, max_level=64):
+def tessellate_command(
+    binary, pn_path, out_path, scheme, level, tolerance_rel=None, max_level=64, fair=False
+):
     """The `g1tess tessellate` command line: a uniform level, or (tolerance_rel given) levels
     per edge for a tolerance of tolerance_rel x the bounding-box diagonal, capped at
-    max_level."""
+    max_level; with fair, the fair G1 surface (--fair)."""
     cmd = [binary, "tessellate", pn_path, "--scheme", scheme]
     if tolerance_rel is None:
         cmd += ["--level", str(level)]
     else:
         cmd += ["--tolerance-rel", repr(float(tolerance_rel)), "--max-level", str(max_level)]
+    if fair:
+        cmd += ["--fair"]
     return cmd + ["-o", out_path, "--json"]
 
 
-def run_g1tess(binary, pn_path, out_path, scheme, level, tolerance_rel=None, max_level=64):
+def _flatten(summary, key):
+    """Moves the fields of the object summary[key] to the top with the prefix key + "_",
+    those of its objects with key + "_" + their key + "_"."""
+    inner = summary.pop(key, None)
+    if not isinstance(inner, dict):
+        return
+    for k, v in inner.items():
+        if isinstance(v, dict):
+            for k2, v2 in v.items():
+                summary["%s_%s_%s" % (key, k, k2)] = v2
+        else:
+            summary["%s_%s" % (key, k)] = v
+
+
+def run_g1tess(
+    binary, pn_path, out_path, scheme, level, tolerance_rel=None, max_level=64, fair=False
+):
     """Runs `g1tess tessellate` and returns its --json summary (a tolerance run's
-    "adaptive" fields flattened with the prefix "adaptive_")."""
-    cmd = tessellate_command(binary, pn_path, out_path, scheme, level, tolerance_rel, max_level)
+    "adaptive" fields flattened with the prefix "adaptive_", a fair run's "fair" report
+    with "fair_")."""
+    cmd = tessellate_command(
+        binary, pn_path, out_path, scheme, level, tolerance_rel, max_level, fair
+    )
     try:
         done = subprocess.run(cmd, capture_output=True, text=True)
     except OSError as e:
@@ -305,10 +328,8 @@ def run_g1tess(binary, pn_path, out_path, scheme, level, tolerance_rel=None, max
         raise G1TessError(
             "g1tess printed no JSON summary (is '%s' a g1tess binary?)" % binary
         ) from None
-    adaptive = summary.pop("adaptive", None)
-    if isinstance(adaptive, dict):
-        for k, v in adaptive.items():
-            summary["adaptive_" + k] = v
+    _flatten(summary, "adaptive")
+    _flatten(summary, "fair")
     return summary
 
 
@@ -422,6 +443,13 @@ class OBJECT_OT_g1tess_smooth(bpy.types.Operator):
         name="Max Level", description="Cap on the segments per edge the tolerance may ask for",
         default=64, min=1, max=4096, soft_max=128,
     )
+    fair: BoolProperty(
+        name="Fair",
+        description="Choose the normals and tangent lengths that lower the bending energy "
+        "(g1tess --fair): a surface that looks smooth, not only G1. The vertices stay; "
+        "normals from the mesh move at most 15 degrees. G1 scheme only",
+        default=False,
+    )
     normals: EnumProperty(name="Normals", items=NORMAL_MODES, default="AUTO")
     apply_modifiers: BoolProperty(name="Apply Modifiers", default=True)
     place_beside: BoolProperty(
@@ -466,6 +494,8 @@ class OBJECT_OT_g1tess_smooth(bpy.types.Operator):
         return {"FINISHED"}
 
     def smooth(self, context, obj):
+        if self.fair and self.scheme != "g1":
+            raise G1TessError("Fair needs the G1 scheme (scheme is %s)" % self.scheme)
         binary = find_binary(context)
         keep = bpy.path.abspath(self.keep_dir) if self.keep_dir else ""
         if keep:
@@ -480,7 +510,8 @@ class OBJECT_OT_g1tess_smooth(bpy.types.Operator):
             )
             tolerance = self.tolerance if self.detail == "TOLERANCE" else None
             summary = run_g1tess(
-                binary, pn_path, out_path, self.scheme, self.level, tolerance, self.max_level
+                binary, pn_path, out_path, self.scheme, self.level, tolerance, self.max_level,
+                self.fair,
             )
             try:
                 data = pnio.read_obj(out_path)

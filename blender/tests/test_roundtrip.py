@@ -717,6 +717,37 @@ def uv_corner_normals():
     assert [layer.name for layer in new.data.uv_layers] == ["UVMap"]
 
 
+@check("G1 Smooth with Fair (--fair): the torus's vertices kept, other normals; not with PN")
+def fair_smooth():
+    outputs = {}
+    for fair in (False, True):
+        clear_scene()
+        obj = make_torus()
+        activate(obj)
+        co = mesh_array(obj.data.vertices, "co", len(obj.data.vertices), 3)
+        keep = os.path.join(WORK, "fair" if fair else "plain")
+        r = bpy.ops.object.g1tess_smooth(scheme="g1", level=2, fair=fair, keep_dir=keep)
+        assert r == {"FINISHED"}, r
+        pos, nrm, faces, _ = read_obj(bpy.context.active_object["g1tess"]["output"])
+        # Every input vertex is a vertex of the surface, exactly (Blender's f32 in, f32 out).
+        found = {tuple(p) for p in pos.astype(np.float32)}
+        assert all(tuple(c) in found for c in co), "an input vertex moved"
+        outputs[fair] = (pos, nrm, faces)
+    (p0, n0, f0), (p1, n1, f1) = outputs[False], outputs[True]
+    # Level 2: 4 triangles per input triangle, either way; the fair surface has the same
+    # layout but its own normals, so its edge midpoints and normals differ.
+    assert len(f0) == len(f1) == 200 * 4 and p0.shape == p1.shape
+    assert np.abs(n0 - n1).max() > 1e-3 and np.abs(p0 - p1).max() > 0
+    # --fair is the G1 surface's: refused with another scheme, in one message.
+    activate(bpy.context.active_object)
+    try:
+        bpy.ops.object.g1tess_smooth(scheme="pn", level=2, fair=True)
+    except RuntimeError as e:
+        assert "Fair needs the G1 scheme" in str(e), str(e)
+    else:
+        raise AssertionError("no error for Fair with PN")
+
+
 def main():
     passed = sum(ok for _, ok in RESULTS)
     failed = len(RESULTS) - passed

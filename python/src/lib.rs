@@ -14,9 +14,9 @@ use std::path::{Path, PathBuf};
 
 use g1tess::{
     export_msh, generators, levels_for_tolerance, stats_report, stitch_into, write_stitched,
-    CpuEvaluator, LoadOptions, Mesh, MeshFormat, NoProgress, NormalWeighting, PatchTable,
-    RepairOptions, RepairReport, Scheme, SchemeOptions, StitchPlan, StitchedMesh, TempFiles,
-    ToleranceLevels, ToleranceOptions, MAX_LEVEL,
+    CpuEvaluator, FairOptions, LoadOptions, Mesh, MeshFormat, NoProgress, NormalWeighting,
+    PatchTable, RepairOptions, RepairReport, Scheme, SchemeOptions, StitchPlan, StitchedMesh,
+    TempFiles, ToleranceLevels, ToleranceOptions, MAX_LEVEL,
 };
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -490,6 +490,26 @@ impl PyMesh {
             serde_json::to_string(&s).map_err(|e| invalid(e.to_string()))
         })
         .map_err(py_err)
+    }
+
+    /// fair(normal_bound_deg) -> (Mesh, str): the fair G1 surface's mesh (what `--fair`
+    /// does: normals and tangent lengths chosen to lower the bending energy, every patch
+    /// certified, no crease made; normals given in the file move at most
+    /// `normal_bound_deg` degrees) and the report as JSON (the `fair` object of
+    /// `stats --fair --json`).
+    fn fair(&self, py: Python<'_>, normal_bound_deg: f64) -> PyResult<(PyMesh, String)> {
+        let opts = FairOptions::default()
+            .with_normal_bound_deg(normal_bound_deg)
+            .with_scheme_options(self.options);
+        let (mesh, json) = py
+            .detach(|| -> g1tess::Result<_> {
+                let (fair, report) = g1tess::fair(&self.mesh, &opts)?;
+                let json = serde_json::to_string(&report).map_err(|e| invalid(e.to_string()))?;
+                Ok((fair, json))
+            })
+            .map_err(py_err)?;
+        let options = self.options;
+        Ok((PyMesh { mesh, options }, json))
     }
 
     /// repair_folds(scheme) -> (Mesh, str): the mesh with its normals repaired so that
