@@ -23,7 +23,7 @@ const ARM_STEP_END: f64 = 0.02;
 
 /// An interior edge: its two half-edges (the lower first) and its vertices (the lower
 /// first).
-type Edge = ([u32; 2], [u32; 2]);
+pub(super) type Edge = ([u32; 2], [u32; 2]);
 
 impl Search<'_> {
     /// The arm step on the patches `self.bad` ([`arm_step`]); where it certifies them all,
@@ -72,6 +72,14 @@ pub(super) fn arm_summary(work: &Mesh) -> (usize, [f64; 2]) {
 /// Sets the arm factors of the interior edges `edges` to `exp(x[2 i])` at the lower
 /// vertex of edge i and `exp(x[2 i + 1])` at its higher one, in both uses.
 fn set_arms(work: &mut Mesh, edges: &[Edge], x: &[f64]) {
+    for (i, edge) in edges.iter().enumerate() {
+        set_edge_arms(work, edge, [x[2 * i].exp(), x[2 * i + 1].exp()]);
+    }
+}
+
+/// Sets the arm factors of `edge` to `s` (at its lower vertex, at its higher one) in both
+/// of its uses.
+pub(super) fn set_edge_arms(work: &mut Mesh, edge: &Edge, s: [f64; 2]) {
     let n = work.triangles.len();
     let Mesh {
         triangles: tris,
@@ -81,12 +89,10 @@ fn set_arms(work: &mut Mesh, edges: &[Edge], x: &[f64]) {
     let a = attributes
         .arm_scales
         .get_or_insert_with(|| vec![[[1.0; 2]; 3]; n]);
-    for (i, (hs, v)) in edges.iter().enumerate() {
-        let s = [x[2 * i].exp(), x[2 * i + 1].exp()];
-        for &h in hs {
-            let (t, k) = (h as usize / 3, h as usize % 3);
-            a[t][k] = if tris[t][k] == v[0] { s } else { [s[1], s[0]] };
-        }
+    let (hs, v) = edge;
+    for &h in hs {
+        let (t, k) = (h as usize / 3, h as usize % 3);
+        a[t][k] = if tris[t][k] == v[0] { s } else { [s[1], s[0]] };
     }
 }
 

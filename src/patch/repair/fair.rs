@@ -30,7 +30,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::arm::arm_summary;
+use super::arm::{arm_summary, set_edge_arms, Edge};
 use super::check::Checker;
 use super::driver::Search;
 use super::geometry::{angle_deg, new_creases};
@@ -237,10 +237,6 @@ fn judge_and_integrate(
     Ok((ok, e))
 }
 
-/// An interior edge: its two half-edges (the lower first) and its vertices (the lower
-/// first).
-type Edge = ([u32; 2], [u32; 2]);
-
 /// Every interior edge of `work` once (by its lower half-edge), in half-edge order.
 fn interior_edges(work: &Mesh, twins: &[u32]) -> Vec<Edge> {
     (0..twins.len() as u32)
@@ -396,22 +392,22 @@ impl State<'_> {
             if x.iter().any(|&v| v < lo || v > hi) {
                 return Ok(None);
             }
-            set_arms(&mut self.work, edge, x.map(f64::exp));
+            set_edge_arms(&mut self.work, edge, x.map(f64::exp));
             let es = ring_energies(&self.cx, &self.work, self.energy, &ring);
-            set_arms(&mut self.work, edge, x0.map(f64::exp));
+            set_edge_arms(&mut self.work, edge, x0.map(f64::exp));
             es.map(Some)
         })?;
         let Some((d, es)) = trial else {
             self.edge_steps[i] = h / 2.0;
             return Ok(Step::Still);
         };
-        set_arms(
+        set_edge_arms(
             &mut self.work,
             edge,
             [x0[0] + d[0], x0[1] + d[1]].map(f64::exp),
         );
         if !self.keep(&ring, es)? {
-            set_arms(&mut self.work, edge, x0.map(f64::exp));
+            set_edge_arms(&mut self.work, edge, x0.map(f64::exp));
             self.edge_steps[i] = h / 2.0;
             return Ok(Step::Refused);
         }
@@ -479,28 +475,6 @@ fn get_arms(work: &Mesh, edge: &Edge) -> [f64; 2] {
         s
     } else {
         [s[1], s[0]]
-    }
-}
-
-/// Sets the arm factors of `edge` to `s` (at its lower vertex, at its higher one) in both
-/// of its uses.
-fn set_arms(work: &mut Mesh, edge: &Edge, s: [f64; 2]) {
-    let n = work.triangles.len();
-    let Mesh {
-        triangles: tris,
-        attributes,
-        ..
-    } = work;
-    let a = attributes
-        .arm_scales
-        .get_or_insert_with(|| vec![[[1.0; 2]; 3]; n]);
-    for &h in &edge.0 {
-        let (t, k) = (h as usize / 3, h as usize % 3);
-        a[t][k] = if tris[t][k] == edge.1[0] {
-            s
-        } else {
-            [s[1], s[0]]
-        };
     }
 }
 
