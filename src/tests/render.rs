@@ -85,17 +85,7 @@ fn sphere_picture_checks(p: &Panels, size: u32) {
             "panel {c}: covered {covered}, expected {expect}"
         );
     }
-    // Disk centre and radius from the silhouette of the n_z panel.
-    let inside: Vec<(u32, u32)> = (0..size)
-        .flat_map(|y| (0..size).map(move |x| (x, y)))
-        .filter(|&(x, y)| p.pixel(2, x, y) != BACKGROUND)
-        .collect();
-    let xmin = inside.iter().map(|q| q.0).min().unwrap() as f64;
-    let xmax = inside.iter().map(|q| q.0).max().unwrap() as f64;
-    let ymin = inside.iter().map(|q| q.1).min().unwrap() as f64;
-    let ymax = inside.iter().map(|q| q.1).max().unwrap() as f64;
-    let (cx, cy) = ((xmin + xmax + 1.0) / 2.0, (ymin + ymax + 1.0) / 2.0);
-    let r = (xmax - xmin + 1.0) / 2.0;
+    let (inside, cx, cy, r) = disk(p, size);
     // Whole-pixel extents place the centre to a pixel and the radius to a pixel, plus
     // half a pixel for the rasteriser's rule on partly covered edge pixels.
     assert!((cx - size as f64 / 2.0).abs() <= 1.0 && (cy - size as f64 / 2.0).abs() <= 1.0);
@@ -121,6 +111,21 @@ fn sphere_picture_checks(p: &Panels, size: u32) {
     assert!(mean < 1.0, "mean colour difference {mean}");
     assert!(p99 <= 2, "99th percentile colour difference {p99}");
     assert!(diffs[diffs.len() - 1] <= 6, "largest colour difference");
+}
+
+/// The pixels of the n_z panel that are not background, and the disk they make: its
+/// centre (x, y) and radius in pixels, from the whole-pixel extents of the silhouette.
+pub(super) fn disk(p: &Panels, size: u32) -> (Vec<(u32, u32)>, f64, f64, f64) {
+    let inside: Vec<(u32, u32)> = (0..size)
+        .flat_map(|y| (0..size).map(move |x| (x, y)))
+        .filter(|&(x, y)| p.pixel(2, x, y) != BACKGROUND)
+        .collect();
+    let xmin = inside.iter().map(|q| q.0).min().unwrap() as f64;
+    let xmax = inside.iter().map(|q| q.0).max().unwrap() as f64;
+    let ymin = inside.iter().map(|q| q.1).min().unwrap() as f64;
+    let ymax = inside.iter().map(|q| q.1).max().unwrap() as f64;
+    let (cx, cy) = ((xmin + xmax + 1.0) / 2.0, (ymin + ymax + 1.0) / 2.0);
+    (inside, cx, cy, (xmax - xmin + 1.0) / 2.0)
 }
 
 /// Whether pixel (x, y) of panel c touches the background (4-neighbourhood).

@@ -9,7 +9,7 @@ use glam::DVec3;
 
 use crate::render::isophotes::{isophote, BANDS_PER_UNIT, DARK, ISOPHOTE_WGSL, LIGHT};
 use crate::render::pipeline::shaded_source;
-use crate::render::{render_panels, Panels, RenderOptions, Shading, BACKGROUND};
+use crate::render::{render_panels, Panels, RenderOptions, Shading};
 use crate::{stitch, CpuEvaluator, LoadOptions, Mesh, PatchTable, Scheme, SchemeOptions};
 
 #[test]
@@ -84,16 +84,7 @@ fn sphere_isophotes_follow_the_analytic_normal() {
     let p: Panels = render_panels(&gpu, &w, &opts).unwrap();
     // Disk centre and radius from the silhouette of the n_z panel (light bands are not the
     // background's white).
-    let inside: Vec<(u32, u32)> = (0..size)
-        .flat_map(|y| (0..size).map(move |x| (x, y)))
-        .filter(|&(x, y)| p.pixel(2, x, y) != BACKGROUND)
-        .collect();
-    let xmin = inside.iter().map(|q| q.0).min().unwrap() as f64;
-    let xmax = inside.iter().map(|q| q.0).max().unwrap() as f64;
-    let ymin = inside.iter().map(|q| q.1).min().unwrap() as f64;
-    let ymax = inside.iter().map(|q| q.1).max().unwrap() as f64;
-    let (cx, cy) = ((xmin + xmax + 1.0) / 2.0, (ymin + ymax + 1.0) / 2.0);
-    let r = (xmax - xmin + 1.0) / 2.0;
+    let (inside, cx, cy, r) = super::render::disk(&p, size);
     assert!((r - size as f64 / 2.0 / 1.04).abs() <= 1.5, "radius {r}");
     let twelfths = BANDS_PER_UNIT as f64;
     let (mut checked, mut wrong) = (0, Vec::new());
