@@ -11,7 +11,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need_vulkan() {
-  ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || ! ldconfig -p | grep -q libvulkan.so.1
+  # ldconfig is in /sbin, which a user's PATH may lack.
+  ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 ||
+    ! PATH="$PATH:/sbin:/usr/sbin" ldconfig -p | grep -q libvulkan.so.1
 }
 if need_vulkan; then
   echo "== installing mesa-vulkan-drivers (lavapipe) and libvulkan1"
