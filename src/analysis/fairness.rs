@@ -2,7 +2,8 @@
 //! bending energy ∫ (κ₁² + κ₂²) dA, per patch and in total ([`BendingEnergy`]), and the
 //! jump of the normal curvature across edges, the G2 defect ([`g2_defect`]).
 //!
-//! **Derivatives.** Every basis function's second derivatives are analytic ([`jet`]): the
+//! **Derivatives.** Every basis function's second derivatives are analytic (module `jet`):
+//! the
 //! Bernstein monomials of the Bézier kinds (PnNormals: its cubic geometry; its normal field
 //! is not the surface's), and the G1 patch's Gregory weights α = 12 x² g(y, z) with
 //! g = y² z / (y + z) (β by symmetry), written through u = y / (y + z), v = z / (y + z):
@@ -39,11 +40,11 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::jet::jet;
 use crate::analysis::stats::{edge_pairs, SAMPLES_PER_EDGE};
 use crate::eval::EdgeSide;
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, Mesh};
-use crate::patch::basis::{bezier_powers, g1_boundary_powers, MAX_POINTS};
 use crate::patch::validity::{check_table, Verdict};
 use crate::patch::{PatchKind, PatchTable, MIN_NORMAL_LEN_F64};
 use crate::{Error, Result};
@@ -117,170 +118,6 @@ impl Default for FairnessOptions {
             tolerance: DEFAULT_TOLERANCE,
         }
     }
-}
-
-/// Basis values of one patch kind at one point with their derivatives in the patch
-/// parameters (s, t) up to the second: `d[j]` = (w, w_s, w_t, w_ss, w_st, w_tt) of control
-/// point j (geometry points only).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Jet {
-    pub d: [[f64; 6]; MAX_POINTS],
-}
-
-impl Jet {
-    /// Adds one basis function from its value, gradient and Hessian in the homogeneous
-    /// coordinates (b0, b1, b2), with b = (1 − s − t, s, t): ∂_s = ∂₁ − ∂₀, ∂_t = ∂₂ − ∂₀.
-    fn set(&mut self, j: usize, v: f64, g: [f64; 3], h: [[f64; 3]; 3]) {
-        self.d[j] = [
-            v,
-            g[1] - g[0],
-            g[2] - g[0],
-            h[1][1] - 2.0 * h[0][1] + h[0][0],
-            h[1][2] - h[0][1] - h[0][2] + h[0][0],
-            h[2][2] - 2.0 * h[0][2] + h[0][0],
-        ];
-    }
-
-    /// S, S_s, S_t, S_ss, S_st, S_tt of control points `c` (geometry points only).
-    #[cfg(test)]
-    pub fn apply(&self, c: &[DVec3]) -> [DVec3; 6] {
-        let mut out = [DVec3::ZERO; 6];
-        for (cj, d) in c.iter().zip(&self.d) {
-            for (o, w) in out.iter_mut().zip(d) {
-                *o += *w * *cj;
-            }
-        }
-        out
-    }
-}
-
-/// Value, gradient and Hessian of c · b0^p0 b1^p1 b2^p2.
-fn monomial2(c: f64, p: [u32; 3], b: [f64; 3]) -> (f64, [f64; 3], [[f64; 3]; 3]) {
-    let pw = |x: f64, e: u32| if e == 0 { 1.0 } else { x.powi(e as i32) };
-    let v = [pw(b[0], p[0]), pw(b[1], p[1]), pw(b[2], p[2])];
-    let d1 = |m: usize| {
-        if p[m] == 0 {
-            0.0
-        } else {
-            p[m] as f64 * pw(b[m], p[m] - 1)
-        }
-    };
-    let d2 = |m: usize| {
-        if p[m] < 2 {
-            0.0
-        } else {
-            (p[m] * (p[m] - 1)) as f64 * pw(b[m], p[m] - 2)
-        }
-    };
-    let others = |m: usize, n: usize| {
-        (0..3)
-            .filter(|&q| q != m && q != n)
-            .map(|q| v[q])
-            .product::<f64>()
-    };
-    let g = std::array::from_fn(|m| c * d1(m) * others(m, m));
-    let h = std::array::from_fn(|m| {
-        std::array::from_fn(|n| {
-            if n == m {
-                c * d2(m) * others(m, m)
-            } else {
-                c * d1(m) * d1(n) * others(m, n)
-            }
-        })
-    });
-    (c * v[0] * v[1] * v[2], g, h)
-}
-
-fn factorial(n: u32) -> f64 {
-    (1..=n).map(|x| x as f64).product()
-}
-
-/// The Gregory weight 12 x² g(y, z), g = y² z / (y + z): value, gradient and Hessian in
-/// (x, y, z). `dir` = (u, v) is used where y + z = 0 (the corner x = 1): the direction of
-/// approach, which the second derivatives depend on there.
-fn gregory_term(x: f64, y: f64, z: f64, dir: (f64, f64)) -> (f64, [f64; 3], [[f64; 3]; 3]) {
-    let sigma = y + z;
-    let (u, v) = if sigma > 0.0 {
-        (y / sigma, z / sigma)
-    } else {
-        dir
-    };
-    let g = sigma * sigma * u * u * v;
-    let gy = sigma * u * v * (u + 2.0 * v);
-    let gz = sigma * u * u * u;
-    let gyy = 2.0 * v * v * v;
-    let gyz = u * u * u + 3.0 * u * u * v;
-    let gzz = -2.0 * u * u * u;
-    let x2 = 12.0 * x * x;
-    (
-        x2 * g,
-        [24.0 * x * g, x2 * gy, x2 * gz],
-        [
-            [24.0 * g, 24.0 * x * gy, 24.0 * x * gz],
-            [24.0 * x * gy, x2 * gyy, x2 * gyz],
-            [24.0 * x * gz, x2 * gyz, x2 * gzz],
-        ],
-    )
-}
-
-/// The basis of `kind` at barycentric `b` with its derivatives up to the second order
-/// ([`Jet`]). `toward`: at a patch corner (b_k = 1), the corner the point is approached
-/// from along an edge (the Gregory weights' second derivatives are direction-dependent
-/// there); elsewhere ignored.
-pub(crate) fn jet(kind: PatchKind, b: [f64; 3], toward: Option<usize>) -> Jet {
-    let mut out = Jet {
-        d: [[0.0; 6]; MAX_POINTS],
-    };
-    let degree = match kind {
-        PatchKind::Bezier(n) => Some(n),
-        // The cubic geometry; the quadratic normal field is no part of the surface.
-        PatchKind::PnNormals => Some(3),
-        PatchKind::Gregory => None,
-    };
-    match degree {
-        Some(n) => {
-            let nf = factorial(n);
-            for (j, p) in bezier_powers(n).iter().enumerate() {
-                let c = nf / (factorial(p[0]) * factorial(p[1]) * factorial(p[2]));
-                let (v, g, h) = monomial2(c, *p, b);
-                out.set(j, v, g, h);
-            }
-        }
-        None => {
-            for (j, p) in g1_boundary_powers().iter().enumerate() {
-                let c = 24.0 / (factorial(p[0]) * factorial(p[1]) * factorial(p[2]));
-                let (v, g, h) = monomial2(c, *p, b);
-                out.set(j, v, g, h);
-            }
-            for m in 0..3 {
-                let idx = [m, (m + 1) % 3, (m + 2) % 3];
-                let (x, y, z) = (b[idx[0]], b[idx[1]], b[idx[2]]);
-                // Approached from corner m + 1: (u, v) = (1, 0); from m + 2: (0, 1).
-                let dir = match toward {
-                    Some(k) if k == idx[1] => (1.0, 0.0),
-                    Some(k) if k == idx[2] => (0.0, 1.0),
-                    _ => (0.5, 0.5),
-                };
-                let (va, ga, ha) = gregory_term(x, y, z, dir);
-                // β_m(x, y, z) = 12 x² g(z, y): the same function with y and z swapped.
-                let (vb, gb, hb) = gregory_term(x, z, y, (dir.1, dir.0));
-                let unswap = [0, 2, 1];
-                let (mut gab, mut hab) = ([[0.0; 3]; 2], [[[0.0; 3]; 3]; 2]);
-                for (q, &bq) in idx.iter().enumerate() {
-                    gab[0][bq] = ga[q];
-                    gab[1][bq] = gb[unswap[q]];
-                    for (r, &br) in idx.iter().enumerate() {
-                        hab[0][bq][br] = ha[q][r];
-                        hab[1][bq][br] = hb[unswap[q]][unswap[r]];
-                    }
-                }
-                // α_m weighs G_{m,1} (slot 12 + 2m); β_m weighs G_{m−1,2} (13 + 2(m − 1)).
-                out.set(12 + 2 * m, va, gab[0], hab[0]);
-                out.set(13 + 2 * ((m + 2) % 3), vb, gab[1], hab[1]);
-            }
-        }
-    }
-    out
 }
 
 /// The 3-point Gauss–Legendre rule on [0, 1]: nodes and weights (summing to 1), exact for
@@ -447,6 +284,7 @@ fn node_sum_scalar(p: Geom<'_>, derivs: &[[f64; 5]], weights: &[f64]) -> Option<
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 fn node_sum_avx(p: Geom<'_>, derivs: &[[f64; 5]], weights: &[f64]) -> Option<f64> {
+    use crate::patch::basis::MAX_POINTS;
     use std::arch::x86_64::*;
     let c = p.points;
     let mask = _mm256_setr_epi64x(-1, -1, -1, 0);
@@ -515,7 +353,18 @@ pub struct BendingEnergy {
     derivs: Vec<[f64; 5]>,
     /// Quadrature weight of each node (same order).
     weights: Vec<f64>,
+    /// The base cells' grandchildren (where k ≤ [`GRANDCHILDREN_UP_TO`]), the cells the
+    /// refinement evaluates first: the first node of the grandchildren of each base cell's
+    /// child q at `4 b + q`, and the end; their nodes as above.
+    grand_first: Vec<usize>,
+    grand_derivs: Vec<[f64; 5]>,
+    grand_weights: Vec<f64>,
 }
+
+/// Largest k whose base cells' grandchildren [`BendingEnergy::new`] computes the nodes of:
+/// 2.5 MB of basis derivatives at k = 2 for the G1 patch (24 base cells, 384
+/// grandchildren); 4 k² times that above.
+const GRANDCHILDREN_UP_TO: u32 = 2;
 
 /// Energy of a whole table.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -573,10 +422,12 @@ impl BendingEnergy {
         }
         let mut first = vec![0];
         let (mut derivs, mut weights) = (Vec::new(), Vec::new());
-        for cell in &cells {
-            let (children, n) = cell.children();
-            let family = std::iter::once(*cell).chain(children.into_iter().take(n));
-            for (b, w) in family.flat_map(Cell::nodes) {
+        let mut grand_first = vec![0];
+        let (mut grand_derivs, mut grand_weights) = (Vec::new(), Vec::new());
+        let push = |cells: &mut dyn Iterator<Item = Cell>,
+                    derivs: &mut Vec<[f64; 5]>,
+                    weights: &mut Vec<f64>| {
+            for (b, w) in cells.flat_map(Cell::nodes) {
                 let j = jet(kind, b, None);
                 derivs.extend(
                     j.d[..geometry]
@@ -585,7 +436,24 @@ impl BendingEnergy {
                 );
                 weights.push(w);
             }
+        };
+        for cell in &cells {
+            let (children, n) = cell.children();
+            let family = std::iter::once(*cell).chain(children.into_iter().take(n));
+            push(&mut family.into_iter(), &mut derivs, &mut weights);
             first.push(weights.len());
+            if opts.subdivisions > GRANDCHILDREN_UP_TO {
+                continue;
+            }
+            // Four slots per base cell, empty past its n children.
+            for (q, child) in children.iter().enumerate() {
+                if q < n {
+                    let (grand, m) = child.children();
+                    let mut grand = grand.into_iter().take(m);
+                    push(&mut grand, &mut grand_derivs, &mut grand_weights);
+                }
+                grand_first.push(grand_weights.len());
+            }
         }
         Ok(BendingEnergy {
             kind,
@@ -595,6 +463,9 @@ impl BendingEnergy {
             first,
             derivs,
             weights,
+            grand_first,
+            grand_derivs,
+            grand_weights,
         })
     }
 
@@ -625,6 +496,21 @@ impl BendingEnergy {
         (&self.derivs[r.start * g..r.end * g], &self.weights[r])
     }
 
+    /// The precomputed nodes of grandchild `i` of base cell `b` through its child `q`
+    /// (slot `4 b + q`), where [`BendingEnergy::new`] computed them.
+    fn grandchild(&self, slot: usize, i: usize) -> Option<(&[[f64; 5]], &[f64])> {
+        let start = *self.grand_first.get(slot)? + i * CELL_NODES;
+        let r = start..start + CELL_NODES;
+        if r.end > *self.grand_first.get(slot + 1)? {
+            return None;
+        }
+        let g = self.geometry;
+        Some((
+            &self.grand_derivs[r.start * g..r.end * g],
+            &self.grand_weights[r],
+        ))
+    }
+
     /// The integral over `cell`, its nodes evaluated here.
     fn cell_sum(&self, p: Geom<'_>, cell: Cell) -> Option<f64> {
         let mut sum = 0.0;
@@ -645,7 +531,9 @@ impl BendingEnergy {
     /// ([`Cell::children`]) where it is within `tol` of `whole`, else each child refined;
     /// with whether every cell met the tolerance (none where a node is singular). Each
     /// evaluation of children takes one of `budget`; with none left, or at [`MAX_DEPTH`],
-    /// the estimate is taken as it is.
+    /// the estimate is taken as it is. `slot`: where the children's nodes are precomputed
+    /// ([`Self::grandchild`]); the same sums as computed here.
+    #[allow(clippy::too_many_arguments)]
     fn refine(
         &self,
         c: Geom<'_>,
@@ -654,6 +542,7 @@ impl BendingEnergy {
         tol: f64,
         depth: u32,
         budget: &mut u32,
+        slot: Option<usize>,
     ) -> Option<(f64, bool)> {
         if *budget == 0 || depth > MAX_DEPTH {
             return Some((whole, false));
@@ -661,8 +550,11 @@ impl BendingEnergy {
         *budget -= 1;
         let (children, n) = cell.children();
         let mut parts = [0.0; 4];
-        for (p, q) in parts.iter_mut().zip(&children[..n]) {
-            *p = self.cell_sum(c, *q)?;
+        for (i, (p, q)) in parts.iter_mut().zip(&children[..n]).enumerate() {
+            *p = match slot.and_then(|k| self.grandchild(k, i)) {
+                Some((d, w)) => node_sum(c, d, w)?,
+                None => self.cell_sum(c, *q)?,
+            };
         }
         let sum: f64 = parts[..n].iter().sum();
         if (sum - whole).abs() <= tol {
@@ -670,7 +562,7 @@ impl BendingEnergy {
         }
         let mut total = (0.0, true);
         for (p, q) in parts.into_iter().zip(&children[..n]) {
-            let (e, ok) = self.refine(c, *q, p, tol, depth + 1, budget)?;
+            let (e, ok) = self.refine(c, *q, p, tol, depth + 1, budget, None)?;
             total = (total.0 + e, total.1 && ok);
         }
         Some(total)
@@ -732,7 +624,8 @@ impl BendingEnergy {
                 let Some(part) = node_sum(c, d, w) else {
                     return SINGULAR;
                 };
-                let Some((e, ok)) = self.refine(c, cell, part, tol, 1, &mut budget) else {
+                let slot = Some(4 * b + q);
+                let Some((e, ok)) = self.refine(c, cell, part, tol, 1, &mut budget, slot) else {
                     return SINGULAR;
                 };
                 out.energy += e;
@@ -1366,6 +1259,36 @@ mod tests {
             compared += a.is_some() as usize;
         }
         assert!(compared > table.len() / 2);
+    }
+
+    /// The base cells' grandchildren, whose nodes [`BendingEnergy::new`] computes, give
+    /// bitwise the energies of nodes computed on the way, on every kind (Suzanne's tables,
+    /// whose patches refine), and the cache is kept to k ≤ 2.
+    #[test]
+    fn precomputed_grandchildren_change_no_energy() {
+        use super::{BendingEnergy, FairnessOptions, GRANDCHILDREN_UP_TO};
+        let (mut refined, mut compared) = (0, 0);
+        for table in tables() {
+            let cached = BendingEnergy::new(table.kind, &FairnessOptions::default()).unwrap();
+            assert_eq!(cached.grand_first.len(), 4 * cached.cells.len() + 1);
+            let mut computed = cached.clone();
+            computed.grand_first.clear();
+            for i in 0..table.len() {
+                let (a, b) = (cached.patch(&table, i), computed.patch(&table, i));
+                assert_eq!(a.to_bits(), b.to_bits(), "{:?} patch {i}", table.kind);
+                compared += a.is_finite() as usize;
+                let fixed = cached.points_fixed(table.patch(i));
+                refined += (a != fixed) as usize;
+            }
+        }
+        assert!(
+            compared > 4500 && refined > 1000,
+            "{compared} compared, {refined} refined"
+        );
+        let k = GRANDCHILDREN_UP_TO + 1;
+        let opts = FairnessOptions::default().with_subdivisions(k);
+        let e = BendingEnergy::new(PatchKind::Gregory, &opts).unwrap();
+        assert_eq!(e.grand_first.len(), 1);
     }
 
     /// The nodes of each base cell, and those of its children, integrate every polynomial

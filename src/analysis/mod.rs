@@ -5,5 +5,6 @@
 pub mod distance;
 pub mod fair;
 pub mod fairness;
+mod jet;
 pub mod stats;
 pub mod table1;
