@@ -3,9 +3,8 @@
 //! jump of the normal curvature across edges, the G2 defect ([`g2_defect`]).
 //!
 //! **Derivatives.** Every basis function's second derivatives are analytic (module `jet`):
-//! the
-//! Bernstein monomials of the Bézier kinds (PnNormals: its cubic geometry; its normal field
-//! is not the surface's), and the G1 patch's Gregory weights α = 12 x² g(y, z) with
+//! the Bernstein monomials of the Bézier kinds (PnNormals: its cubic geometry; its normal
+//! field is not the surface's), and the G1 patch's Gregory weights α = 12 x² g(y, z) with
 //! g = y² z / (y + z) (β by symmetry), written through u = y / (y + z), v = z / (y + z):
 //! g_yy = 2v³, g_yz = u³ + 3u²v, g_zz = −2u³ are bounded. At the patch corner x = 1 they
 //! depend on the direction of approach; on an edge sample there the direction is the
@@ -24,8 +23,9 @@
 //! and the outer half in two. Where they differ by more than the tolerance (1e-4 of the
 //! patch's energy), the children are refined alike, to [`MAX_DEPTH`] levels and
 //! [`MAX_REFINED`] cells per patch. Defaults k = 2 and 1e-4: no test mesh's energy changes
-//! by 1e-3 from k = 2 to k = 4 (figures in `docs/cli.md`). The base nodes' basis
-//! derivatives are computed once per kind ([`BendingEnergy::new`]); one patch allocates
+//! by 1e-3 from k = 2 to k = 4 (figures in `docs/cli.md`). The basis derivatives at the
+//! nodes of the base cells, their children and, for k ≤ 2, their grandchildren (the first
+//! refinement) are computed once per kind ([`BendingEnergy::new`]); one patch allocates
 //! nothing. At a fold (J = (S_s × S_t) · n_f ≤ 0, the validity certificate's criterion)
 //! the energy is unbounded: such patches are counted apart, not summed.
 //!
@@ -45,6 +45,7 @@ use crate::analysis::stats::{edge_pairs, SAMPLES_PER_EDGE};
 use crate::eval::EdgeSide;
 use crate::mesh::creases::{normal_key, use_normal};
 use crate::mesh::{Adjacency, Mesh};
+use crate::patch::basis::MAX_POINTS;
 use crate::patch::validity::{check_table, Verdict};
 use crate::patch::{PatchKind, PatchTable, MIN_NORMAL_LEN_F64};
 use crate::{Error, Result};
@@ -284,7 +285,6 @@ fn node_sum_scalar(p: Geom<'_>, derivs: &[[f64; 5]], weights: &[f64]) -> Option<
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 fn node_sum_avx(p: Geom<'_>, derivs: &[[f64; 5]], weights: &[f64]) -> Option<f64> {
-    use crate::patch::basis::MAX_POINTS;
     use std::arch::x86_64::*;
     let c = p.points;
     let mask = _mm256_setr_epi64x(-1, -1, -1, 0);
@@ -511,20 +511,20 @@ impl BendingEnergy {
         ))
     }
 
-    /// The integral over `cell`, its nodes evaluated here.
+    /// The integral over `cell`, its nodes evaluated here: their basis derivatives on the
+    /// stack, summed by [`node_sum`] as the precomputed nodes are.
     fn cell_sum(&self, p: Geom<'_>, cell: Cell) -> Option<f64> {
-        let mut sum = 0.0;
-        for (b, w) in cell.nodes() {
+        let g = self.geometry;
+        let mut derivs = [[0.0; 5]; CELL_NODES * MAX_POINTS];
+        let mut weights = [0.0; CELL_NODES];
+        for (i, (b, w)) in cell.nodes().enumerate() {
             let j = jet(self.kind, b, None);
-            let mut a = [DVec3::ZERO; 5];
-            for (cj, d) in p.points.iter().zip(&j.d) {
-                for (ak, wk) in a.iter_mut().zip(&d[1..]) {
-                    *ak += *wk * *cj;
-                }
+            for (out, d) in derivs[i * g..(i + 1) * g].iter_mut().zip(&j.d) {
+                *out = [d[1], d[2], d[3], d[4], d[5]];
             }
-            sum += w * energy_density(&a, p.flat)?;
+            weights[i] = w;
         }
-        Some(sum)
+        node_sum(p, &derivs[..CELL_NODES * g], &weights)
     }
 
     /// The integral over `cell` whose rule gave `whole`: the sum over its children

@@ -98,11 +98,14 @@ fn monomial2(c: f64, p: [u32; 3], b: &Powers) -> (f64, [f64; 3], [[f64; 3]; 3]) 
             (p[m] * (p[m] - 1)) as f64 * b.get(m, p[m] - 2)
         }
     };
+    // The product of the v[q], q ∉ {m, n}, in increasing q.
     let others = |m: usize, n: usize| {
-        (0..3)
-            .filter(|&q| q != m && q != n)
-            .map(|q| v[q])
-            .product::<f64>()
+        if m == n {
+            let (a, b) = ((m + 1) % 3, (m + 2) % 3);
+            v[a.min(b)] * v[a.max(b)]
+        } else {
+            v[3 - m - n]
+        }
     };
     let g = std::array::from_fn(|m| c * d1(m) * others(m, m));
     let h = std::array::from_fn(|m| {
