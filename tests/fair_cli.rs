@@ -12,24 +12,15 @@ use std::process::Command;
 /// quadrature's tolerance (1e-4 per cell, relative, measured within 1e-10 on spheres).
 #[test]
 fn stats_fair_json_reports_the_fair_surface() {
-    let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
-        .args([
-            "stats",
-            "icosphere:2",
-            "--backend",
-            "cpu",
-            "--json",
-            "--fair",
-            "--fairness",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = crate::common::g1tess_json(&[
+        "stats",
+        "icosphere:2",
+        "--backend",
+        "cpu",
+        "--json",
+        "--fair",
+        "--fairness",
+    ]);
     let f = &v["fair"];
     let clean = serde_json::json!({"valid": 320, "folded": 0, "undecided": 0});
     assert_eq!(v["patches"], clean);

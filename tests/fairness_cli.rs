@@ -8,26 +8,17 @@ use serde_json::Value;
 use crate::common;
 
 fn stats_json(mesh: &str, extra: &[&str]) -> Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .args([
-            "stats",
-            mesh,
-            "--backend",
-            "cpu",
-            "--fairness",
-            "--json",
-            "-q",
-        ])
-        .args(extra)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
+    let mut args = vec![
+        "stats",
+        mesh,
+        "--backend",
+        "cpu",
+        "--fairness",
+        "--json",
+        "-q",
+    ];
+    args.extend_from_slice(extra);
+    common::g1tess_json(&args)
 }
 
 /// The G1 surface of the 320-triangle icosphere with exact normals: its bending energy is

@@ -180,3 +180,20 @@ pub fn shared_gpu() -> g1tess::Result<std::sync::Arc<g1tess::GpuContext>> {
         .clone()
         .map_err(g1tess::Error::Invalid)
 }
+
+/// The JSON a successful `g1tess ARGS` prints (the binary of this build, with a runtime
+/// directory for the Vulkan loader); a failing run fails the test with its stderr.
+#[cfg(feature = "cli")]
+pub fn g1tess_json(args: &[&str]) -> serde_json::Value {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_g1tess"))
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "g1tess {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
