@@ -46,6 +46,12 @@
 //! derivatives vanish, so cells at the corners certify as their size shrinks whenever J is
 //! positive there.
 //!
+//! On large cells that Taylor remainder dwarfs J. So a cell it leaves undecided gets a
+//! second bound ([`quick::NormalPart`]): the patch as the quartic P with the Gregory
+//! points' means plus Σ_m ρ_m ΔG_m, where only the parts of ΔG_m and of P's tangents across
+//! the flat normal enter J, each |∂ρ_m| bounded on the cell. The same bound on the whole
+//! domain is the last of the quick tests that certify most patches with no subdivision.
+//!
 //! Rounding: a cell is certified only when its lower bound exceeds a tolerance of 1e-9 of
 //! the product of the patch's tangent magnitudes (plus the rounding of the control points'
 //! differences), far above the f64 rounding of the few hundred terms each coefficient sums.
@@ -60,11 +66,11 @@ use super::{basis, PatchKind, PatchTable};
 
 mod lanes;
 mod quick;
-use quick::quick_gregory;
 #[cfg(test)]
 pub(crate) use quick::QUICK_BLEND_BOUND;
 #[cfg(test)]
 use quick::{quick_flat, quick_normal_part, quick_quartic};
+use quick::{quick_gregory, NormalPart};
 #[cfg(test)]
 use {super::PatchBuilder, crate::Result};
 
@@ -550,6 +556,8 @@ struct Geometry {
     base: [DVec3; MAXC],
     /// Gregory: ΔG_m = G_{m,1} − G_{m−1,2}.
     gregory: Option<[DVec3; 3]>,
+    /// Gregory: the second bound tried on a cell the first does not certify.
+    normal_part: Option<NormalPart>,
     nref: DVec3,
     /// Absolute tolerance of a certified lower bound (rounding).
     tol: f64,
@@ -609,6 +617,7 @@ impl Geometry {
         Geometry {
             n,
             base,
+            normal_part: gregory.map(|_| NormalPart::new(c, nref)),
             gregory,
             nref,
             tol,
@@ -1070,7 +1079,12 @@ fn check_within(
             return (Verdict::Undecided, cells, true);
         }
         cells += 1;
-        if lower > 0.0 {
+        if lower > 0.0
+            || geom
+                .normal_part
+                .as_ref()
+                .is_some_and(|q| q.lower(&cell) > 0.0)
+        {
             continue;
         }
         let leaf = depth >= max_depth || cells + stack.len() + 4 > max_cells;
