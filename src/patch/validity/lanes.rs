@@ -137,22 +137,9 @@ fn lane(p: &Pairs4, l: usize) -> Pairs {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{restrict, Geometry, WHOLE};
+    use super::super::{children, restrict, Geometry, WHOLE};
     use super::*;
     use crate::{LoadOptions, Mesh, PatchTable, Scheme, SchemeOptions};
-
-    /// The four children of `cell`, as the subdivision makes them.
-    fn children(cell: &Cell) -> [Cell; 4] {
-        let mid = |a: [f64; 3], b: [f64; 3]| std::array::from_fn(|j| 0.5 * (a[j] + b[j]));
-        let [u0, u1, u2] = *cell;
-        let (m01, m12, m20) = (mid(u0, u1), mid(u1, u2), mid(u2, u0));
-        [
-            [m12, m20, m01],
-            [u0, m01, m20],
-            [m01, u1, m12],
-            [m20, m12, u2],
-        ]
-    }
 
     /// Every lane of [`Geometry::bound4`] (and of [`restrict4`]) is bitwise the scalar
     /// result, on cells down to depth 4 of patches of every kind on Suzanne (G1's Gregory

@@ -1103,15 +1103,7 @@ fn check_within(
             undecided = true;
             continue;
         }
-        let mid = |a: [f64; 3], b: [f64; 3]| std::array::from_fn(|j| 0.5 * (a[j] + b[j]));
-        let [u0, u1, u2] = cell;
-        let (m01, m12, m20) = (mid(u0, u1), mid(u1, u2), mid(u2, u0));
-        let children = [
-            [m12, m20, m01],
-            [u0, m01, m20],
-            [m01, u1, m12],
-            [m20, m12, u2],
-        ];
+        let children = children(&cell);
         let bounds = geom.bound4(&children);
         for (child, bound) in children.into_iter().zip(bounds) {
             stack.push((child, depth + 1, bound));
@@ -1123,6 +1115,20 @@ fn check_within(
         Verdict::Valid
     };
     (v, cells, false)
+}
+
+/// The four children of `cell` in the subdivision (midpoints of its edges): the middle one
+/// first, then those at its corners 0, 1 and 2.
+fn children(cell: &Cell) -> [Cell; 4] {
+    let mid = |a: [f64; 3], b: [f64; 3]| std::array::from_fn(|j| 0.5 * (a[j] + b[j]));
+    let [u0, u1, u2] = *cell;
+    let (m01, m12, m20) = (mid(u0, u1), mid(u1, u2), mid(u2, u0));
+    [
+        [m12, m20, m01],
+        [u0, m01, m20],
+        [m01, u1, m12],
+        [m20, m12, u2],
+    ]
 }
 
 #[cfg(test)]

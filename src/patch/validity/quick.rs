@@ -273,21 +273,8 @@ pub(super) fn blend_slopes(m: usize, cell: &Cell) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::{blend_slopes, NormalPart};
-    use crate::patch::validity::{jacobian, Cell};
+    use crate::patch::validity::{children, jacobian, Cell};
     use crate::{LoadOptions, Mesh, PatchTable, Scheme, SchemeOptions};
-
-    /// The four children of `cell` (midpoint subdivision, as the certificate's).
-    fn children(cell: &Cell) -> [Cell; 4] {
-        let mid = |a: [f64; 3], b: [f64; 3]| std::array::from_fn(|j| 0.5 * (a[j] + b[j]));
-        let [u0, u1, u2] = *cell;
-        let (m01, m12, m20) = (mid(u0, u1), mid(u1, u2), mid(u2, u0));
-        [
-            [m12, m20, m01],
-            [u0, m01, m20],
-            [m01, u1, m12],
-            [m20, m12, u2],
-        ]
-    }
 
     /// Every cell of the first `depth` levels of the subdivision of the whole domain.
     fn cells(depth: u32) -> Vec<Cell> {
