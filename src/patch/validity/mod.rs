@@ -69,7 +69,7 @@ mod quick;
 #[cfg(test)]
 pub(crate) use quick::QUICK_BLEND_BOUND;
 #[cfg(test)]
-use quick::{quick_flat, quick_normal_part, quick_quartic};
+use quick::{quick_flat, quick_half, quick_quartic, Quick};
 use quick::{quick_gregory, NormalPart};
 #[cfg(test)]
 use {super::PatchBuilder, crate::Result};
@@ -833,6 +833,45 @@ fn derivatives(c: &[DVec3], n: u32) -> ([DVec3; 15], [DVec3; 15]) {
     (ds, dt)
 }
 
+/// What the bounds on corner m's Gregory blend need of `cell` (x, y, z = b_m, b_{m+1},
+/// b_{m+2}): the largest x, y and z at its corners (affine, so on the cell), the range of
+/// φ = y/(y + z) over the corners where y + z > 0 (infinite where there are none), and the
+/// smallest y + z at a corner.
+pub(super) struct BlendExtent {
+    pub xm: f64,
+    pub ym: f64,
+    pub zm: f64,
+    pub lo: f64,
+    pub hi: f64,
+    pub smin: f64,
+}
+
+/// [`BlendExtent`] of corner m on `cell`.
+pub(super) fn blend_extent(m: usize, cell: &Cell) -> BlendExtent {
+    let (im, iy, iz) = (m, (m + 1) % 3, (m + 2) % 3);
+    let mut e = BlendExtent {
+        xm: 0.0,
+        ym: 0.0,
+        zm: 0.0,
+        lo: f64::INFINITY,
+        hi: f64::NEG_INFINITY,
+        smin: f64::INFINITY,
+    };
+    for u in cell {
+        e.xm = e.xm.max(u[im]);
+        e.ym = e.ym.max(u[iy]);
+        e.zm = e.zm.max(u[iz]);
+        let s = u[iy] + u[iz];
+        e.smin = e.smin.min(s);
+        if s > 0.0 {
+            let f = u[iy] / s;
+            e.lo = e.lo.min(f);
+            e.hi = e.hi.max(f);
+        }
+    }
+    e
+}
+
 /// For corner m's blend φ = y/(y + z) (x, y, z = b_m, b_{m+1}, b_{m+2}) on `cell`: the
 /// coefficients ℓ (on b_0, b_1, b_2) of its Taylor polynomial φ̂ at the centroid, and bounds
 /// on |∂ρ/∂s| and |∂ρ/∂t| over the cell for ρ = 12 x² y z (φ − φ̂).
@@ -852,24 +891,19 @@ fn blend_terms(m: usize, cell: &Cell) -> ([f64; 3], f64, f64) {
         *e = phi_c + gy * (ek[iy] - cy) + gz * (ek[iz] - cz);
     }
     let lin = |b: &[f64; 3]| phi_c + gy * (b[iy] - cy) + gz * (b[iz] - cz);
-    let (mut xm, mut ym, mut zm) = (0.0f64, 0.0f64, 0.0f64);
+    let BlendExtent {
+        xm,
+        ym,
+        zm,
+        lo,
+        hi,
+        smin,
+    } = blend_extent(m, cell);
     let (mut dy, mut dz) = (0.0f64, 0.0f64);
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     let (mut llo, mut lhi) = (f64::INFINITY, f64::NEG_INFINITY);
-    let mut smin = f64::INFINITY;
     for u in cell {
-        xm = xm.max(u[im]);
-        ym = ym.max(u[iy]);
-        zm = zm.max(u[iz]);
         dy = dy.max((u[iy] - cy).abs());
         dz = dz.max((u[iz] - cz).abs());
-        let s = u[iy] + u[iz];
-        smin = smin.min(s);
-        if s > 0.0 {
-            let f = u[iy] / s;
-            lo = lo.min(f);
-            hi = hi.max(f);
-        }
         let l = lin(u);
         llo = llo.min(l);
         lhi = lhi.max(l);
@@ -1135,7 +1169,7 @@ fn children(cell: &Cell) -> [Cell; 4] {
 mod tests {
     use super::{
         check_within, classify, flat_lower_bound, grid_witness, interior_powers, quick_flat,
-        quick_normal_part, quick_quartic, shared, tables, Geometry, Stage, Verdict, MAX_CELLS,
+        quick_half, quick_quartic, shared, tables, Geometry, Quick, Stage, Verdict, MAX_CELLS,
         MAX_DEPTH, QUARTIC_BOUNDARY, QUARTIC_INTERIOR, QUARTIC_UP, WHOLE,
     };
     use crate::patch::basis;
@@ -1185,12 +1219,12 @@ mod tests {
         assert_eq!((passed, table.len()), (66_615, 69_451));
     }
 
-    /// Every G1 patch of the test meshes that only [`quick_normal_part`] certifies (the
-    /// rest of [`quick_gregory`] does not) has J > 0 at the 45 points of a level-8
+    /// Every G1 patch of the test meshes that only the second half of
+    /// [`super::quick::quick_gregory`] certifies (the first does not) has J > 0 at the 45 points of a level-8
     /// barycentric grid by the patch's own f64 evaluation, and the subdivision alone
     /// certifies it too (so the verdict is the one it had before the test existed).
     #[test]
-    fn quick_normal_part_certifies_what_the_subdivision_does() {
+    fn the_quick_normal_part_certifies_what_the_subdivision_does() {
         let mut only = Vec::new();
         for (file, crease) in [
             ("stanford-bunny.obj", None),
@@ -1204,21 +1238,7 @@ mod tests {
             let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
             let mut count = 0;
             for i in 0..table.len() {
-                let (c, nref) = (table.patch(i), table.flat_normals[i]);
-                let (ds, dt, r, cmax) = quick_quartic(c);
-                let t = tables();
-                let tn: [DVec3; 10] = std::array::from_fn(|j| dt[j].cross(nref));
-                let mut jc = [0.0f64; 28];
-                for &(a, b, g, w) in &t.products[3] {
-                    jc[g] += w * ds[a].dot(tn[b]);
-                }
-                let jmin = jc.iter().copied().fold(f64::INFINITY, f64::min);
-                let ps = ds[..10].iter().map(|v| v.length()).fold(0.0, f64::max);
-                let pt = dt[..10].iter().map(|v| v.length()).fold(0.0, f64::max);
-                let tol = 1e-9 * ps * pt + 64.0 * f64::EPSILON * cmax * 4.0 * (ps + pt);
-                let first_half = quick_flat(c, &ds, &dt, r, nref, cmax)
-                    || jmin - (ps * r + r * pt + r * r) - tol > 0.0;
-                if first_half || !quick_normal_part(c, &ds, &dt, jmin, nref, cmax) {
+                if quick_half(table.patch(i), table.flat_normals[i]) != Quick::Second {
                     continue;
                 }
                 count += 1;

@@ -5,7 +5,10 @@
 
 use glam::DVec3;
 
-use super::{restrict, tables, Cell, Pairs, QUARTIC_BOUNDARY, QUARTIC_INTERIOR, QUARTIC_UP};
+use super::{
+    blend_extent, restrict, tables, BlendExtent, Cell, Pairs, QUARTIC_BOUNDARY, QUARTIC_INTERIOR,
+    QUARTIC_UP,
+};
 
 /// Bound on |∂ρ/∂s| and |∂ρ/∂t| over the whole domain for ρ = 12 x² y z (φ − 1/2), the part
 /// of corner m's Gregory weight that [`quick_gregory`] leaves out (x, y, z = b_m, b_{m+1},
@@ -29,67 +32,49 @@ pub const QUICK_BLEND_BOUND: f64 = 1.0;
 /// r = Σ_m |ΔG_m|. True only when that bound, less the rounding tolerance, is positive;
 /// false says nothing (the full certificate decides).
 pub(super) fn quick_gregory(c: &[DVec3], nref: DVec3) -> bool {
-    let t = tables();
+    quick_half(c, nref) != Quick::Neither
+}
+
+/// Which half of [`quick_gregory`] certifies a patch: the first ([`quick_flat`], or J_P's
+/// coefficients less whole lengths), the second ([`NormalPart`]'s bound, tried only where
+/// the first fails), or neither.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Quick {
+    First,
+    Second,
+    Neither,
+}
+
+/// [`quick_gregory`], telling which half certifies ([`Quick`]).
+pub(super) fn quick_half(c: &[DVec3], nref: DVec3) -> Quick {
     let (ds, dt, r, cmax) = quick_quartic(c);
     if quick_flat(c, &ds, &dt, r, nref, cmax) {
-        return true;
+        return Quick::First;
     }
     let ps = ds[..10].iter().map(|v| v.length()).fold(0.0, f64::max);
     let pt = dt[..10].iter().map(|v| v.length()).fold(0.0, f64::max);
-    let mut tn = [DVec3::ZERO; 10];
-    for (j, v) in dt[..10].iter().enumerate() {
-        tn[j] = v.cross(nref);
-    }
-    let mut jc = [0.0f64; 28];
-    for &(a, b, g, w) in &t.products[3] {
-        jc[g] += w * ds[a].dot(tn[b]);
-    }
-    let jmin = jc.iter().copied().fold(f64::INFINITY, f64::min);
+    let jmin = quartic_jmin(&ds[..10], &dt[..10], nref);
     // The same rounding tolerance as [`Geometry::new`] (degree 4 here).
     let tol = 1e-9 * ps * pt + 64.0 * f64::EPSILON * cmax * 4.0 * (ps + pt);
-    jmin - (ps * r + r * pt + r * r) - tol > 0.0 || quick_normal_part(c, &ds, &dt, jmin, nref, cmax)
+    if jmin - (ps * r + r * pt + r * r) - tol > 0.0 {
+        Quick::First
+    } else if NormalPart::of(c, &ds, &dt, cmax, nref).whole(jmin) > 0.0 {
+        Quick::Second
+    } else {
+        Quick::Neither
+    }
 }
 
-/// The second half of [`quick_gregory`], for patches whose Gregory points differ mostly
-/// along the normal: with S = P + Σ_m ρ_m ΔG_m, J = J_P + Σ_m ∂_t ρ_m (P_s × ΔG_m) · n +
-/// Σ_m ∂_s ρ_m (ΔG_m × P_t) · n + Σ_{m ≠ k} ∂_s ρ_m ∂_t ρ_k (ΔG_m × ΔG_k) · n (the terms with
-/// m = k vanish). Each |∂ρ| is at most [`QUICK_BLEND_BOUND`], and (P_s × ΔG_m) · n, a
-/// Bernstein sum of (ds_j × ΔG_m) · n with weights summing to 1, is at most the largest of
-/// those in size; so only the parts of ΔG_m and of the tangents across n count, where
-/// [`quick_gregory`]'s first half takes whole lengths. True only when J_P's smallest
-/// Bernstein coefficient `jmin`, less those bounds and a rounding tolerance that counts
-/// the Gregory points' differences beside the tangents, is positive.
-#[inline(always)]
-pub(super) fn quick_normal_part(
-    c: &[DVec3],
-    ds: &[DVec3; 15],
-    dt: &[DVec3; 15],
-    jmin: f64,
-    nref: DVec3,
-    cmax: f64,
-) -> bool {
-    let dg: [DVec3; 3] = std::array::from_fn(|m| c[12 + 2 * m] - c[13 + 2 * ((m + 2) % 3)]);
-    let most = |f: &dyn Fn(&DVec3) -> f64| ds[..10].iter().map(f).fold(0.0, f64::max);
-    let most_t = |f: &dyn Fn(&DVec3) -> f64| dt[..10].iter().map(f).fold(0.0, f64::max);
-    let mut cross = 0.0;
-    for g in &dg {
-        cross += most(&|d| d.cross(*g).dot(nref).abs());
-        cross += most_t(&|d| g.cross(*d).dot(nref).abs());
+/// The smallest Bernstein coefficient of J_P = (P_s × P_t) · n (degree 6) from the
+/// derivative coefficients `ds` and `dt` of a quartic P (degree 3, the first 10 of each)
+/// on a domain.
+fn quartic_jmin(ds: &[DVec3], dt: &[DVec3], n: DVec3) -> f64 {
+    let tn: [DVec3; 10] = std::array::from_fn(|j| dt[j].cross(n));
+    let mut jc = [0.0f64; 28];
+    for &(a, b, g, w) in &tables().products[3] {
+        jc[g] += w * ds[a].dot(tn[b]);
     }
-    let mut pairs = 0.0;
-    for m in 0..3 {
-        for k in 0..3 {
-            if m != k {
-                pairs += dg[m].cross(dg[k]).dot(nref).abs();
-            }
-        }
-    }
-    let b = QUICK_BLEND_BOUND;
-    let r: f64 = dg.iter().map(|g| g.length()).sum();
-    let ps = most(&|d| d.length()) + b * r;
-    let pt = most_t(&|d| d.length()) + b * r;
-    let tol = 1e-9 * ps * pt + 64.0 * f64::EPSILON * cmax * 4.0 * (ps + pt);
-    jmin - b * cross - b * b * pairs - tol > 0.0
+    jc.iter().copied().fold(f64::INFINITY, f64::min)
 }
 
 /// The quartic of [`quick_gregory`] (the Gregory interior points replaced by their means):
@@ -150,18 +135,25 @@ pub(super) fn quick_flat(
     e1.cross(e2).dot(nref) - (l1 * b + a * l2 + a * b) - tol > 0.0
 }
 
-/// What the subdivision keeps of a G1 patch to try [`quick_normal_part`]'s bound on each of
-/// its cells ([`NormalPart::lower`]), where the linearised blend of
-/// [`super::Geometry::bound`] is far from J: on a large cell its Taylor remainder dwarfs
-/// J, while the Gregory points' differences across the normal may be small.
+/// The second half of [`quick_gregory`], and the second bound of the subdivision's cells
+/// ([`NormalPart::lower`]), for patches whose Gregory points differ mostly along the
+/// normal. With S = P + Σ_m ρ_m ΔG_m (P the quartic of [`quick_quartic`]),
+/// J = J_P + Σ_m ∂_t ρ_m (P_s × ΔG_m) · n + Σ_m ∂_s ρ_m (ΔG_m × P_t) · n +
+/// Σ_{m ≠ k} ∂_s ρ_m ∂_t ρ_k (ΔG_m × ΔG_k) · n (the terms with m = k vanish). On a domain
+/// (the whole one, or a cell) each |∂ρ| has a bound ([`QUICK_BLEND_BOUND`] on the whole,
+/// [`blend_slopes`] on a cell), and (P_s × ΔG_m) · n, a Bernstein sum of (ds_j × ΔG_m) · n
+/// with weights summing to 1, is at most the largest of those in size; so only the parts
+/// of ΔG_m and of the tangents across n count, where [`quick_gregory`]'s first half takes
+/// whole lengths. The linearised blend of [`super::Geometry::bound`] is far from J on large
+/// cells (its Taylor remainder dwarfs J there); this bound is not.
 pub(super) struct NormalPart {
-    /// The derivative coefficient pairs (along s and t, degree 3) of the quartic P of
-    /// [`quick_quartic`] on the whole domain.
+    /// The derivative coefficient pairs (along s and t, degree 3) of P on the whole domain.
     pairs: Pairs,
     /// ΔG_m = G_{m,1} − G_{m−1,2}.
     dg: [DVec3; 3],
     nref: DVec3,
-    /// [`quick_normal_part`]'s rounding tolerance.
+    /// The rounding tolerance, counting the Gregory points' differences beside the
+    /// tangents.
     tol: f64,
 }
 
@@ -169,6 +161,12 @@ impl NormalPart {
     /// The part of G1 patch `c` (its 18 control points; unit flat normal `nref`).
     pub(super) fn new(c: &[DVec3], nref: DVec3) -> NormalPart {
         let (ds, dt, _, cmax) = quick_quartic(c);
+        Self::of(c, &ds, &dt, cmax, nref)
+    }
+
+    /// [`Self::new`] from [`quick_quartic`]'s derivative coefficients `ds`, `dt` and
+    /// largest control point coordinate `cmax`.
+    fn of(c: &[DVec3], ds: &[DVec3; 15], dt: &[DVec3; 15], cmax: f64, nref: DVec3) -> NormalPart {
         let dg: [DVec3; 3] = std::array::from_fn(|m| c[12 + 2 * m] - c[13 + 2 * ((m + 2) % 3)]);
         let mut pairs = [[DVec3::ZERO; 2]; 15];
         for j in 0..10 {
@@ -187,24 +185,29 @@ impl NormalPart {
         }
     }
 
-    /// A lower bound of J on `cell`, certified where positive: [`quick_normal_part`]'s
-    /// bound with P's derivatives restricted to the cell (their Bernstein coefficients
-    /// there) and each |∂ρ_m| bounded on the cell ([`blend_slopes`]) instead of on the
-    /// whole domain.
+    /// The bound on the whole domain, J_P's smallest coefficient there being `jmin`.
+    pub(super) fn whole(&self, jmin: f64) -> f64 {
+        let b = QUICK_BLEND_BOUND;
+        self.bound(&self.pairs, jmin, &[(b, b); 3])
+    }
+
+    /// A lower bound of J on `cell`, certified where positive: P's derivatives restricted
+    /// to the cell (their Bernstein coefficients there) and each |∂ρ_m| bounded on the cell.
     pub(super) fn lower(&self, cell: &Cell) -> f64 {
-        let t = tables();
         let mut r = [[DVec3::ZERO; 2]; 15];
         restrict(&self.pairs, 3, cell, &mut r);
-        let n = self.nref;
-        let tn: [DVec3; 10] = std::array::from_fn(|j| r[j][1].cross(n));
-        let mut jc = [0.0f64; 28];
-        for &(a, b, g, w) in &t.products[3] {
-            jc[g] += w * r[a][0].dot(tn[b]);
-        }
-        let jmin = jc.iter().copied().fold(f64::INFINITY, f64::min);
+        let ds: [DVec3; 10] = std::array::from_fn(|j| r[j][0]);
+        let dt: [DVec3; 10] = std::array::from_fn(|j| r[j][1]);
         let slopes: [(f64, f64); 3] = std::array::from_fn(|m| blend_slopes(m, cell));
+        self.bound(&r, quartic_jmin(&ds, &dt, self.nref), &slopes)
+    }
+
+    /// The bound on a domain where P's derivative pairs are `r`, J_P's smallest coefficient
+    /// is `jmin` and |∂ρ_m/∂s|, |∂ρ_m/∂t| are at most `slopes[m]`.
+    fn bound(&self, r: &Pairs, jmin: f64, slopes: &[(f64, f64); 3]) -> f64 {
+        let n = self.nref;
         let mut cross = 0.0;
-        for (g, &(bs, bt)) in self.dg.iter().zip(&slopes) {
+        for (g, &(bs, bt)) in self.dg.iter().zip(slopes) {
             let a = r[..10]
                 .iter()
                 .map(|d| d[0].cross(*g).dot(n).abs())
@@ -240,23 +243,16 @@ impl NormalPart {
 /// ∂/∂t = ∂_{b2} − ∂_{b0}.
 pub(super) fn blend_slopes(m: usize, cell: &Cell) -> (f64, f64) {
     let (im, iy, iz) = (m, (m + 1) % 3, (m + 2) % 3);
-    let (mut xm, mut ym, mut zm) = (0.0f64, 0.0f64, 0.0f64);
-    let (mut lo, mut hi) = (1.0f64, 0.0f64);
-    let mut pole = false;
-    for u in cell {
-        xm = xm.max(u[im]);
-        ym = ym.max(u[iy]);
-        zm = zm.max(u[iz]);
-        let s = u[iy] + u[iz];
-        if s > 0.0 {
-            let f = u[iy] / s;
-            lo = lo.min(f);
-            hi = hi.max(f);
-        } else {
-            pole = true;
-        }
-    }
-    if pole {
+    let BlendExtent {
+        xm,
+        ym,
+        zm,
+        mut lo,
+        mut hi,
+        smin,
+    } = blend_extent(m, cell);
+    // A corner with y + z = 0 is the pole, where φ takes every value of [0, 1] nearby.
+    if smin <= 0.0 {
         (lo, hi) = (0.0, 1.0);
     }
     let psi = (lo - 0.5).abs().max((hi - 0.5).abs());
