@@ -8,7 +8,7 @@ fn main() -> std::process::ExitCode {
 ///
 /// The mesh, its tables and the stitch plan of a 2 M-triangle mesh fill about 880 MB of
 /// fresh pages; faulting them in 4 KiB at a time took 0.9 s of system time (of 2.3 s
-/// wall) in `tessellate --scheme flat --level 1`, and 0.6 s with huge pages, where the
+/// wall) in `tessellate --scheme flat --level 1`, and 0.4–0.55 s with huge pages, where the
 /// kernel offers them only on request (`transparent_hugepage/enabled` = `madvise`, the
 /// common default). The allocator is the system's; only the request is added, on the
 /// whole 2 MiB pages inside allocations of [`huge::LARGE`] bytes or more. The library
