@@ -265,13 +265,13 @@ fn suzanne_repair_certifies_every_patch() {
             r.triangles_flattened,
             r.edges_made_creases
         ),
-        (90, 0, 2),
+        (91, 0, 2),
         "{r:?}"
     );
     assert_eq!(r.arm_edges_scaled, 8, "{r:?}");
     // The factors found (3 decimals: the figures quoted in the documentation).
     assert!(
-        (r.arm_scale_range[0] - 0.578).abs() < 1e-3 && (r.arm_scale_range[1] - 2.117).abs() < 1e-3,
+        (r.arm_scale_range[0] - 0.535).abs() < 1e-3 && (r.arm_scale_range[1] - 2.117).abs() < 1e-3,
         "{r:?}"
     );
     scaled_arms_are_shared(&fixed, r.arm_edges_scaled, r.arm_scale_range);

@@ -6,7 +6,7 @@
 //! same order (no fused multiply-add, which Rust never makes on its own), so each lane's
 //! result is bitwise that of `bound` (a unit test compares them).
 
-use super::{restrict_by, tables, Cell, Geometry};
+use super::{quick::dot, restrict_by, tables, Cell, Geometry, Slopes};
 #[cfg(test)]
 use {super::Pairs, glam::DVec3};
 
@@ -73,11 +73,10 @@ impl Geometry {
         let m = self.n.max(1) - 1;
         let dlen = t.powers[m as usize].len();
         let mut d = ZERO4;
-        let mut rs = [0.0; 4];
-        let mut rt = [0.0; 4];
+        let mut slopes = [Slopes::default(); 4];
         for (l, cell) in cells.iter().enumerate() {
-            let (pair, s, tt) = self.cell_pairs(cell);
-            (rs[l], rt[l]) = (s, tt);
+            let (pair, sl) = self.cell_pairs(cell);
+            slopes[l] = sl;
             for j in 0..dlen {
                 for v in 0..2 {
                     for (k, x) in pair[j][v].to_array().into_iter().enumerate() {
@@ -122,7 +121,22 @@ impl Geometry {
                 .map(|v| length(&v[1], l))
                 .fold(0.0, f64::max);
             let lane: [f64; 45] = std::array::from_fn(|g| jc[g][l]);
-            self.conclude(&lane, ps, pt, rs[l], rt[l], &cells[l])
+            // As `finish`: `Across::maxima` in lane l.
+            let across = self.normal_part.as_ref().map(|q| {
+                let side = |v: usize| {
+                    std::array::from_fn(|m| {
+                        r[..dlen]
+                            .iter()
+                            .map(|d| {
+                                let x = &d[v];
+                                dot([x[0][l], x[1][l], x[2][l]], q.across.gn[m]).abs()
+                            })
+                            .fold(0.0, f64::max)
+                    })
+                };
+                (side(0), side(1))
+            });
+            self.conclude(&lane, self.remainder(ps, pt, &slopes[l], across), &cells[l])
         })
     }
 }
@@ -172,7 +186,7 @@ mod tests {
                 }
                 // The restriction itself, lane by lane.
                 let kids = children(&WHOLE);
-                let (pair, _, _) = geom.cell_pairs(&kids[0]);
+                let (pair, _) = geom.cell_pairs(&kids[0]);
                 // The same pairs in every lane.
                 let d: Pairs4 = std::array::from_fn(|j| {
                     std::array::from_fn(|v| pair[j][v].to_array().map(|x| [x; 4]))

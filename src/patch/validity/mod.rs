@@ -40,9 +40,13 @@
 //! derivatives bounded on the cell by interval bounds written with φ and 1 − φ (both in
 //! [0, 1]) so that nothing divides by b_{m+1} + b_{m+2}: near corner m the factor
 //! b_{m+1} b_{m+2} makes them O(h) on a cell of size h, elsewhere the Taylor remainder
-//! (second derivatives of φ, at most 2/(b_{m+1} + b_{m+2})²) makes them O(h) too. Then
+//! (φ's second derivatives, each bounded by the smaller of 2/σ² and the exact forms
+//! 2z/σ³, |y − z|/σ³, 2y/σ³, σ = b_{m+1} + b_{m+2}) makes them O(h) too. Then
 //! J ≥ min J_P − (|P_s| r_t + r_s |P_t| + r_s r_t) on the cell, with |P_s|, |P_t| bounded by
-//! their Bernstein coefficients and r_s, r_t the remainder bounds. At a corner R and its
+//! their Bernstein coefficients and r_s, r_t the remainder bounds; or, where smaller, with
+//! only the parts across n_f of P's tangent coefficients and of ΔG_m ([`quick::Across`]:
+//! (P_s × ΔG_m) · n_f is itself a Bernstein sum, and R's terms of one corner with itself
+//! vanish, ΔG_m × ΔG_m = 0). At a corner R and its
 //! derivatives vanish, so cells at the corners certify as their size shrinks whenever J is
 //! positive there.
 //!
@@ -547,6 +551,16 @@ fn restrict_by<P: Copy>(
     }
 }
 
+/// What a Gregory patch's linearised blend leaves out on a cell ([`blend_terms`]): bounds
+/// on its derivatives' lengths (r_s = Σ_m |ΔG_m| b_s,m, likewise r_t) and each corner's
+/// (b_s,m, b_t,m); zero for a polynomial patch.
+#[derive(Clone, Copy, Default)]
+struct Slopes {
+    rs: f64,
+    rt: f64,
+    each: [(f64, f64); 3],
+}
+
 /// What the bound needs of one patch.
 struct Geometry {
     /// Degree of the polynomial part (Gregory: 5, with the linearised blend added per cell).
@@ -654,23 +668,22 @@ impl Geometry {
     /// polynomial part alone does not certify the cell: only then is a witness looked for
     /// at a shallow cell).
     fn bound(&self, cell: &Cell) -> (f64, [f64; 3], bool) {
-        let (pair, rs, rt) = self.cell_pairs(cell);
+        let (pair, slopes) = self.cell_pairs(cell);
         let mut r = [[DVec3::ZERO; 2]; 15];
         restrict(&pair, self.n.max(1) - 1, cell, &mut r);
-        self.finish(&r, rs, rt, cell)
+        self.finish(&r, &slopes, cell)
     }
 
     /// The first part of [`Self::bound`]: the derivative coefficient pairs (along s and t,
     /// degree n − 1) of the polynomial part on the whole domain, with a Gregory patch's
-    /// blend linearised for `cell`, and the bounds r_s, r_t on what that leaves out.
+    /// blend linearised for `cell`, and the bounds on what that leaves out ([`Slopes`]).
     #[inline(always)]
-    fn cell_pairs(&self, cell: &Cell) -> (Pairs, f64, f64) {
+    fn cell_pairs(&self, cell: &Cell) -> (Pairs, Slopes) {
         let t = tables();
         let n = self.n;
         let len = t.powers[n as usize].len();
         let mut p = self.base;
-        let mut rs = 0.0;
-        let mut rt = 0.0;
+        let mut sl = Slopes::default();
         if let Some(dg) = self.gregory {
             for (m, d) in dg.iter().enumerate() {
                 let (ell, bs, bt) = blend_terms(m, cell);
@@ -682,8 +695,9 @@ impl Geometry {
                     p[basis::bezier_index(5, g)] += (ell[k] * (a[k] as f64 + 1.0) / 5.0) * *d;
                 }
                 let dl = d.length();
-                rs += dl * bs;
-                rt += dl * bt;
+                sl.rs += dl * bs;
+                sl.rt += dl * bt;
+                sl.each[m] = (bs, bt);
             }
         }
         let (ds, dt) = derivatives(&p[..len], n);
@@ -693,12 +707,12 @@ impl Geometry {
         for j in 0..dlen {
             pair[j] = [ds[j], dt[j]];
         }
-        (pair, rs, rt)
+        (pair, sl)
     }
 
     /// The last part of [`Self::bound`], from the pairs `r` restricted to `cell`.
     #[inline(always)]
-    fn finish(&self, r: &Pairs, rs: f64, rt: f64, cell: &Cell) -> (f64, [f64; 3], bool) {
+    fn finish(&self, r: &Pairs, sl: &Slopes, cell: &Cell) -> (f64, [f64; 3], bool) {
         let t = tables();
         let m = self.n.max(1) - 1;
         let dlen = t.powers[m as usize].len();
@@ -712,21 +726,36 @@ impl Geometry {
         for &(a, b, g, w) in &t.products[m as usize] {
             jc[g] += w * r[a][0].dot(tn[b]);
         }
-        self.conclude(&jc, ps, pt, rs, rt, cell)
+        let across = self
+            .normal_part
+            .as_ref()
+            .map(|q| q.across.maxima(&r[..dlen]));
+        self.conclude(&jc, self.remainder(ps, pt, sl, across), cell)
+    }
+
+    /// The bound on J − J_P̂ on a cell, P̂ the polynomial part with the blend linearised:
+    /// the smaller of |P̂_s| r_t + r_s |P̂_t| + r_s r_t (whole lengths: `ps`, `pt` bound the
+    /// tangents) and, for a Gregory patch, [`quick::Across`]'s bound from the parts across n
+    /// (`across`: its maxima over the cell's pairs), which is never larger but for rounding.
+    #[inline(always)]
+    fn remainder(
+        &self,
+        ps: f64,
+        pt: f64,
+        sl: &Slopes,
+        across: Option<([f64; 3], [f64; 3])>,
+    ) -> f64 {
+        let whole = ps * sl.rt + sl.rs * pt + sl.rs * sl.rt;
+        match (&self.normal_part, across) {
+            (Some(q), Some((a, c))) => whole.min(q.across.remainder(&a, &c, &sl.each)),
+            _ => whole,
+        }
     }
 
     /// The bound from J's coefficients `jc` on `cell` and the tangent bounds (the end of
     /// [`Self::bound`]).
     #[inline(always)]
-    fn conclude(
-        &self,
-        jc: &[f64; 45],
-        ps: f64,
-        pt: f64,
-        rs: f64,
-        rt: f64,
-        cell: &Cell,
-    ) -> (f64, [f64; 3], bool) {
+    fn conclude(&self, jc: &[f64; 45], remainder: f64, cell: &Cell) -> (f64, [f64; 3], bool) {
         let t = tables();
         let m = self.n.max(1) - 1;
         let jlen = t.powers[2 * m as usize].len();
@@ -739,7 +768,7 @@ impl Geometry {
                     (0, f64::INFINITY),
                     |a, (i, v)| if v < a.1 { (i, v) } else { a },
                 );
-        let lower = jmin - (ps * rt + rs * pt + rs * rt) - self.tol;
+        let lower = jmin - remainder - self.tol;
         // The Greville point of the smallest coefficient, mapped into the cell.
         let g = t.powers[2 * m as usize][imin];
         let deg = (2 * m).max(1) as f64;
@@ -915,11 +944,25 @@ fn blend_terms(m: usize, cell: &Cell) -> ([f64; 3], f64, f64) {
     let mut ey = ym + ym * zm * gy.abs();
     let mut ez = zm + ym * zm * gz.abs();
     if smin > 0.0 {
-        // Taylor: |∂²φ| ≤ 2/s² (each second derivative), s ≥ smin on the cell.
+        // Taylor, s ≥ smin on the cell: φ_yy = −2z/s³, φ_yz = (y − z)/s³, φ_zz = 2y/s³, so
+        // |φ_yy| ≤ 2 z_max/s³ ≤ 2/s², |φ_yz| ≤ w/s³ ≤ 1/s² (w: the largest |y − z|, at a
+        // corner, y − z being affine) and |φ_zz| ≤ 2 y_max/s³ ≤ 2/s²; each bound below is
+        // the smaller of the two forms.
         let s2 = smin * smin;
-        e0 = e0.min((dy * dy + dy * dz + dz * dz) / s2);
-        ey = ey.min(ym * zm * (2.0 * dy + dz) / s2);
-        ez = ez.min(ym * zm * (dy + 2.0 * dz) / s2);
+        let s3 = s2 * smin;
+        let w = cell
+            .iter()
+            .map(|u| (u[iy] - u[iz]).abs())
+            .fold(0.0, f64::max);
+        e0 = e0
+            .min((dy * dy + dy * dz + dz * dz) / s2)
+            .min((zm * dy * dy + w * dy * dz + ym * dz * dz) / s3);
+        ey = ey
+            .min(ym * zm * (2.0 * dy + dz) / s2)
+            .min(ym * zm * (2.0 * zm * dy + w * dz) / s3);
+        ez = ez
+            .min(ym * zm * (dy + 2.0 * dz) / s2)
+            .min(ym * zm * (w * dy + 2.0 * ym * dz) / s3);
     }
     // ∂ρ/∂x = 24 x y z (φ − φ̂); ∂ρ/∂y = 12 x² [z (φ − φ̂) + y z (∂_y φ − ∂_y φ̂)];
     // ∂ρ/∂z = 12 x² [y (φ − φ̂) + y z (∂_z φ − ∂_z φ̂)].
