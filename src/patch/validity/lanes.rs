@@ -6,17 +6,23 @@
 //! same order (no fused multiply-add, which Rust never makes on its own), so each lane's
 //! result is bitwise that of `bound` (a unit test compares them).
 
-use super::{quick::dot, restrict_by, tables, Cell, Geometry, Slopes};
+use super::{quick::dot, restrict_by, tables, Cell, Geometry, Scratch, Slopes};
 #[cfg(test)]
 use {super::Pairs, glam::DVec3};
 
 /// One value per cell.
 type Lanes = [f64; 4];
 
-/// Coefficient pairs of four cells: `[coefficient][s or t][x, y or z][lane]`.
-type Pairs4 = [[[Lanes; 3]; 2]; 15];
+/// One coefficient pair of four cells: `[s or t][x, y or z][lane]`.
+pub(super) type PairLanes = [[Lanes; 3]; 2];
 
-const ZERO4: Pairs4 = [[[[0.0; 4]; 3]; 2]; 15];
+/// A zero [`PairLanes`].
+pub(super) const ZERO_PAIR: PairLanes = [[[0.0; 4]; 3]; 2];
+
+/// Coefficient pairs of four cells: `[coefficient][s or t][x, y or z][lane]`.
+type Pairs4 = [PairLanes; 15];
+
+const ZERO4: Pairs4 = [ZERO_PAIR; 15];
 
 /// A barycentric point per lane: `[coordinate][lane]`.
 type Point4 = [Lanes; 3];
@@ -41,34 +47,53 @@ fn step4(src: &Pairs4, deg: u32, u: &Point4, dst: &mut Pairs4) {
 /// [`super::restrict`] in every lane: the pairs `d` (degree m ≤ 4) restricted to lane l's
 /// cell, whose corner k is `corners[k][·][l]`.
 #[inline(always)]
-fn restrict4(d: &Pairs4, m: u32, corners: &[Point4; 3], out: &mut Pairs4) {
+fn restrict4(
+    d: &Pairs4,
+    m: u32,
+    corners: &[Point4; 3],
+    scratch: &mut Scratch<PairLanes>,
+    out: &mut Pairs4,
+) {
     let step_at =
         |src: &Pairs4, deg: u32, k: usize, dst: &mut Pairs4| step4(src, deg, &corners[k], dst);
-    restrict_by(d, m, [[[0.0; 4]; 3]; 2], step_at, out);
+    restrict_by(d, m, scratch, step_at, out);
 }
 
 impl Geometry {
     /// [`Self::bound`] of each of `cells`, bitwise: with AVX where the CPU has it (the
     /// lanes in one register; the same operations, so the same bits).
-    pub(super) fn bound4(&self, cells: &[Cell; 4]) -> [(f64, [f64; 3], bool); 4] {
+    /// `scratch`: [`restrict_by`]'s buffers.
+    pub(super) fn bound4(
+        &self,
+        cells: &[Cell; 4],
+        scratch: &mut Scratch<PairLanes>,
+    ) -> [(f64, [f64; 3], bool); 4] {
         #[cfg(target_arch = "x86_64")]
         if cpu_has!("avx") {
             // SAFETY: the CPU has AVX (checked above).
-            return unsafe { self.bound4_avx(cells) };
+            return unsafe { self.bound4_avx(cells, scratch) };
         }
-        self.bound4_lanes(cells)
+        self.bound4_lanes(cells, scratch)
     }
 
     /// [`Self::bound4_lanes`] compiled for AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    fn bound4_avx(&self, cells: &[Cell; 4]) -> [(f64, [f64; 3], bool); 4] {
-        self.bound4_lanes(cells)
+    fn bound4_avx(
+        &self,
+        cells: &[Cell; 4],
+        scratch: &mut Scratch<PairLanes>,
+    ) -> [(f64, [f64; 3], bool); 4] {
+        self.bound4_lanes(cells, scratch)
     }
 
     /// See [`Self::bound4`].
     #[inline(always)]
-    fn bound4_lanes(&self, cells: &[Cell; 4]) -> [(f64, [f64; 3], bool); 4] {
+    fn bound4_lanes(
+        &self,
+        cells: &[Cell; 4],
+        scratch: &mut Scratch<PairLanes>,
+    ) -> [(f64, [f64; 3], bool); 4] {
         let t = tables();
         let m = self.n.max(1) - 1;
         let dlen = t.powers[m as usize].len();
@@ -89,7 +114,7 @@ impl Geometry {
             std::array::from_fn(|c| std::array::from_fn(|l| cells[l][k][c]))
         });
         let mut r = ZERO4;
-        restrict4(&d, m, &corners, &mut r);
+        restrict4(&d, m, &corners, scratch, &mut r);
         // As `finish`: |S_s|, |S_t| bounds, t × n_f, then J's coefficients, per lane.
         let length = |v: &[Lanes; 3], l: usize| {
             (v[0][l] * v[0][l] + v[1][l] * v[1][l] + v[2][l] * v[2][l]).sqrt()
@@ -151,7 +176,7 @@ fn lane(p: &Pairs4, l: usize) -> Pairs {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{children, restrict, Geometry, WHOLE};
+    use super::super::{children, restrict, Geometry, Work, WHOLE};
     use super::*;
     use crate::{LoadOptions, Mesh, PatchTable, Scheme, SchemeOptions};
 
@@ -172,7 +197,7 @@ mod tests {
                     let mut next = Vec::new();
                     for cell in &level {
                         let kids = children(cell);
-                        let four = geom.bound4(&kids);
+                        let four = geom.bound4(&kids, &mut Work::new().four);
                         for (k, kid) in kids.iter().enumerate() {
                             let one = geom.bound(kid);
                             assert_eq!(four[k].0.to_bits(), one.0.to_bits(), "{scheme} {i}");
@@ -196,7 +221,7 @@ mod tests {
                 });
                 let m = geom.n.max(1) - 1;
                 let mut r4 = ZERO4;
-                restrict4(&d, m, &corners, &mut r4);
+                restrict4(&d, m, &corners, &mut Work::new().four, &mut r4);
                 for (l, kid) in kids.iter().enumerate() {
                     let mut r = [[DVec3::ZERO; 2]; 15];
                     restrict(&pair, m, kid, &mut r);

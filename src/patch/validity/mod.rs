@@ -476,8 +476,48 @@ type Pairs = [[DVec3; 2]; 15];
 /// coefficient α of the restriction is the blossom at α_0 copies of the cell's first
 /// corner, α_1 of its second, α_2 of its third; the blossoms share their prefixes).
 fn restrict(d: &Pairs, m: u32, cell: &Cell, out: &mut Pairs) {
+    restrict_in(d, m, cell, &mut Scratch::new([DVec3::ZERO; 2]), out);
+}
+
+/// [`restrict`] with its buffers in `scratch` (a subdivision keeps one for all its cells).
+fn restrict_in(d: &Pairs, m: u32, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>, out: &mut Pairs) {
     let step_at = |src: &Pairs, deg: u32, k: usize, dst: &mut Pairs| step(src, deg, cell[k], dst);
-    restrict_by(d, m, [DVec3::ZERO; 2], step_at, out);
+    restrict_by(d, m, scratch, step_at, out);
+}
+
+/// The buffers of [`restrict_by`]. Each step writes every coefficient that the next one
+/// reads, so what a buffer held before a restriction is never read: one set serves every
+/// cell of a subdivision, initialised once instead of once per cell.
+pub(super) struct Scratch<P> {
+    a: [[P; 15]; 5],
+    bb: [[P; 15]; 2],
+    cc: [[P; 15]; 2],
+}
+
+impl<P: Copy> Scratch<P> {
+    /// Buffers filled with `zero`.
+    pub(super) fn new(zero: P) -> Scratch<P> {
+        Scratch {
+            a: [[zero; 15]; 5],
+            bb: [[zero; 15]; 2],
+            cc: [[zero; 15]; 2],
+        }
+    }
+}
+
+/// The buffers of one subdivision: for the four-lane bound and for the scalar one.
+pub(super) struct Work {
+    pub four: Scratch<lanes::PairLanes>,
+    pub one: Scratch<[DVec3; 2]>,
+}
+
+impl Work {
+    pub(super) fn new() -> Work {
+        Work {
+            four: Scratch::new(lanes::ZERO_PAIR),
+            one: Scratch::new([DVec3::ZERO; 2]),
+        }
+    }
 }
 
 /// The order of the steps of [`restrict`], for coefficients of any type `P` (one pair, or
@@ -488,7 +528,7 @@ fn restrict(d: &Pairs, m: u32, cell: &Cell, out: &mut Pairs) {
 fn restrict_by<P: Copy>(
     d: &[P; 15],
     m: u32,
-    zero: P,
+    scratch: &mut Scratch<P>,
     step: impl Fn(&[P; 15], u32, usize, &mut [P; 15]),
     out: &mut [P; 15],
 ) {
@@ -502,8 +542,8 @@ fn restrict_by<P: Copy>(
         }
     };
     let m = m as usize;
+    let Scratch { a, bb, cc } = scratch;
     // a[i]: after i steps at the first corner (degree m − i).
-    let mut a = [[zero; 15]; 5];
     a[0] = *d;
     for i in 1..=m {
         let (lo, hi) = a.split_at_mut(i);
@@ -511,8 +551,6 @@ fn restrict_by<P: Copy>(
     }
     // b: a[i] after j steps at the second corner (degree m − i − j), in `bb[k]` once
     // stepped; c: b after the steps at the third corner, in `cc`.
-    let mut bb = [[zero; 15]; 2];
-    let mut cc = [[zero; 15]; 2];
     for i in 0..=m {
         let mut b: Option<usize> = None;
         for j in 0..=m - i {
@@ -529,7 +567,7 @@ fn restrict_by<P: Copy>(
                 }
                 let mut c = 0;
                 for dd in (1..deg).rev() {
-                    step_over(&mut cc, c, dd as u32, 2);
+                    step_over(cc, c, dd as u32, 2);
                     c ^= 1;
                 }
                 cc[c][0]
@@ -542,7 +580,7 @@ fn restrict_by<P: Copy>(
                         0
                     }
                     Some(k) => {
-                        step_over(&mut bb, k, deg as u32, 1);
+                        step_over(bb, k, deg as u32, 1);
                         k ^ 1
                     }
                 });
@@ -1149,6 +1187,7 @@ fn check_within(
     // Each cell with its bound, computed with its siblings' (four lanes, `bound4`) when
     // its parent is split; the whole domain's alone.
     let mut stack = vec![(whole, 0u32, geom.bound(&whole))];
+    let mut work = Work::new();
     let mut cells = 0usize;
     let mut undecided = false;
     while let Some((cell, depth, (lower, b, suspect))) = stack.pop() {
@@ -1160,7 +1199,7 @@ fn check_within(
             || geom
                 .normal_part
                 .as_ref()
-                .is_some_and(|q| q.lower(&cell) > 0.0)
+                .is_some_and(|q| q.lower(&cell, &mut work.one) > 0.0)
         {
             continue;
         }
@@ -1181,7 +1220,7 @@ fn check_within(
             continue;
         }
         let children = children(&cell);
-        let bounds = geom.bound4(&children);
+        let bounds = geom.bound4(&children, &mut work.four);
         for (child, bound) in children.into_iter().zip(bounds) {
             stack.push((child, depth + 1, bound));
         }

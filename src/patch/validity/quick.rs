@@ -6,8 +6,8 @@
 use glam::DVec3;
 
 use super::{
-    blend_extent, restrict, tables, BlendExtent, Cell, Pairs, QUARTIC_BOUNDARY, QUARTIC_INTERIOR,
-    QUARTIC_UP,
+    blend_extent, restrict_in, tables, BlendExtent, Cell, Pairs, Scratch, QUARTIC_BOUNDARY,
+    QUARTIC_INTERIOR, QUARTIC_UP,
 };
 
 /// Bound on |∂ρ/∂s| and |∂ρ/∂t| over the whole domain for ρ = 12 x² y z (φ − 1/2), the part
@@ -193,9 +193,9 @@ impl NormalPart {
 
     /// A lower bound of J on `cell`, certified where positive: P's derivatives restricted
     /// to the cell (their Bernstein coefficients there) and each |∂ρ_m| bounded on the cell.
-    pub(super) fn lower(&self, cell: &Cell) -> f64 {
+    pub(super) fn lower(&self, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>) -> f64 {
         let mut r = [[DVec3::ZERO; 2]; 15];
-        restrict(&self.pairs, 3, cell, &mut r);
+        restrict_in(&self.pairs, 3, cell, scratch, &mut r);
         let ds: [DVec3; 10] = std::array::from_fn(|j| r[j][0]);
         let dt: [DVec3; 10] = std::array::from_fn(|j| r[j][1]);
         let slopes: [(f64, f64); 3] = std::array::from_fn(|m| blend_slopes(m, cell));
@@ -318,7 +318,7 @@ pub(super) fn blend_slopes(m: usize, cell: &Cell) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::{blend_slopes, NormalPart};
-    use crate::patch::validity::{blend_terms, children, jacobian, Cell, Geometry};
+    use crate::patch::validity::{blend_terms, children, jacobian, Cell, Geometry, Work};
     use crate::{LoadOptions, Mesh, PatchTable, Scheme, SchemeOptions};
 
     /// Every cell of the first `depth` levels of the subdivision of the whole domain.
@@ -404,7 +404,7 @@ mod tests {
             for i in (0..table.len()).step_by(every) {
                 let part = NormalPart::new(table.patch(i), table.flat_normals[i]);
                 for cell in &all[1..] {
-                    if part.lower(cell) <= 0.0 {
+                    if part.lower(cell, &mut Work::new().one) <= 0.0 {
                         continue;
                     }
                     count += 1;
