@@ -14,10 +14,10 @@ use {super::Pairs, glam::DVec3};
 type Lanes = [f64; 4];
 
 /// One coefficient pair of four cells: `[s or t][x, y or z][lane]`.
-pub(super) type PairLanes = [[Lanes; 3]; 2];
+type PairLanes = [[Lanes; 3]; 2];
 
 /// A zero [`PairLanes`].
-pub(super) const ZERO_PAIR: PairLanes = [[[0.0; 4]; 3]; 2];
+const ZERO_PAIR: PairLanes = [[[0.0; 4]; 3]; 2];
 
 /// Coefficient pairs of four cells: `[coefficient][s or t][x, y or z][lane]`.
 type Pairs4 = [PairLanes; 15];
@@ -26,6 +26,27 @@ const ZERO4: Pairs4 = [ZERO_PAIR; 15];
 
 /// A barycentric point per lane: `[coordinate][lane]`.
 type Point4 = [Lanes; 3];
+
+/// The buffers of [`Geometry::bound4`], kept by a subdivision for all its cells: each call
+/// writes every coefficient it reads (the pairs, their restriction and t × n_f up to the
+/// degree's count), so what they held before is never read.
+pub(super) struct FourWork {
+    restrict: Scratch<PairLanes>,
+    d: Pairs4,
+    r: Pairs4,
+    tn: [[Lanes; 3]; 15],
+}
+
+impl FourWork {
+    pub(super) fn new() -> FourWork {
+        FourWork {
+            restrict: Scratch::new(ZERO_PAIR),
+            d: ZERO4,
+            r: ZERO4,
+            tn: [[[0.0; 4]; 3]; 15],
+        }
+    }
+}
 
 /// [`super::step`] in every lane (lane l at `u[·][l]`).
 #[inline(always)]
@@ -62,42 +83,39 @@ fn restrict4(
 impl Geometry {
     /// [`Self::bound`] of each of `cells`, bitwise: with AVX where the CPU has it (the
     /// lanes in one register; the same operations, so the same bits).
-    /// `scratch`: [`restrict_by`]'s buffers.
+    /// `work`: the buffers ([`FourWork`]).
     pub(super) fn bound4(
         &self,
         cells: &[Cell; 4],
-        scratch: &mut Scratch<PairLanes>,
+        work: &mut FourWork,
     ) -> [(f64, [f64; 3], bool); 4] {
         #[cfg(target_arch = "x86_64")]
         if cpu_has!("avx") {
             // SAFETY: the CPU has AVX (checked above).
-            return unsafe { self.bound4_avx(cells, scratch) };
+            return unsafe { self.bound4_avx(cells, work) };
         }
-        self.bound4_lanes(cells, scratch)
+        self.bound4_lanes(cells, work)
     }
 
     /// [`Self::bound4_lanes`] compiled for AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    fn bound4_avx(
-        &self,
-        cells: &[Cell; 4],
-        scratch: &mut Scratch<PairLanes>,
-    ) -> [(f64, [f64; 3], bool); 4] {
-        self.bound4_lanes(cells, scratch)
+    fn bound4_avx(&self, cells: &[Cell; 4], work: &mut FourWork) -> [(f64, [f64; 3], bool); 4] {
+        self.bound4_lanes(cells, work)
     }
 
     /// See [`Self::bound4`].
     #[inline(always)]
-    fn bound4_lanes(
-        &self,
-        cells: &[Cell; 4],
-        scratch: &mut Scratch<PairLanes>,
-    ) -> [(f64, [f64; 3], bool); 4] {
+    fn bound4_lanes(&self, cells: &[Cell; 4], work: &mut FourWork) -> [(f64, [f64; 3], bool); 4] {
         let t = tables();
         let m = self.n.max(1) - 1;
         let dlen = t.powers[m as usize].len();
-        let mut d = ZERO4;
+        let FourWork {
+            restrict: scratch,
+            d,
+            r,
+            tn,
+        } = work;
         let mut slopes = [Slopes::default(); 4];
         for (l, cell) in cells.iter().enumerate() {
             let (pair, sl) = self.cell_pairs(cell);
@@ -113,14 +131,12 @@ impl Geometry {
         let corners: [Point4; 3] = std::array::from_fn(|k| {
             std::array::from_fn(|c| std::array::from_fn(|l| cells[l][k][c]))
         });
-        let mut r = ZERO4;
-        restrict4(&d, m, &corners, scratch, &mut r);
+        restrict4(d, m, &corners, scratch, r);
         // As `finish`: |S_s|, |S_t| bounds, t × n_f, then J's coefficients, per lane.
         let length = |v: &[Lanes; 3], l: usize| {
             (v[0][l] * v[0][l] + v[1][l] * v[1][l] + v[2][l] * v[2][l]).sqrt()
         };
         let n = self.nref;
-        let mut tn = [[[0.0; 4]; 3]; 15];
         for j in 0..dlen {
             let v = &r[j][1];
             for l in 0..4 {
@@ -221,7 +237,7 @@ mod tests {
                 });
                 let m = geom.n.max(1) - 1;
                 let mut r4 = ZERO4;
-                restrict4(&d, m, &corners, &mut Work::new().four, &mut r4);
+                restrict4(&d, m, &corners, &mut Scratch::new(ZERO_PAIR), &mut r4);
                 for (l, kid) in kids.iter().enumerate() {
                     let mut r = [[DVec3::ZERO; 2]; 15];
                     restrict(&pair, m, kid, &mut r);

@@ -505,16 +505,17 @@ impl<P: Copy> Scratch<P> {
     }
 }
 
-/// The buffers of one subdivision: for the four-lane bound and for the scalar one.
+/// The buffers of one subdivision: for the four-lane bound and for the scalar
+/// restriction.
 pub(super) struct Work {
-    pub four: Scratch<lanes::PairLanes>,
-    pub one: Scratch<[DVec3; 2]>,
+    four: lanes::FourWork,
+    one: Scratch<[DVec3; 2]>,
 }
 
 impl Work {
     pub(super) fn new() -> Work {
         Work {
-            four: Scratch::new(lanes::ZERO_PAIR),
+            four: lanes::FourWork::new(),
             one: Scratch::new([DVec3::ZERO; 2]),
         }
     }
