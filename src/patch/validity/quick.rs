@@ -395,25 +395,15 @@ mod tests {
     fn normal_part_certifies_only_positive_jacobians() {
         let all = cells(3);
         let mut certified = Vec::new();
-        // Every Suzanne patch, every 97th of the bunny's.
-        for (file, every) in [("suzanne.obj", 1), ("stanford-bunny.obj", 97)] {
-            let path = format!("{}/tests/data/{file}", env!("CARGO_MANIFEST_DIR"));
-            let mesh = Mesh::load(&path, &LoadOptions::default()).unwrap();
-            let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+        for (file, table, every) in sampled_g1_tables() {
             let mut count = 0;
+            let mut work = Work::new();
             for i in (0..table.len()).step_by(every) {
                 let part = NormalPart::new(table.patch(i), table.flat_normals[i]);
                 for cell in &all[1..] {
-                    if part.lower(cell, &mut Work::new().one) <= 0.0 {
-                        continue;
-                    }
-                    count += 1;
-                    for a in 0..=8u32 {
-                        for b in 0..=8 - a {
-                            let w = [a, b, 8 - a - b].map(|k| k as f64 / 8.0);
-                            let (j, _) = jacobian(&table, i, at(cell, w));
-                            assert!(j > 0.0, "{file} patch {i} cell {cell:?}: J = {j}");
-                        }
+                    if part.lower(cell, &mut work.one) > 0.0 {
+                        count += 1;
+                        assert_positive_on(&table, i, cell, file);
                     }
                 }
             }
@@ -421,6 +411,36 @@ mod tests {
         }
         // Of 968 × 84 and 716 × 84 cells (the bunny's patches are smooth: all of them).
         assert_eq!(certified, vec![68_556, 60_144]);
+    }
+
+    /// The G1 tables of Suzanne and the bunny, with the step of the patches the tests of
+    /// the cell bounds take: every Suzanne patch, every 97th of the bunny's.
+    fn sampled_g1_tables() -> Vec<(&'static str, PatchTable, usize)> {
+        [("suzanne.obj", 1), ("stanford-bunny.obj", 97)]
+            .into_iter()
+            .map(|(file, every)| {
+                let path = format!("{}/tests/data/{file}", env!("CARGO_MANIFEST_DIR"));
+                let mesh = Mesh::load(&path, &LoadOptions::default()).unwrap();
+                let opts = SchemeOptions::default();
+                (
+                    file,
+                    PatchTable::build(&mesh, Scheme::G1, &opts).unwrap(),
+                    every,
+                )
+            })
+            .collect()
+    }
+
+    /// J > 0 at the 45 points of a level-8 grid of `cell` of patch `i`, by the patch's own
+    /// f64 evaluation (independent of any bound).
+    fn assert_positive_on(table: &PatchTable, i: usize, cell: &Cell, file: &str) {
+        for a in 0..=8u32 {
+            for b in 0..=8 - a {
+                let w = [a, b, 8 - a - b].map(|k| k as f64 / 8.0);
+                let (j, _) = jacobian(table, i, at(cell, w));
+                assert!(j > 0.0, "{file} patch {i} cell {cell:?}: J = {j}");
+            }
+        }
     }
 
     /// [`blend_terms`] bounds the derivatives of what the linearised blend leaves out,
@@ -500,31 +520,21 @@ mod tests {
     fn cell_bounds_certify_only_positive_jacobians() {
         let all = cells(3);
         let mut certified = Vec::new();
-        for (file, every) in [("suzanne.obj", 1), ("stanford-bunny.obj", 97)] {
-            let path = format!("{}/tests/data/{file}", env!("CARGO_MANIFEST_DIR"));
-            let mesh = Mesh::load(&path, &LoadOptions::default()).unwrap();
-            let table = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+        for (file, table, every) in sampled_g1_tables() {
             let (mut count, mut by_lengths) = (0, 0);
             for i in (0..table.len()).step_by(every) {
                 let geom = Geometry::new(&table, i);
                 let mut lengths = Geometry::new(&table, i);
                 lengths.normal_part = None;
                 for cell in &all[1..] {
+                    let whole = lengths.bound(cell).0 > 0.0;
                     if geom.bound(cell).0 <= 0.0 {
-                        assert!(lengths.bound(cell).0 <= 0.0, "{file} {i} {cell:?}");
+                        assert!(!whole, "{file} {i} {cell:?}");
                         continue;
                     }
                     count += 1;
-                    if lengths.bound(cell).0 > 0.0 {
-                        by_lengths += 1;
-                    }
-                    for a in 0..=8u32 {
-                        for b in 0..=8 - a {
-                            let w = [a, b, 8 - a - b].map(|k| k as f64 / 8.0);
-                            let (j, _) = jacobian(&table, i, at(cell, w));
-                            assert!(j > 0.0, "{file} patch {i} cell {cell:?}: J = {j}");
-                        }
-                    }
+                    by_lengths += whole as usize;
+                    assert_positive_on(&table, i, cell, file);
                 }
             }
             certified.push((count, by_lengths));
