@@ -40,13 +40,11 @@
 //! derivatives bounded on the cell by interval bounds written with φ and 1 − φ (both in
 //! [0, 1]) so that nothing divides by b_{m+1} + b_{m+2}: near corner m the factor
 //! b_{m+1} b_{m+2} makes them O(h) on a cell of size h, elsewhere the Taylor remainder
-//! (φ's second derivatives, each bounded by the smaller of 2/σ² and the exact forms
-//! 2z/σ³, |y − z|/σ³, 2y/σ³, σ = b_{m+1} + b_{m+2}) makes them O(h) too. Then
-//! J ≥ min J_P − (|P_s| r_t + r_s |P_t| + r_s r_t) on the cell, with |P_s|, |P_t| bounded by
-//! their Bernstein coefficients and r_s, r_t the remainder bounds; or, where smaller, with
-//! only the parts across n_f of P's tangent coefficients and of ΔG_m ([`quick::Across`]:
-//! (P_s × ΔG_m) · n_f is itself a Bernstein sum, and R's terms of one corner with itself
-//! vanish, ΔG_m × ΔG_m = 0). At a corner R and its
+//! (φ's second derivatives, at most 2/(b_{m+1} + b_{m+2})², or their exact forms where
+//! smaller) makes them O(h) too. Then J ≥ min J_P − (|P_s| r_t + r_s |P_t| + r_s r_t) on the cell, with |P_s|,
+//! |P_t| bounded by their Bernstein coefficients and r_s, r_t the remainder bounds; or,
+//! where smaller, with only the parts across n_f of P's tangents and of ΔG_m
+//! ([`quick::Across`]; R's terms of one corner with itself vanish). At a corner R and its
 //! derivatives vanish, so cells at the corners certify as their size shrinks whenever J is
 //! positive there.
 //!
