@@ -6,7 +6,7 @@
 //! same order (no fused multiply-add, which Rust never makes on its own), so each lane's
 //! result is bitwise that of `bound` (a unit test compares them).
 
-use super::{quick::dot, restrict_by, tables, Cell, Geometry, Scratch, Slopes};
+use super::{quick::dot, quick::Across, restrict_by, tables, Cell, Geometry, Scratch, Slopes};
 #[cfg(test)]
 use {super::Pairs, glam::DVec3};
 
@@ -163,21 +163,22 @@ impl Geometry {
                 .fold(0.0, f64::max);
             let lane: [f64; 45] = std::array::from_fn(|g| jc[g][l]);
             // As `finish`: `Across::maxima` in lane l.
-            let across = self.normal_part.as_ref().map(|q| {
+            let maxima = |q: &Across| {
                 let side = |v: usize| {
                     std::array::from_fn(|m| {
                         r[..dlen]
                             .iter()
                             .map(|d| {
                                 let x = &d[v];
-                                dot([x[0][l], x[1][l], x[2][l]], q.across.gn[m]).abs()
+                                dot([x[0][l], x[1][l], x[2][l]], q.gn[m]).abs()
                             })
                             .fold(0.0, f64::max)
                     })
                 };
                 (side(0), side(1))
-            });
-            self.conclude(&lane, self.remainder(ps, pt, &slopes[l], across), &cells[l])
+            };
+            let remainder = self.remainder(ps, pt, &slopes[l], maxima);
+            self.conclude(&lane, remainder, &cells[l])
         })
     }
 }
@@ -192,7 +193,7 @@ fn lane(p: &Pairs4, l: usize) -> Pairs {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{children, restrict, Geometry, Work, WHOLE};
+    use super::super::{children, restrict, scratch, Geometry, Work, WHOLE};
     use super::*;
     use crate::{LoadOptions, Mesh, PatchTable, Scheme, SchemeOptions};
 
@@ -215,7 +216,7 @@ mod tests {
                         let kids = children(cell);
                         let four = geom.bound4(&kids, &mut Work::new().four);
                         for (k, kid) in kids.iter().enumerate() {
-                            let one = geom.bound(kid);
+                            let one = geom.bound(kid, &mut scratch());
                             assert_eq!(four[k].0.to_bits(), one.0.to_bits(), "{scheme} {i}");
                             assert_eq!(four[k].1.map(f64::to_bits), one.1.map(f64::to_bits));
                             assert_eq!(four[k].2, one.2);
@@ -240,7 +241,7 @@ mod tests {
                 restrict4(&d, m, &corners, &mut Scratch::new(ZERO_PAIR), &mut r4);
                 for (l, kid) in kids.iter().enumerate() {
                     let mut r = [[DVec3::ZERO; 2]; 15];
-                    restrict(&pair, m, kid, &mut r);
+                    restrict(&pair, m, kid, &mut scratch(), &mut r);
                     let got = lane(&r4, l);
                     for j in 0..15 {
                         for v in 0..2 {

@@ -41,10 +41,10 @@
 //! [0, 1]) so that nothing divides by b_{m+1} + b_{m+2}: near corner m the factor
 //! b_{m+1} b_{m+2} makes them O(h) on a cell of size h, elsewhere the Taylor remainder
 //! (φ's second derivatives, at most 2/(b_{m+1} + b_{m+2})², or their exact forms where
-//! smaller) makes them O(h) too. Then J ≥ min J_P − (|P_s| r_t + r_s |P_t| + r_s r_t) on the cell, with |P_s|,
-//! |P_t| bounded by their Bernstein coefficients and r_s, r_t the remainder bounds; or,
-//! where smaller, with only the parts across n_f of P's tangents and of ΔG_m
-//! ([`quick::Across`]; R's terms of one corner with itself vanish). At a corner R and its
+//! smaller) makes them O(h) too. Then J ≥ min J_P − (|P_s| r_t + r_s |P_t| + r_s r_t) on the
+//! cell, with |P_s|, |P_t| bounded by their Bernstein coefficients and r_s, r_t the
+//! remainder bounds; or, where smaller, with only the parts across n_f of P's tangents and
+//! of ΔG_m ([`quick::Across`]; R's terms of one corner with itself vanish). At a corner R and its
 //! derivatives vanish, so cells at the corners certify as their size shrinks whenever J is
 //! positive there.
 //!
@@ -66,8 +66,10 @@ use serde::Serialize;
 
 use super::{basis, PatchKind, PatchTable};
 
+mod blend;
 mod lanes;
 mod quick;
+use blend::{blend_extent, blend_terms, BlendExtent};
 #[cfg(test)]
 pub(crate) use quick::QUICK_BLEND_BOUND;
 #[cfg(test)]
@@ -185,11 +187,15 @@ pub fn count_range(table: &PatchTable, range: std::ops::Range<usize>) -> PatchCo
         .fold(PatchCounts::default(), PatchCounts::with)
 }
 
-/// [`first_stage`] of every patch of `range`, in parallel.
+/// [`classify`]'s stage of every patch of `range`, in parallel (one set of buffers per
+/// worker).
 fn first_stages(table: &PatchTable, range: std::ops::Range<usize>) -> Vec<Stage> {
     range
         .into_par_iter()
-        .map(|i| first_stage(table, i))
+        .map_init(
+            || Scratch::new([DVec3::ZERO; 2]),
+            |scratch, i| classify(table, i, scratch).0,
+        )
         .collect()
 }
 
@@ -473,12 +479,8 @@ type Pairs = [[DVec3; 2]; 15];
 /// The pairs of Bézier coefficients (degree m ≤ 4) `d` restricted to `cell` (blossoming:
 /// coefficient α of the restriction is the blossom at α_0 copies of the cell's first
 /// corner, α_1 of its second, α_2 of its third; the blossoms share their prefixes).
-fn restrict(d: &Pairs, m: u32, cell: &Cell, out: &mut Pairs) {
-    restrict_in(d, m, cell, &mut Scratch::new([DVec3::ZERO; 2]), out);
-}
-
-/// [`restrict`] with its buffers in `scratch` (a subdivision keeps one for all its cells).
-fn restrict_in(d: &Pairs, m: u32, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>, out: &mut Pairs) {
+/// Its buffers are `scratch` (a subdivision keeps one set for all its cells).
+fn restrict(d: &Pairs, m: u32, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>, out: &mut Pairs) {
     let step_at = |src: &Pairs, deg: u32, k: usize, dst: &mut Pairs| step(src, deg, cell[k], dst);
     restrict_by(d, m, scratch, step_at, out);
 }
@@ -501,6 +503,12 @@ impl<P: Copy> Scratch<P> {
             cc: [[zero; 15]; 2],
         }
     }
+}
+
+/// Fresh buffers for one scalar restriction (tests).
+#[cfg(test)]
+fn scratch() -> Scratch<[DVec3; 2]> {
+    Scratch::new([DVec3::ZERO; 2])
 }
 
 /// The buffers of one subdivision: for the four-lane bound and for the scalar
@@ -704,10 +712,11 @@ impl Geometry {
     /// candidate), and whether that coefficient itself is below the tolerance (the
     /// polynomial part alone does not certify the cell: only then is a witness looked for
     /// at a shallow cell).
-    fn bound(&self, cell: &Cell) -> (f64, [f64; 3], bool) {
+    /// `scratch`: the restriction's buffers.
+    fn bound(&self, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>) -> (f64, [f64; 3], bool) {
         let (pair, slopes) = self.cell_pairs(cell);
         let mut r = [[DVec3::ZERO; 2]; 15];
-        restrict(&pair, self.n.max(1) - 1, cell, &mut r);
+        restrict(&pair, self.n.max(1) - 1, cell, scratch, &mut r);
         self.finish(&r, &slopes, cell)
     }
 
@@ -763,29 +772,30 @@ impl Geometry {
         for &(a, b, g, w) in &t.products[m as usize] {
             jc[g] += w * r[a][0].dot(tn[b]);
         }
-        let across = self
-            .normal_part
-            .as_ref()
-            .map(|q| q.across.maxima(&r[..dlen]));
-        self.conclude(&jc, self.remainder(ps, pt, sl, across), cell)
+        let remainder = self.remainder(ps, pt, sl, |q| q.maxima(&r[..dlen]));
+        self.conclude(&jc, remainder, cell)
     }
 
     /// The bound on J − J_P̂ on a cell, P̂ the polynomial part with the blend linearised:
     /// the smaller of |P̂_s| r_t + r_s |P̂_t| + r_s r_t (whole lengths: `ps`, `pt` bound the
     /// tangents) and, for a Gregory patch, [`quick::Across`]'s bound from the parts across n
-    /// (`across`: its maxima over the cell's pairs), which is never larger but for rounding.
+    /// (`maxima`: [`quick::Across::maxima`] over the cell's pairs), which is never larger but
+    /// for rounding.
     #[inline(always)]
     fn remainder(
         &self,
         ps: f64,
         pt: f64,
         sl: &Slopes,
-        across: Option<([f64; 3], [f64; 3])>,
+        maxima: impl FnOnce(&quick::Across) -> ([f64; 3], [f64; 3]),
     ) -> f64 {
         let whole = ps * sl.rt + sl.rs * pt + sl.rs * sl.rt;
-        match (&self.normal_part, across) {
-            (Some(q), Some((a, c))) => whole.min(q.across.remainder(&a, &c, &sl.each)),
-            _ => whole,
+        match &self.normal_part {
+            Some(q) => {
+                let (a, c) = maxima(&q.across);
+                whole.min(q.across.remainder(&a, &c, &sl.each))
+            }
+            None => whole,
         }
     }
 
@@ -899,125 +909,13 @@ fn derivatives(c: &[DVec3], n: u32) -> ([DVec3; 15], [DVec3; 15]) {
     (ds, dt)
 }
 
-/// What the bounds on corner m's Gregory blend need of `cell` (x, y, z = b_m, b_{m+1},
-/// b_{m+2}): the largest x, y and z at its corners (affine, so on the cell), the range of
-/// φ = y/(y + z) over the corners where y + z > 0 (infinite where there are none), and the
-/// smallest y + z at a corner.
-pub(super) struct BlendExtent {
-    pub xm: f64,
-    pub ym: f64,
-    pub zm: f64,
-    pub lo: f64,
-    pub hi: f64,
-    pub smin: f64,
-}
-
-/// [`BlendExtent`] of corner m on `cell`.
-pub(super) fn blend_extent(m: usize, cell: &Cell) -> BlendExtent {
-    let (im, iy, iz) = (m, (m + 1) % 3, (m + 2) % 3);
-    let mut e = BlendExtent {
-        xm: 0.0,
-        ym: 0.0,
-        zm: 0.0,
-        lo: f64::INFINITY,
-        hi: f64::NEG_INFINITY,
-        smin: f64::INFINITY,
-    };
-    for u in cell {
-        e.xm = e.xm.max(u[im]);
-        e.ym = e.ym.max(u[iy]);
-        e.zm = e.zm.max(u[iz]);
-        let s = u[iy] + u[iz];
-        e.smin = e.smin.min(s);
-        if s > 0.0 {
-            let f = u[iy] / s;
-            e.lo = e.lo.min(f);
-            e.hi = e.hi.max(f);
-        }
-    }
-    e
-}
-
-/// For corner m's blend φ = y/(y + z) (x, y, z = b_m, b_{m+1}, b_{m+2}) on `cell`: the
-/// coefficients ℓ (on b_0, b_1, b_2) of its Taylor polynomial φ̂ at the centroid, and bounds
-/// on |∂ρ/∂s| and |∂ρ/∂t| over the cell for ρ = 12 x² y z (φ − φ̂).
-fn blend_terms(m: usize, cell: &Cell) -> ([f64; 3], f64, f64) {
-    let (im, iy, iz) = (m, (m + 1) % 3, (m + 2) % 3);
-    let c: [f64; 3] = std::array::from_fn(|j| (cell[0][j] + cell[1][j] + cell[2][j]) / 3.0);
-    let (cy, cz) = (c[iy], c[iz]);
-    let cs = cy + cz;
-    let phi_c = cy / cs;
-    // Gradient of φ at the centroid along (y, z) (φ does not depend on x).
-    let (gy, gz) = (cz / (cs * cs), -cy / (cs * cs));
-    // φ̂(b) = φ(c) + g·(b − c), written as Σ_k ℓ_k b_k (Σ b_k = 1).
-    let mut ell = [0.0; 3];
-    for (k, e) in ell.iter_mut().enumerate() {
-        let mut ek = [0.0; 3];
-        ek[k] = 1.0;
-        *e = phi_c + gy * (ek[iy] - cy) + gz * (ek[iz] - cz);
-    }
-    let lin = |b: &[f64; 3]| phi_c + gy * (b[iy] - cy) + gz * (b[iz] - cz);
-    let BlendExtent {
-        xm,
-        ym,
-        zm,
-        lo,
-        hi,
-        smin,
-    } = blend_extent(m, cell);
-    let (mut dy, mut dz) = (0.0f64, 0.0f64);
-    let (mut llo, mut lhi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for u in cell {
-        dy = dy.max((u[iy] - cy).abs());
-        dz = dz.max((u[iz] - cz).abs());
-        let l = lin(u);
-        llo = llo.min(l);
-        lhi = lhi.max(l);
-    }
-    // φ ranges over [lo, hi] on the cell (a linear fraction: extremes at the corners, the
-    // pole excluded), φ̂ over [llo, lhi] (affine).
-    let mut e0 = (hi - llo).max(lhi - lo).max(0.0);
-    // |y z (∂φ/∂y − ∂φ̂/∂y)| ≤ y (z/s)² + y z |g_y|; likewise for z.
-    let mut ey = ym + ym * zm * gy.abs();
-    let mut ez = zm + ym * zm * gz.abs();
-    if smin > 0.0 {
-        // Taylor, s ≥ smin on the cell: φ_yy = −2z/s³, φ_yz = (y − z)/s³, φ_zz = 2y/s³, so
-        // |φ_yy| ≤ 2 z_max/s³ ≤ 2/s², |φ_yz| ≤ w/s³ ≤ 1/s² (w: the largest |y − z|, at a
-        // corner, y − z being affine) and |φ_zz| ≤ 2 y_max/s³ ≤ 2/s²; each bound below is
-        // the smaller of the two forms.
-        let s2 = smin * smin;
-        let s3 = s2 * smin;
-        let w = cell
-            .iter()
-            .map(|u| (u[iy] - u[iz]).abs())
-            .fold(0.0, f64::max);
-        e0 = e0
-            .min((dy * dy + dy * dz + dz * dz) / s2)
-            .min((zm * dy * dy + w * dy * dz + ym * dz * dz) / s3);
-        ey = ey
-            .min(ym * zm * (2.0 * dy + dz) / s2)
-            .min(ym * zm * (2.0 * zm * dy + w * dz) / s3);
-        ez = ez
-            .min(ym * zm * (dy + 2.0 * dz) / s2)
-            .min(ym * zm * (w * dy + 2.0 * ym * dz) / s3);
-    }
-    // ∂ρ/∂x = 24 x y z (φ − φ̂); ∂ρ/∂y = 12 x² [z (φ − φ̂) + y z (∂_y φ − ∂_y φ̂)];
-    // ∂ρ/∂z = 12 x² [y (φ − φ̂) + y z (∂_z φ − ∂_z φ̂)].
-    let mut d = [0.0; 3];
-    d[im] = 24.0 * xm * ym * zm * e0;
-    d[iy] = 12.0 * xm * xm * (zm * e0 + ey);
-    d[iz] = 12.0 * xm * xm * (ym * e0 + ez);
-    // ∂/∂s = ∂/∂b1 − ∂/∂b0, ∂/∂t = ∂/∂b2 − ∂/∂b0.
-    (ell, d[1] + d[0], d[2] + d[0])
-}
-
 /// The verdict on patch `i` of `table`: within [`MAX_DEPTH`] and [`MAX_CELLS`], and for
 /// the few patches that leaves undecided, once more within [`DEEP_DEPTH`] and
 /// [`DEEP_CELLS`]. A patch that no subdivision can certify
 /// ([`Geometry::never_certified`]) gets the first subdivision only, which looks for a
 /// witness of a fold (the verdict is folded or undecided).
 pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
-    let (stage, geom) = match classify(table, i) {
+    let (stage, geom) = match classify(table, i, &mut Scratch::new([DVec3::ZERO; 2])) {
         (Stage::Done(v), _) => return v,
         (stage, Some(geom)) => (stage, geom),
         (stage, None) => (stage, Geometry::new(table, i)),
@@ -1030,7 +928,7 @@ pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
     }
 }
 
-/// Where [`first_stage`] left a patch.
+/// Where [`classify`] left a patch.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Stage {
     Done(Verdict),
@@ -1041,13 +939,9 @@ enum Stage {
 }
 
 /// The first stage of [`check_patch`], before any subdivision: the quick test (G1), the
-/// grid of witnesses, and whether a subdivision can certify the patch.
-fn first_stage(table: &PatchTable, i: usize) -> Stage {
-    classify(table, i).0
-}
-
-/// [`first_stage`], with the patch's [`Geometry`] (built to tell the stage) handed on
-/// where the subdivisions decide, so that [`check_patch`] does not build it again.
+/// grid of witnesses, and whether a subdivision can certify the patch; with the patch's
+/// [`Geometry`] (built to tell the stage) handed on where the subdivisions decide, so that
+/// [`check_patch`] does not build it again. `scratch`: the restriction's buffers.
 ///
 /// A polynomial patch (every kind but G1's Gregory patch) is first bounded on the whole
 /// domain by J's Bernstein coefficients, as the subdivision's first cell would be: where
@@ -1055,7 +949,11 @@ fn first_stage(table: &PatchTable, i: usize) -> Stage {
 /// witness's −1e-12 |S_s| |S_t|) and the subdivision would stop at that cell, so the
 /// verdict is the same for less work (a flat patch: one product). G1's quick test
 /// ([`quick_gregory`]) plays that part for the Gregory patch.
-fn classify(table: &PatchTable, i: usize) -> (Stage, Option<Geometry>) {
+fn classify(
+    table: &PatchTable,
+    i: usize,
+    scratch: &mut Scratch<[DVec3; 2]>,
+) -> (Stage, Option<Geometry>) {
     let mut built = None;
     if table.kind == PatchKind::Gregory {
         if quick_gregory(table.patch(i), table.flat_normals[i]) {
@@ -1068,7 +966,7 @@ fn classify(table: &PatchTable, i: usize) -> (Stage, Option<Geometry>) {
             return (Stage::Done(Verdict::Valid), None);
         }
         let geom = Geometry::new(table, i);
-        if geom.bound(&WHOLE).0 > 0.0 {
+        if geom.bound(&WHOLE, scratch).0 > 0.0 {
             return (Stage::Done(Verdict::Valid), None);
         }
         built = Some(geom);
@@ -1185,8 +1083,8 @@ fn check_within(
     }
     // Each cell with its bound, computed with its siblings' (four lanes, `bound4`) when
     // its parent is split; the whole domain's alone.
-    let mut stack = vec![(whole, 0u32, geom.bound(&whole))];
     let mut work = Work::new();
+    let mut stack = vec![(whole, 0u32, geom.bound(&whole, &mut work.one))];
     let mut cells = 0usize;
     let mut undecided = false;
     while let Some((cell, depth, (lower, b, suspect))) = stack.pop() {
@@ -1250,8 +1148,8 @@ fn children(cell: &Cell) -> [Cell; 4] {
 mod tests {
     use super::{
         check_within, classify, flat_lower_bound, grid_witness, interior_powers, quick_flat,
-        quick_half, quick_quartic, shared, tables, Geometry, Quick, Stage, Verdict, MAX_CELLS,
-        MAX_DEPTH, QUARTIC_BOUNDARY, QUARTIC_INTERIOR, QUARTIC_UP, WHOLE,
+        quick_half, quick_quartic, scratch, shared, tables, Geometry, Quick, Stage, Verdict,
+        MAX_CELLS, MAX_DEPTH, QUARTIC_BOUNDARY, QUARTIC_INTERIOR, QUARTIC_UP, WHOLE,
     };
     use crate::patch::basis;
     use crate::patch::validity::jacobian;
@@ -1368,7 +1266,7 @@ mod tests {
         }
         let mut valid = 0;
         for i in 0..table.len() {
-            let general = Geometry::new(&table, i).bound(&WHOLE).0;
+            let general = Geometry::new(&table, i).bound(&WHOLE, &mut scratch()).0;
             let flat = flat_lower_bound(table.patch(i), table.flat_normals[i]);
             assert_eq!(
                 flat.to_bits(),
@@ -1476,13 +1374,14 @@ mod tests {
                 let mut fast = 0;
                 for i in 0..table.len() {
                     let geom = Geometry::new(&table, i);
-                    if geom.bound(&WHOLE).0 > 0.0 {
+                    if geom.bound(&WHOLE, &mut scratch()).0 > 0.0 {
                         fast += 1;
                         assert!(grid_witness(&table, i).is_none(), "{file} {scheme} {i}");
                         let (v, cells, _) =
                             check_within(&table, i, &geom, MAX_DEPTH, MAX_CELLS, usize::MAX);
                         assert_eq!((v, cells), (Verdict::Valid, 1), "{file} {scheme} {i}");
-                        assert_eq!(classify(&table, i).0, Stage::Done(Verdict::Valid));
+                        let stage = classify(&table, i, &mut scratch()).0;
+                        assert_eq!(stage, Stage::Done(Verdict::Valid));
                     }
                 }
                 assert!(fast > 0, "{file} {scheme}");

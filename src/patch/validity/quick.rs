@@ -6,7 +6,7 @@
 use glam::DVec3;
 
 use super::{
-    blend_extent, restrict_in, tables, BlendExtent, Cell, Pairs, Scratch, QUARTIC_BOUNDARY,
+    blend_extent, restrict, tables, BlendExtent, Cell, Pairs, Scratch, QUARTIC_BOUNDARY,
     QUARTIC_INTERIOR, QUARTIC_UP,
 };
 
@@ -195,7 +195,7 @@ impl NormalPart {
     /// to the cell (their Bernstein coefficients there) and each |∂ρ_m| bounded on the cell.
     pub(super) fn lower(&self, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>) -> f64 {
         let mut r = [[DVec3::ZERO; 2]; 15];
-        restrict_in(&self.pairs, 3, cell, scratch, &mut r);
+        restrict(&self.pairs, 3, cell, scratch, &mut r);
         let ds: [DVec3; 10] = std::array::from_fn(|j| r[j][0]);
         let dt: [DVec3; 10] = std::array::from_fn(|j| r[j][1]);
         let slopes: [(f64, f64); 3] = std::array::from_fn(|m| blend_slopes(m, cell));
@@ -522,13 +522,14 @@ mod tests {
         let mut certified = Vec::new();
         for (file, table, every) in sampled_g1_tables() {
             let (mut count, mut by_lengths) = (0, 0);
+            let mut work = Work::new();
             for i in (0..table.len()).step_by(every) {
                 let geom = Geometry::new(&table, i);
                 let mut lengths = Geometry::new(&table, i);
                 lengths.normal_part = None;
                 for cell in &all[1..] {
-                    let whole = lengths.bound(cell).0 > 0.0;
-                    if geom.bound(cell).0 <= 0.0 {
+                    let whole = lengths.bound(cell, &mut work.one).0 > 0.0;
+                    if geom.bound(cell, &mut work.one).0 <= 0.0 {
                         assert!(!whole, "{file} {i} {cell:?}");
                         continue;
                     }
