@@ -238,6 +238,27 @@ impl BackendArgs {
     }
 }
 
+impl BackendArgs {
+    /// Whether these arguments evaluate on the CPU, told without opening a device and
+    /// without a word on stderr: `cpu`, or `auto` where every Vulkan adapter is a software
+    /// one or there is none (what `auto` then runs on). Where `auto` falls back to the CPU
+    /// only after a GPU failed to open, this says no.
+    pub fn evaluates_on_cpu(&self) -> bool {
+        match self.backend {
+            Backend::Cpu => true,
+            Backend::Gpu => false,
+            Backend::Auto => software_only(&crate::gpu::adapters()),
+        }
+    }
+}
+
+/// Whether every adapter of `adapters` is a software one (true of none).
+fn software_only(adapters: &[wgpu::AdapterInfo]) -> bool {
+    adapters
+        .iter()
+        .all(|a| a.device_type == wgpu::DeviceType::Cpu)
+}
+
 /// The GPU (or, for `auto`, the CPU fallback), opened on first use.
 pub struct LazyGpu {
     pub backend: Backend,
@@ -260,11 +281,7 @@ impl LazyGpu {
         };
         if self.backend == Backend::Auto {
             let adapters = crate::gpu::adapters();
-            if !adapters.is_empty()
-                && adapters
-                    .iter()
-                    .all(|a| a.device_type == wgpu::DeviceType::Cpu)
-            {
+            if !adapters.is_empty() && software_only(&adapters) {
                 let names: Vec<&str> = adapters.iter().map(|a| a.name.as_str()).collect();
                 self.note(&format!(
                     "the only Vulkan adapter is a software one ({}), slower than the CPU \

@@ -12,13 +12,15 @@ use super::out;
 use super::progress;
 use super::TEMP_FILES;
 use super::{BackendArgs, InputArgs};
+use crate::eval::cpu::CpuEvaluator;
 use crate::io::atomic;
 use crate::io::writers::{write_stitched, MeshFormat};
 use crate::mesh::creases::split_ends;
 use crate::mesh::{Adjacency, Mesh};
-use crate::patch::PatchTable;
+use crate::patch::validity::{fold_line_of, Certifier};
+use crate::patch::{PatchBuilder, PatchTable};
 use crate::tess::adaptive::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
-use crate::tess::stitch::{stitch_into, StitchPlan};
+use crate::tess::stitch::{stitch_built, stitch_into, StitchPlan};
 
 /// Default cap on the levels `--tolerance` chooses.
 pub const DEFAULT_MAX_LEVEL: u32 = 64;
@@ -112,36 +114,56 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         out::stderr_line(&note);
     }
     let uniform = a.tolerance.is_none() && a.tolerance_rel.is_none();
+    let plain = uniform && !a.input.repair_folds && !a.input.fair;
+    // At one level on the input mesh on the CPU, each chunk's patches are built, certified
+    // and evaluated in the pool job that evaluates them: no table of the whole mesh.
+    let built = plain && a.backend.evaluates_on_cpu();
     // At one level on the input mesh (no repair), the plan needs neither the table nor the
     // certificate: the numbering (one pass in order) is built beside them.
-    let (mesh, table, folds, adjacency, early_plan) =
-        if uniform && !a.input.repair_folds && !a.input.fair {
-            let adjacency = mesh.adjacency();
-            let (prepared, plan) = rayon::join(
-                || a.input.table_of(&mesh),
-                || StitchPlan::new(&mesh, &adjacency, a.level),
-            );
-            let (table, folds) = prepared?;
-            (mesh, table, folds, adjacency, Some(plan))
-        } else {
-            let (mesh, table, folds) = a.input.prepare(mesh)?;
-            let adjacency = mesh.adjacency();
-            (mesh, table, folds, adjacency, None)
-        };
-    if let Some(line) = folds {
+    let (mesh, table, mut folds, adjacency, early_plan) = if built {
+        let adjacency = mesh.adjacency();
+        let plan = StitchPlan::new(&mesh, &adjacency, a.level);
+        (mesh, None, None, adjacency, Some(plan))
+    } else if plain {
+        let adjacency = mesh.adjacency();
+        let (prepared, plan) = rayon::join(
+            || a.input.table_of(&mesh),
+            || StitchPlan::new(&mesh, &adjacency, a.level),
+        );
+        let (table, folds) = prepared?;
+        (mesh, Some(table), folds, adjacency, Some(plan))
+    } else {
+        let (mesh, table, folds) = a.input.prepare(mesh)?;
+        let adjacency = mesh.adjacency();
+        (mesh, Some(table), folds, adjacency, None)
+    };
+    if let Some(line) = folds.take() {
         out::stderr_line(&line);
     }
+    let patches = match table {
+        Some(t) => Patches::Table(t),
+        None => Patches::Built(PatchBuilder::new(
+            &mesh,
+            a.input.scheme,
+            &a.input.scheme_options(),
+        )?),
+    };
+    let (scheme, stride) = match &patches {
+        Patches::Table(t) => (t.scheme, t.stride),
+        Patches::Built(b) => (a.input.scheme, b.empty_table().stride),
+    };
     let eps = match (a.tolerance, a.tolerance_rel) {
         (Some(t), _) => Some(t),
         (None, Some(r)) => Some(r * mesh.diagonal()),
         (None, None) => None,
     };
-    let chosen: Option<(ToleranceLevels, f64)> = match eps {
-        Some(eps) => Some((
-            choose_levels(a, &mesh, &adjacency, &table, format, eps, cap)?,
+    // A tolerance (per-edge levels) has a table: its runs are not built.
+    let chosen: Option<(ToleranceLevels, f64)> = match (eps, &patches) {
+        (Some(eps), Patches::Table(table)) => Some((
+            choose_levels(a, &mesh, &adjacency, table, format, eps, cap)?,
             eps,
         )),
-        None => None,
+        _ => None,
     };
     // The memory estimate of the largest level (an upper bound for per-edge levels), made
     // before the plan is built.
@@ -160,7 +182,7 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         a,
         &mesh,
         &adjacency,
-        &table,
+        stride,
         format,
         level,
         chosen.is_some(),
@@ -179,8 +201,8 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     // of its own in an OBJ (a forged vertex or face).
     let name = out::escape(&mesh.name);
     let title = match &chosen {
-        Some((_, eps)) => format!("g1tess: {name}, scheme {}, tolerance {eps:e}", table.scheme),
-        None => format!("g1tess: {name}, scheme {}, level {}", table.scheme, a.level),
+        Some((_, eps)) => format!("g1tess: {name}, scheme {scheme}, tolerance {eps:e}"),
+        None => format!("g1tess: {name}, scheme {scheme}, level {}", a.level),
     };
     let bar = progress::bar(plan.patches() as u64, "evaluating", "patches", a.quiet);
     let mut snap = 0.0;
@@ -192,14 +214,28 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         &title,
         &bar,
         &mut |sink| {
-            snap = stitch_into(&plan, &table, evaluator.as_ref(), sink, &bar)?;
+            snap = match &patches {
+                Patches::Table(t) => stitch_into(&plan, t, evaluator.as_ref(), sink, &bar)?,
+                Patches::Built(b) => {
+                    let cpu = CpuEvaluator::default();
+                    let mut certifier = Certifier::new();
+                    let snap =
+                        stitch_built(&plan, b, &cpu, &mut |_, t| certifier.see(t), sink, &bar)?;
+                    folds = fold_line_of(&mesh.name, scheme, &certifier.finish());
+                    snap
+                }
+            };
             Ok(())
         },
     )?;
     bar.finish();
+    // The certificate of a built evaluation is done with it.
+    if let Some(line) = folds {
+        out::stderr_line(&line);
+    }
     let done = Tessellated {
         mesh: &mesh,
-        scheme: table.scheme.to_string(),
+        scheme: scheme.to_string(),
         plan: &plan,
         format,
         level,
@@ -223,6 +259,14 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         snap,
     };
     report(a, &done, chosen.as_ref(), cap)
+}
+
+/// Where `tessellate`'s patches come from: a table of every patch (per-edge levels, a
+/// repair, the GPU), or, at one level on the CPU, a builder that builds each chunk's
+/// patches where they are evaluated ([`stitch_built`]).
+enum Patches<'m> {
+    Table(PatchTable),
+    Built(PatchBuilder<'m>),
 }
 
 /// The output format, and the refusals that need no work: a format that cannot stream to
@@ -325,7 +369,7 @@ fn check_memory(
     a: &TessellateArgs,
     mesh: &Mesh,
     adjacency: &Adjacency,
-    table: &PatchTable,
+    stride: usize,
     format: MeshFormat,
     level: u32,
     adaptive: bool,
@@ -333,7 +377,7 @@ fn check_memory(
     let (need, estimate, weights) = tessellation_need(
         mesh,
         adjacency.edges.len(),
-        table.stride,
+        stride,
         level,
         format.needs(),
         format.buffer_bytes(level, mesh.triangles.len()),

@@ -60,7 +60,7 @@ impl CpuEvaluator {
 /// each of its points) cannot be allocated: the allocation is tried and given back.
 /// Commands check a memory budget before; this keeps a library call with an absurd level
 /// from ending the process.
-fn grid_fits(level: u32, bytes_per_point: usize) -> Result<()> {
+pub(crate) fn grid_fits(level: u32, bytes_per_point: usize) -> Result<()> {
     let bytes = (grid_len(level) as u128) * bytes_per_point as u128;
     let too_big = || {
         crate::Error::Invalid(format!(

@@ -52,11 +52,12 @@ use std::ops::Range;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::eval::cpu::CpuEvaluator;
 use crate::eval::{
     grid_len, grid_triangles, Evaluator, PatchPoint, Pattern, Vector, STAGE_SAMPLES,
 };
 use crate::mesh::{Adjacency, CornerAttributes, Mesh};
-use crate::patch::PatchTable;
+use crate::patch::{PatchBuilder, PatchTable};
 use crate::progress::{NoProgress, Progress};
 use crate::tess::layout;
 use crate::tess::levels::Levels;
@@ -982,6 +983,40 @@ pub fn stitch_into<V: Vector>(
             }
         }
     }
+    if !stitcher.is_complete() {
+        return Err(Error::Invalid(
+            "stitching: the evaluator did not deliver every patch".into(),
+        ));
+    }
+    Ok(stitcher.max_snap())
+}
+
+/// [`stitch_into`] in f32 on the CPU of the patches `builder` builds, each chunk's table
+/// built where it is evaluated (the whole table is never held) and seen by `seen` (its
+/// first patch, its table; a [`crate::patch::validity::Certifier`], say) before it is
+/// evaluated; `plan` must be uniform. The samples are bitwise those of [`stitch_into`]
+/// with the CPU evaluator on the table `builder` builds.
+pub fn stitch_built(
+    plan: &StitchPlan,
+    builder: &PatchBuilder<'_>,
+    cpu: &CpuEvaluator,
+    seen: &mut (dyn FnMut(usize, &PatchTable) + Send),
+    sink: &mut dyn StitchSink<[f32; 3]>,
+    progress: &dyn Progress,
+) -> Result<f64> {
+    let patches = builder.mesh().triangles.len();
+    if patches != plan.patches() || !plan.is_uniform() {
+        return Err(Error::Invalid(format!(
+            "stitching: a builder of {patches} patches for a plan of {} (uniform: {})",
+            plan.patches(),
+            plan.is_uniform()
+        )));
+    }
+    let kind = builder.empty_table().kind;
+    crate::eval::cpu::grid_fits(plan.level, kind.stride() * 12 + 24)?;
+    let mut stitcher = Stitcher::<[f32; 3]>::new(plan, sink.needs());
+    progress.start("evaluating", plan.patches() as u64);
+    stitcher.run_grid_built(cpu, builder, seen, sink, progress)?;
     if !stitcher.is_complete() {
         return Err(Error::Invalid(
             "stitching: the evaluator did not deliver every patch".into(),

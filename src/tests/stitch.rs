@@ -392,3 +392,96 @@ fn a_sink_error_stops_stitching_in_order() {
         assert_eq!(sink.seen, (0..=fail_at).collect::<Vec<_>>());
     }
 }
+
+/// What `tessellate` runs on the CPU at one level ([`stitch_built`]: each chunk's patches
+/// built where they are evaluated, the whole table never held) gives bitwise the output of
+/// [`stitch_into`] on the table of every patch, and its certificate ([`Certifier`], fed
+/// the chunks' tables) the counts of [`validity::count`] on that table: every test mesh
+/// (fandisk with its creases at 30°), every scheme, with chunks of 37 samples (a chunk
+/// boundary inside most patches' neighbourhoods) and the default.
+#[test]
+fn built_chunks_give_the_table_output_and_counts() {
+    use crate::patch::validity::{self, Certifier};
+    use crate::tess::stitch::stitch_built;
+    let fandisk = Mesh::load(
+        &common::shared_spec("fandisk.obj"),
+        &LoadOptions::default().with_crease_angle(Some(30.0)),
+    )
+    .unwrap();
+    let meshes = [
+        load(&common::shared_spec("suzanne.obj")),
+        load(&common::shared_spec("spot.obj")),
+        fandisk,
+    ];
+    let mut pending = 0;
+    for mesh in &meshes {
+        let plan = crate::StitchPlan::new(mesh, &mesh.adjacency(), 3).unwrap();
+        for scheme in Scheme::all() {
+            let opts = SchemeOptions::default();
+            let table = PatchTable::build(mesh, scheme, &opts).unwrap();
+            let builder = crate::patch::PatchBuilder::new(mesh, scheme, &opts).unwrap();
+            let want_counts = validity::count(&table);
+            for cpu in [
+                CpuEvaluator::with_chunk_samples(37),
+                CpuEvaluator::default(),
+            ] {
+                let mut want = StitchedMesh::<[f32; 3]>::default();
+                stitch_into(&plan, &table, &cpu, &mut want, &NoProgress).unwrap();
+                let mut got = StitchedMesh::<[f32; 3]>::default();
+                let mut certifier = Certifier::new();
+                let mut chunks = 0;
+                let mut see = |_: usize, t: &PatchTable| {
+                    chunks += 1;
+                    certifier.see(t)
+                };
+                stitch_built(&plan, &builder, &cpu, &mut see, &mut got, &NoProgress).unwrap();
+                let what = format!("{} {scheme}", mesh.name);
+                // 37 samples: three patches of level 3 a chunk.
+                let most = mesh.triangles.len().min(cpu.chunk_samples / 10);
+                assert!(
+                    chunks >= mesh.triangles.len() / most.max(1),
+                    "{what}: {chunks}"
+                );
+                assert_eq!(got.positions, want.positions, "{what}");
+                assert_eq!(got.normals, want.normals, "{what}");
+                assert_eq!(got.triangles, want.triangles, "{what}");
+                assert_eq!(got.record_position, want.record_position, "{what}");
+                assert_eq!(certifier.finish(), want_counts, "{what}");
+            }
+            pending += want_counts.folded + want_counts.undecided;
+        }
+    }
+    // The subdivisions decided some of them: Suzanne's G1 folds, fandisk's undecided patch.
+    assert!(pending > 100, "{pending} folded or undecided patches");
+}
+
+/// A chunk whose patches cannot be built (a control point overflows) stops [`stitch_built`]
+/// with the error `PatchTable::build` gives, naming the same triangle; no panic.
+#[test]
+fn built_chunks_stop_at_a_patch_that_cannot_be_built() {
+    use crate::tess::stitch::stitch_built;
+    let mut mesh = load(&common::shared_spec("spot.obj"));
+    // A vertex far out: the boundary curves' tangent lengths overflow f64.
+    let far = mesh.triangles[mesh.triangles.len() / 2][0] as usize;
+    mesh.positions[far] *= 1e308;
+    let Err(want) = PatchTable::build(&mesh, Scheme::G1, &SchemeOptions::default()) else {
+        panic!("the table fails");
+    };
+    let want = want.to_string();
+    assert!(want.contains("non-finite control point"), "{want}");
+    let builder =
+        crate::patch::PatchBuilder::new(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let plan = crate::StitchPlan::new(&mesh, &mesh.adjacency(), 2).unwrap();
+    let mut sink = CountingSink::default();
+    let got = stitch_built(
+        &plan,
+        &builder,
+        &CpuEvaluator::with_chunk_samples(60),
+        &mut |_, _| {},
+        &mut sink,
+        &NoProgress,
+    )
+    .expect_err("the evaluation fails")
+    .to_string();
+    assert_eq!(got, want);
+}

@@ -13,10 +13,10 @@ use crate::eval::cpu::{CpuEvaluator, F32Kernel};
 use crate::eval::grid_len;
 use crate::io::writers::{ply_file_bytes, write_stitched, MeshFormat};
 use crate::mesh::{Adjacency, LoadOptions, Mesh};
-use crate::patch::repair::repair_line;
-use crate::patch::{PatchTable, Scheme, SchemeOptions};
+use crate::patch::validity::{Certifier, PatchCounts};
+use crate::patch::{PatchBuilder, Scheme, SchemeOptions};
 use crate::progress::NoProgress;
-use crate::tess::stitch::{stitch_into, CountingSink, Needs, StitchPlan};
+use crate::tess::stitch::{stitch_built, CountingSink, Needs, StitchPlan, StitchSink};
 
 /// One end-to-end measurement.
 #[derive(Clone, Debug, Serialize)]
@@ -199,10 +199,11 @@ fn best_of(
 /// `bench --end-to-end`: the commands a user runs, timed in one process on the first mesh
 /// (default the bunny) with the first scheme (default G1), CPU backend:
 /// - at each of `--memory-levels` (4, 8, 16): `tessellate_setup`, what `tessellate`
-///   builds before it evaluates (patch table, the certificate of its fold warning,
-///   adjacency, stitch plan; once), `tessellate_eval`, the evaluation into memory (f32 grid
-///   kernel → stitcher in f32 → a sink that keeps nothing; best of 2), and
-///   `tessellate_setup_eval`, their sum;
+///   builds before it evaluates (adjacency, stitch plan; once), `tessellate_eval`, the
+///   evaluation into memory as `tessellate` runs it (per chunk: the patches built and their
+///   certificate's first stage, the f32 grid kernel, the stitcher in f32; then the
+///   certificate's subdivisions for its fold warning; into a sink that keeps nothing; best
+///   of 2), and `tessellate_setup_eval`, their sum;
 /// - `tessellate_memory`: the evaluation into memory at `--tess-level` (best of 2; the
 ///   `tessellate_eval` measurement where that level is one of `--memory-levels`);
 /// - `tessellate_ply_file`: the same into a binary PLY file (atomic write, fsync), beside
@@ -239,25 +240,23 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
     let mesh = load_mesh(spec)?;
     let levels = time_memory_levels(&mesh, scheme, &cpu, &budget, &a.memory_levels, &say)?;
     rows.0.extend(levels.rows);
-    let (table, adjacency) = match levels.built {
-        Some(built) => built,
-        None => (
-            PatchTable::build(&mesh, scheme, &SchemeOptions::default())?,
-            mesh.adjacency(),
-        ),
+    let adjacency = match levels.adjacency {
+        Some(adjacency) => adjacency,
+        None => mesh.adjacency(),
     };
+    let builder = PatchBuilder::new(&mesh, scheme, &SchemeOptions::default())?;
     let level = a.tess_level;
     let (need, _, _) = tessellation_need(
         &mesh,
         adjacency.edges.len(),
-        table.stride,
+        builder.empty_table().stride,
         level,
         MeshFormat::Ply.needs(),
         MeshFormat::Ply.buffer_bytes(level, mesh.triangles.len()),
     );
     budget.check("bench", &format!("--tess-level {level}"), need, "")?;
     let plan = StitchPlan::new(&mesh, &adjacency, level)?;
-    let samples = (grid_len(level) * table.len()) as u64;
+    let samples = (grid_len(level) * mesh.triangles.len()) as u64;
 
     // The evaluation of this level, where a row of `--memory-levels` measured it.
     let measured = levels.evals.iter().find(|e| e.0 == level).map(|e| e.1);
@@ -268,13 +267,13 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
                 "tessellate {} level {level} into memory",
                 mesh.name
             ));
-            time_evaluation(&plan, &table, &cpu)?
+            time_evaluation(&plan, &builder, &cpu)?
         }
     };
     rows.push(
         "tessellate_memory",
         format!(
-            "f32 kernel -> stitcher (f32) -> sink keeping nothing; {} positions, {} records{}",
+            "patches built and certified per chunk, f32 kernel -> stitcher (f32) -> sink keeping nothing; {} positions, {} records{}",
             plan.positions,
             plan.records,
             if measured.is_some() {
@@ -292,7 +291,7 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
 
     say("plain writes alternating with tessellations into a binary PLY file");
     let bytes = ply_file_bytes(&plan, "bench");
-    let writes = time_file_writes(&plan, &table, &cpu, &temp, bytes)?;
+    let writes = time_file_writes(&plan, &builder, &cpu, &temp, bytes)?;
     rows.push(
         "tessellate_ply_file",
         "tessellate into binary PLY on disk (atomic: temporary file, fsync, rename); best of 2, alternating with plain_write and piped_write (plain, piped, PLY, plain, piped, PLY)".into(),
@@ -321,7 +320,7 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
 
     say(&format!("OBJ of {} at level {}", mesh.name, a.stats_level));
     let obj_plan = StitchPlan::new(&mesh, &adjacency, a.stats_level)?;
-    let big = time_obj_loading(&obj_plan, &table, &cpu, &temp, &say, &mut rows)?;
+    let big = time_obj_loading(&obj_plan, &builder, &cpu, &temp, &say, &mut rows)?;
 
     say(&format!("stats on {} triangles", big.triangles.len()));
     let mut pairs = 0;
@@ -369,52 +368,68 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
 /// Wall and CPU seconds of a step (see [`timed`]).
 type WallCpu = (f64, Option<f64>);
 
-/// The best of 2 evaluations of `plan` into memory: the f32 kernel → the stitcher in f32
-/// → a sink that keeps nothing ([`CountingSink`]).
+/// What `tessellate` runs after its set-up, on the CPU at one level: each chunk's patches
+/// built, certified ([`Certifier`]) and evaluated in the pool job that evaluates them (f32
+/// kernel), stitched into `sink`, and the subdivisions of the certificate at the end.
+fn tessellate_built(
+    plan: &StitchPlan,
+    builder: &PatchBuilder<'_>,
+    cpu: &CpuEvaluator,
+    sink: &mut dyn StitchSink<[f32; 3]>,
+) -> crate::Result<PatchCounts> {
+    let mut certifier = Certifier::new();
+    stitch_built(
+        plan,
+        builder,
+        cpu,
+        &mut |_, t| certifier.see(t),
+        sink,
+        &NoProgress,
+    )?;
+    Ok(certifier.finish())
+}
+
+/// The best of 2 evaluations of `plan` into memory ([`tessellate_built`] into a sink that
+/// keeps nothing, [`CountingSink`]).
 fn time_evaluation(
     plan: &StitchPlan,
-    table: &PatchTable,
+    builder: &PatchBuilder<'_>,
     cpu: &CpuEvaluator,
 ) -> anyhow::Result<WallCpu> {
     best_of(2, || {
         let mut sink = CountingSink::default();
-        stitch_into::<[f32; 3]>(plan, table, cpu, &mut sink, &NoProgress)?;
+        std::hint::black_box(tessellate_built(plan, builder, cpu, &mut sink)?);
         anyhow::ensure!(sink.records == plan.records, "stitching lost records");
         Ok(())
     })
 }
 
-/// What `tessellate` builds before it evaluates a uniform level: the patch table (G1's
-/// construction included), the validity certificate behind its fold warning
-/// ([`repair_line`], which counts the verdicts of every patch), the adjacency and, after
-/// the memory check, the stitch plan of `level`; with the seconds of each of the four.
-struct SetUp {
-    table: PatchTable,
+/// What `tessellate` builds before it evaluates a uniform level on the CPU: the adjacency,
+/// the scheme's builder (G1 checks its options; nothing per patch) and, after the memory
+/// check, the stitch plan of `level`; with the seconds of the adjacency and of the plan.
+/// The patches are built and certified in the evaluation ([`tessellate_built`]).
+struct SetUp<'m> {
+    builder: PatchBuilder<'m>,
     adjacency: Adjacency,
     plan: StitchPlan,
-    parts: [f64; 4],
+    parts: [f64; 2],
 }
 
-impl SetUp {
+impl<'m> SetUp<'m> {
     fn build(
-        mesh: &Mesh,
+        mesh: &'m Mesh,
         scheme: Scheme,
         level: u32,
         budget: &crate::cli::common::Budget,
-    ) -> anyhow::Result<SetUp> {
-        let t = Instant::now();
-        let table = PatchTable::build(mesh, scheme, &SchemeOptions::default())?;
-        let t_table = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        std::hint::black_box(repair_line(&mesh.name, &table, None));
-        let t_certificate = t.elapsed().as_secs_f64();
+    ) -> anyhow::Result<SetUp<'m>> {
         let t = Instant::now();
         let adjacency = mesh.adjacency();
         let t_adjacency = t.elapsed().as_secs_f64();
+        let builder = PatchBuilder::new(mesh, scheme, &SchemeOptions::default())?;
         let (need, _, _) = tessellation_need(
             mesh,
             adjacency.edges.len(),
-            table.stride,
+            builder.empty_table().stride,
             level,
             Needs::RECORDS,
             (0, 0),
@@ -424,20 +439,20 @@ impl SetUp {
         let plan = StitchPlan::new(mesh, &adjacency, level)?;
         let t_plan = t.elapsed().as_secs_f64();
         Ok(SetUp {
-            table,
+            builder,
             adjacency,
             plan,
-            parts: [t_table, t_certificate, t_adjacency, t_plan],
+            parts: [t_adjacency, t_plan],
         })
     }
 }
 
-/// The rows of [`time_memory_levels`], the evaluation time of each level, and the table
-/// and adjacency of the last level's set-up (for the rows that follow).
+/// The rows of [`time_memory_levels`], the evaluation time of each level, and the
+/// adjacency of the last level's set-up (for the rows that follow).
 struct MemoryLevels {
     rows: Vec<EndToEndRow>,
     evals: Vec<(u32, WallCpu)>,
-    built: Option<(PatchTable, Adjacency)>,
+    adjacency: Option<Adjacency>,
 }
 
 /// For each of `levels`, a tessellation of `mesh` into memory as `tessellate` runs it,
@@ -455,7 +470,7 @@ fn time_memory_levels(
     let mut out = MemoryLevels {
         rows: Vec::new(),
         evals: Vec::new(),
-        built: None,
+        adjacency: None,
     };
     let mut rows = EndToEndRows::default();
     for &level in levels {
@@ -469,13 +484,13 @@ fn time_memory_levels(
             Ok(())
         })?;
         let s = built.expect("built in the timed step");
-        let eval = time_evaluation(&s.plan, &s.table, cpu)?;
-        let samples = Some((grid_len(level) * s.table.len()) as u64);
-        let [table, certificate, adjacency, plan] = s.parts;
+        let eval = time_evaluation(&s.plan, &s.builder, cpu)?;
+        let samples = Some((grid_len(level) * mesh.triangles.len()) as u64);
+        let [adjacency, plan] = s.parts;
         rows.push(
             "tessellate_setup",
             format!(
-                "patch table {table:.3} s (G1 construction included), certificate {certificate:.3} s (the fold warning's count), adjacency {adjacency:.3} s, stitch plan {plan:.3} s; once"
+                "adjacency {adjacency:.3} s, stitch plan {plan:.3} s; once (the patches are built and certified in tessellate_eval)"
             ),
             setup,
             samples,
@@ -486,7 +501,7 @@ fn time_memory_levels(
         rows.push(
             "tessellate_eval",
             format!(
-                "f32 kernel -> stitcher (f32) -> sink keeping nothing; {} positions, {} records; best of 2",
+                "per chunk: patches built (G1 construction included), their certificate's first stage, f32 kernel, stitcher (f32); then the certificate's subdivisions (the fold warning's count); sink keeping nothing; {} positions, {} records; best of 2",
                 s.plan.positions, s.plan.records
             ),
             eval,
@@ -506,7 +521,7 @@ fn time_memory_levels(
         )
         .level = Some(level);
         out.evals.push((level, eval));
-        out.built = Some((s.table, s.adjacency));
+        out.adjacency = Some(s.adjacency);
     }
     out.rows = rows.0;
     Ok(out)
@@ -576,7 +591,7 @@ struct FileWrites {
 /// `bytes`, known from the plan.
 fn time_file_writes(
     plan: &StitchPlan,
-    table: &PatchTable,
+    builder: &PatchBuilder<'_>,
     cpu: &CpuEvaluator,
     temp: &TempNames,
     bytes: u64,
@@ -605,7 +620,7 @@ fn time_file_writes(
                 plan,
                 "bench",
                 &NoProgress,
-                &mut |sink| stitch_into(plan, table, cpu, sink, &NoProgress).map(|_| ()),
+                &mut |sink| tessellate_built(plan, builder, cpu, sink).map(|_| ()),
             )?;
             Ok(())
         })?;
@@ -627,7 +642,7 @@ fn time_file_writes(
 /// rows `load_obj`, `count_words` and `wc_w`. Returns the loaded mesh.
 fn time_obj_loading(
     obj_plan: &StitchPlan,
-    table: &PatchTable,
+    builder: &PatchBuilder<'_>,
     cpu: &CpuEvaluator,
     temp: &TempNames,
     say: &dyn Fn(&str),
@@ -641,7 +656,7 @@ fn time_obj_loading(
         obj_plan,
         "bench",
         &NoProgress,
-        &mut |sink| stitch_into(obj_plan, table, cpu, sink, &NoProgress).map(|_| ()),
+        &mut |sink| tessellate_built(obj_plan, builder, cpu, sink).map(|_| ()),
     )?;
     let obj_bytes = std::fs::metadata(&obj.0)?.len();
     let mut words = 0;

@@ -14,7 +14,7 @@ use super::CpuEvaluator;
 #[cfg(doc)] // links in the documentation
 use crate::eval::Evaluator;
 use crate::eval::{grid_barycentrics, grid_corners, Chunk, ChunkF32, STAGE_SAMPLES};
-use crate::patch::PatchTable;
+use crate::patch::{PatchBuilder, PatchKind, PatchTable};
 use crate::Result;
 
 /// Samples per SIMD block of the AVX2 and portable kernels.
@@ -564,6 +564,26 @@ fn run_patches_f32(
         });
 }
 
+/// Where the f32 kernel's patches come from.
+enum Source<'s, 'm> {
+    /// A table of every patch.
+    Table(&'s PatchTable),
+    /// A builder, one chunk's table at a time; what sees each chunk's table.
+    Built(
+        &'s PatchBuilder<'m>,
+        &'s mut (dyn FnMut(usize, &PatchTable) + Send),
+    ),
+}
+
+/// One of the two sets of buffers of the kernel's steps: the samples of a chunk, and for
+/// a [`Source::Built`], the chunk's table and triangles.
+struct ChunkBuffers {
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    table: Option<PatchTable>,
+    triangles: Vec<u32>,
+}
+
 impl CpuEvaluator {
     /// The f32 kernel on the grid of `weights.level` with precomputed weights, streamed in
     /// chunks (what [`Evaluator::evaluate_f32`] runs for a grid; callers that evaluate the
@@ -601,19 +621,51 @@ impl CpuEvaluator {
         stage: &mut (dyn FnMut(ChunkF32<'_>) + Send),
         sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
     ) -> Result<()> {
-        check_weights(table, weights)?;
+        self.source_chunks(Source::Table(table), weights, most, stage, sink)
+    }
+
+    /// [`Self::grid_f32_staged`] of the patches `builder` builds, each chunk's table built
+    /// in the pool job that evaluates it (the table of the whole mesh is never held: a few
+    /// chunks' tables at a time), and seen there by `seen` (its first patch's index, its
+    /// table), in order, before it is evaluated.
+    pub(crate) fn grid_f32_built(
+        &self,
+        builder: &PatchBuilder<'_>,
+        weights: &GridWeightsF32,
+        seen: &mut (dyn FnMut(usize, &PatchTable) + Send),
+        stage: &mut (dyn FnMut(ChunkF32<'_>) + Send),
+        sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
+    ) -> Result<()> {
+        let source = Source::Built(builder, seen);
+        self.source_chunks(source, weights, STAGE_SAMPLES, stage, sink)
+    }
+
+    /// The f32 kernel over `source` in chunks of at most `most` samples (and
+    /// `chunk_samples`; one patch at least), each staged in the pool job that evaluated it.
+    fn source_chunks(
+        &self,
+        mut source: Source<'_, '_>,
+        weights: &GridWeightsF32,
+        most: usize,
+        stage: &mut (dyn FnMut(ChunkF32<'_>) + Send),
+        sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
+    ) -> Result<()> {
+        let (kind, n) = match &source {
+            Source::Table(t) => (t.kind, t.len()),
+            Source::Built(b, _) => (b.empty_table().kind, b.mesh().triangles.len()),
+        };
+        check_weights(kind, weights)?;
         let per = weights.per;
         let kernel = self.f32_kernel;
-        let n = table.len();
         let chunk = self.chunk_samples.min(most);
         let patches_per_chunk = (chunk / per).max(1).min(n.max(1));
-        let buffers = |patches: usize| {
-            (
-                vec![[0f32; 3]; patches * per],
-                vec![[0f32; 3]; patches * per],
-            )
+        let buffers = |patches: usize| ChunkBuffers {
+            positions: vec![[0f32; 3]; patches * per],
+            normals: vec![[0f32; 3]; patches * per],
+            table: None,
+            triangles: Vec::new(),
         };
-        // A second pair only where there is a second chunk.
+        // A second set only where there is a second chunk.
         let (mut cur, mut next) = (
             buffers(patches_per_chunk),
             buffers(if n > patches_per_chunk {
@@ -622,6 +674,8 @@ impl CpuEvaluator {
                 0
             }),
         );
+        // The first error of a chunk's construction, returned by the sink's next step.
+        let failed = std::sync::Mutex::new(None);
         // The kernel fills the next chunk on the pool, and the stage takes it there, while
         // the sink reads this one.
         crate::pipelined::double_buffered(
@@ -629,23 +683,46 @@ impl CpuEvaluator {
             &mut next,
             n,
             patches_per_chunk,
-            |first, count, (p, q)| {
-                let (p, q) = (&mut p[..count * per], &mut q[..count * per]);
-                run_patches_f32(table, weights, kernel, first, p, q);
+            |first, count, b| {
+                let (p, q) = (
+                    &mut b.positions[..count * per],
+                    &mut b.normals[..count * per],
+                );
+                match &mut source {
+                    Source::Table(table) => run_patches_f32(table, weights, kernel, first, p, q),
+                    Source::Built(builder, seen) => {
+                        b.triangles.clear();
+                        b.triangles.extend(first as u32..(first + count) as u32);
+                        let t = b.table.get_or_insert_with(|| builder.empty_table());
+                        if let Err(e) = builder.table_of_into(&b.triangles, count, t) {
+                            failed.lock().expect("not poisoned").get_or_insert(e);
+                            return;
+                        }
+                        seen(first, t);
+                        run_patches_f32(t, weights, kernel, 0, p, q);
+                    }
+                }
                 stage(Chunk {
                     first,
                     positions: p,
                     normals: q,
                 })
             },
-            |first, count, (p, q)| {
+            |first, count, b| {
+                if let Some(e) = failed.lock().expect("not poisoned").take() {
+                    return Err(e);
+                }
                 sink(Chunk {
                     first,
-                    positions: &p[..count * per],
-                    normals: &q[..count * per],
+                    positions: &b.positions[..count * per],
+                    normals: &b.normals[..count * per],
                 })
             },
-        )
+        )?;
+        match failed.into_inner().expect("not poisoned") {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
     }
 
     /// The f32 kernel into caller-owned arrays of `grid_len(level) × table.len()` samples
@@ -657,7 +734,7 @@ impl CpuEvaluator {
         positions: &mut [[f32; 3]],
         normals: &mut [[f32; 3]],
     ) -> Result<()> {
-        check_weights(table, weights)?;
+        check_weights(table.kind, weights)?;
         let n = weights.per * table.len();
         if positions.len() != n || normals.len() != n {
             return Err(crate::Error::Invalid(format!(
@@ -672,11 +749,11 @@ impl CpuEvaluator {
     }
 }
 
-fn check_weights(table: &PatchTable, weights: &GridWeightsF32) -> Result<()> {
-    if weights.kind != table.kind {
+fn check_weights(kind: PatchKind, weights: &GridWeightsF32) -> Result<()> {
+    if weights.kind != kind {
         return Err(crate::Error::Invalid(format!(
             "grid weights of {:?} used on a table of {:?}",
-            weights.kind, table.kind
+            weights.kind, kind
         )));
     }
     Ok(())

@@ -69,12 +69,14 @@ use super::{basis, PatchKind, PatchTable};
 mod blend;
 mod lanes;
 mod quick;
+mod stream;
 use blend::{blend_extent, blend_terms, BlendExtent};
 #[cfg(test)]
 pub(crate) use quick::QUICK_BLEND_BOUND;
 #[cfg(test)]
 use quick::{quick_flat, quick_half, quick_quartic, Quick};
 use quick::{quick_gregory, NormalPart};
+pub use stream::Certifier;
 #[cfg(test)]
 use {super::PatchBuilder, crate::Result};
 
@@ -237,19 +239,12 @@ pub fn check_range(table: &PatchTable, range: std::ops::Range<usize>) -> RangeCh
 /// [`check_range`] of the patches from `start` on whose first stages are `first`.
 fn check_stages(table: &PatchTable, start: usize, first: Vec<Stage>) -> RangeCheck {
     let n = first.len();
-    let budget = |floor: usize, per_patch: usize| floor.max(per_patch.saturating_mul(n));
-    let of = |kind: Stage| -> Vec<usize> {
-        (0..n)
-            .filter(|&k| first[k] == kind)
-            .map(|k| start + k)
-            .collect()
-    };
-    let search = |depth: u32, cells: usize| {
-        move |i: usize, stop: usize| {
-            let geom = Geometry::new(table, i);
-            check_within(table, i, &geom, depth, cells, stop)
-        }
-    };
+    let listed: Vec<(usize, Stage)> = first
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| !matches!(s, Stage::Done(_)))
+        .map(|(k, s)| (start + k, *s))
+        .collect();
     let mut out: Vec<(Verdict, usize, bool)> = first
         .iter()
         .map(|s| match s {
@@ -257,44 +252,72 @@ fn check_stages(table: &PatchTable, start: usize, first: Vec<Stage>) -> RangeChe
             _ => (Verdict::Undecided, 0, false),
         })
         .collect();
-    let mut store = |ids: &[usize], results: Vec<(Verdict, usize, bool)>| {
-        for (&i, (v, cells, stopped)) in ids.iter().zip(results) {
-            let o = &mut out[i - start];
+    for (&(i, _), r) in listed.iter().zip(check_listed(table, &listed, n)) {
+        out[i - start] = r;
+    }
+    RangeCheck {
+        cells: out.iter().map(|o| o.1).sum(),
+        stopped: out.iter().filter(|o| o.2).count(),
+        verdicts: out.into_iter().map(|o| o.0).collect(),
+    }
+}
+
+/// The subdivisions of the patches `listed` of `table` (patch index and first stage,
+/// neither [`Stage::Done`], in increasing order), within the budgets of a range of `n`
+/// patches ([`check_range`]): per listed patch, its verdict, the cells examined, and
+/// whether a search stopped at its share. The verdicts depend on the listed patches, their
+/// order and `n` only, so a caller may list patches of a table that holds nothing else.
+fn check_listed(
+    table: &PatchTable,
+    listed: &[(usize, Stage)],
+    n: usize,
+) -> Vec<(Verdict, usize, bool)> {
+    let budget = |floor: usize, per_patch: usize| floor.max(per_patch.saturating_mul(n));
+    let of = |kind: Stage| -> Vec<usize> {
+        (0..listed.len()).filter(|&k| listed[k].1 == kind).collect()
+    };
+    let search = |depth: u32, cells: usize| {
+        move |k: usize, stop: usize| {
+            let i = listed[k].0;
+            let geom = Geometry::new(table, i);
+            check_within(table, i, &geom, depth, cells, stop)
+        }
+    };
+    let mut out = vec![(Verdict::Undecided, 0, false); listed.len()];
+    let mut store = |ks: &[usize], results: Vec<(Verdict, usize, bool)>| {
+        for (&k, (v, cells, stopped)) in ks.iter().zip(results) {
+            let o = &mut out[k];
             *o = (v, o.1 + cells, stopped);
         }
     };
     // The first subdivisions; those they leave undecided (not stopped) go deeper.
-    let ids = of(Stage::First);
+    let ks = of(Stage::First);
     let results = shared(
-        &ids,
+        &ks,
         budget(FIRST_FLOOR, FIRST_SHARE),
         search(MAX_DEPTH, MAX_CELLS),
     );
-    let deeper: Vec<usize> = ids
+    let deeper: Vec<usize> = ks
         .iter()
         .zip(&results)
         .filter(|(_, r)| r.0 == Verdict::Undecided && !r.2)
-        .map(|(&i, _)| i)
+        .map(|(&k, _)| k)
         .collect();
-    store(&ids, results);
-    let ids = of(Stage::Witness);
+    store(&ks, results);
+    let ks = of(Stage::Witness);
     let results = shared(
-        &ids,
+        &ks,
         budget(WITNESS_FLOOR, WITNESS_SHARE),
         search(MAX_DEPTH, MAX_CELLS),
     );
-    store(&ids, results);
+    store(&ks, results);
     let results = shared(
         &deeper,
         budget(DEEP_FLOOR, DEEP_SHARE),
         search(DEEP_DEPTH, DEEP_CELLS),
     );
     store(&deeper, results);
-    RangeCheck {
-        cells: out.iter().map(|o| o.1).sum(),
-        stopped: out.iter().filter(|o| o.2).count(),
-        verdicts: out.into_iter().map(|o| o.0).collect(),
-    }
+    out
 }
 
 /// Cells of each search in the first round of [`shared`], at most: most patches need a
@@ -366,14 +389,18 @@ pub fn count_builder(builder: &PatchBuilder<'_>) -> Result<PatchCounts> {
 /// One line about the folded patches of `table` (built for `mesh`): `None` when every
 /// patch is certified valid.
 pub fn fold_line(mesh_name: &str, table: &PatchTable) -> Option<String> {
-    let c = count(table);
+    fold_line_of(mesh_name, table.scheme, &count(table))
+}
+
+/// [`fold_line`] of verdicts `c` counted on a table of `scheme`.
+pub fn fold_line_of(mesh_name: &str, scheme: super::Scheme, c: &PatchCounts) -> Option<String> {
     (c.folded > 0 || c.undecided > 0).then(|| {
         format!(
             "warning: {mesh_name}: {} of {} {} patches are folded (their normal turns over \
              inside the patch), {} undecided",
             c.folded,
             c.total(),
-            table.scheme,
+            scheme,
             c.undecided
         )
     })

@@ -24,9 +24,10 @@ use super::{
     interpolate, LocalScratch, Needs, PatchOut, RecordAttributes, StitchPlan, StitchSink,
     VertexRecord, NEW_REC, NONE, OWNS, REV,
 };
+use crate::eval::cpu::{CpuEvaluator, GridWeightsF32};
 use crate::eval::{grid_len, grid_triangles, Chunk, Evaluator, Pattern, Vector, STAGE_SAMPLES};
 use crate::mesh::CornerAttributes;
-use crate::patch::PatchTable;
+use crate::patch::{PatchBuilder, PatchTable};
 use crate::progress::Progress;
 use crate::{Error, Result};
 
@@ -223,7 +224,41 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             },
         )
     }
+}
 
+impl Stitcher<'_, [f32; 3]> {
+    /// [`Self::run_grid`] with the CPU's f32 kernel on patches `builder` builds a chunk at
+    /// a time (`CpuEvaluator::grid_f32_built`; `seen` takes each chunk's table).
+    pub fn run_grid_built(
+        &mut self,
+        cpu: &CpuEvaluator,
+        builder: &PatchBuilder<'_>,
+        seen: &mut (dyn FnMut(usize, &PatchTable) + Send),
+        sink: &mut dyn StitchSink<[f32; 3]>,
+        progress: &dyn Progress,
+    ) -> Result<()> {
+        let Stitcher {
+            stager,
+            drainer,
+            shared,
+        } = self;
+        let plan = stager.plan;
+        let weights = GridWeightsF32::new(builder.empty_table().kind, plan.level);
+        cpu.grid_f32_built(
+            builder,
+            &weights,
+            seen,
+            &mut |c: Chunk<'_, [f32; 3]>| stager.stage(c.first, c.positions, c.normals, shared),
+            &mut |c: Chunk<'_, [f32; 3]>| {
+                let n = drainer.drain(c.first, plan, shared, sink)?;
+                progress.inc(n as u64);
+                Ok(())
+            },
+        )
+    }
+}
+
+impl<'a, V: Vector> Stitcher<'a, V> {
     /// Stitches the samples of whole patches, from patch `first` on (the next one), each
     /// in its sample order ([`StitchPlan::patch_points`]): what a [`Pattern::Points`]
     /// evaluation of those points gives. Runs of about `STAGE_SAMPLES` samples are staged
