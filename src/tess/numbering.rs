@@ -15,7 +15,7 @@
 //!   id to the other (canonical order);
 //! - every patch makes its interior (its points in grid order).
 //!
-//! Records follow that order ([`Numbering::records`]); positions follow the same order with
+//! Records follow that order ([`Numbering::records()`]); positions follow the same order with
 //! one corner item per vertex and one block per edge ([`Numbering::positions`]).
 //!
 //! **Level independence.** An item is known by what was made before it ([`Item`]): a corner
@@ -209,8 +209,9 @@ pub struct Numbering {
     /// Per edge: whether its uses have a block each (split normals or attributes).
     pub split: Vec<bool>,
     /// Vertex records: one corner item per (vertex, normal, attributes), a block per edge
-    /// and one per extra use of a split edge.
-    pub records: Order,
+    /// and one per extra use of a split edge; `None` where they are the positions (no
+    /// vertex has a second group, no edge is split): see [`Numbering::records`].
+    pub records: Option<Order>,
     /// Positions: one corner item per vertex, one block per edge.
     pub positions: Order,
 }
@@ -260,19 +261,22 @@ fn split_edges(mesh: &Mesh, adjacency: &Adjacency, attrs: Option<&CornerAttribut
     split
 }
 
-/// Numbers the corners of every patch, in order, into `records` (one item per (vertex,
-/// normal, attributes)) and `positions` (one per vertex), ending each patch's corners;
+/// Numbers the corners of every patch, in order, into `positions` (one item per vertex)
+/// and `records` (one item per (vertex, normal, attributes)), ending each patch's corners;
 /// returns how many record items are a vertex's second or later group (creases, seams).
+/// `records` stays `None` while it would equal `positions` (every vertex seen so far has
+/// one group), and is made from `positions` at the first corner of a second group.
 fn number_corners(
     mesh: &Mesh,
     attrs: Option<&CornerAttributes>,
-    records: &mut Order,
+    records: &mut Option<Order>,
     positions: &mut Order,
 ) -> usize {
     // Per vertex: its position item, and the record item of its first (normal, attributes)
-    // group; the other groups (few vertices) by key.
+    // group (the position item while `records` is `None`); the other groups (few vertices)
+    // by key.
     let mut vertex_item = vec![NONE; mesh.positions.len()];
-    let mut first_group = vec![NONE; mesh.positions.len()];
+    let mut first_group: Vec<u32> = Vec::new();
     let mut groups: HashMap<(u32, [u64; 3], [u32; 6]), u32> = HashMap::new();
     let key_of = |c: usize| {
         let (t, k) = (c / 3, c % 3);
@@ -283,10 +287,23 @@ fn number_corners(
         for (k, &v) in tri.iter().enumerate() {
             let c = 3 * t + k;
             let slot = &mut vertex_item[v as usize];
-            if *slot == NONE {
+            let made = *slot == NONE;
+            if made {
                 *slot = positions.make_corner(c);
             }
-            positions.corner.push(*slot);
+            let slot = *slot;
+            if records.is_none() {
+                if made || key_of(positions.corner_first[slot as usize] as usize) == key_of(c) {
+                    positions.corner.push(slot);
+                    continue;
+                }
+                // The first corner of a vertex's second group: from here on the records
+                // are numbered apart.
+                *records = Some(positions.clone());
+                first_group = vertex_item.clone();
+            }
+            positions.corner.push(slot);
+            let records = records.as_mut().expect("made above");
             let first = &mut first_group[v as usize];
             let r = if *first == NONE {
                 *first = records.make_corner(c);
@@ -301,7 +318,9 @@ fn number_corners(
             };
             records.corner.push(r);
         }
-        records.end_corners();
+        if let Some(records) = records {
+            records.end_corners();
+        }
         positions.end_corners();
     }
     groups.len()
@@ -339,8 +358,9 @@ impl Numbering {
                 u / 3
             )));
         }
-        let mut records = Order::with_capacity(nf);
+        let mut records = None;
         let mut positions = Order::with_capacity(nf);
+        positions.corner_first.reserve(mesh.positions.len());
         // Corner items and blocks are numbered apart (each patch's corners come before its
         // edges): first the corners of every patch, then the edges.
         let other_groups = number_corners(mesh, attrs, &mut records, &mut positions);
@@ -351,18 +371,33 @@ impl Numbering {
         } else {
             vec![false; adjacency.edges.len()]
         };
+        // Where an edge is split, the records are numbered apart (made here where no
+        // corner made them: split attributes alone).
+        if records.is_none() && split.iter().any(|&s| s) {
+            records = Some(positions.clone());
+        }
         // Per edge: its position block, and its owner's record block.
         let mut edge_item = vec![NONE; adjacency.edges.len()];
-        let mut owner_block = vec![NONE; adjacency.edges.len()];
+        let mut owner_block = match records {
+            Some(_) => vec![NONE; adjacency.edges.len()],
+            None => Vec::new(),
+        };
+        positions.block_first.reserve(adjacency.edges.len());
         for t in 0..nf {
             for k in 0..3 {
                 let u = 3 * t + k;
                 let e = use_edge[u] as usize;
-                if edge_item[e] == NONE {
+                let owner = edge_item[e] == NONE;
+                if owner {
                     edge_item[e] = positions.make_block(u);
-                    owner_block[e] = records.make_block(u);
                 }
                 positions.block.push(edge_item[e]);
+                let Some(records) = &mut records else {
+                    continue;
+                };
+                if owner {
+                    owner_block[e] = records.make_block(u);
+                }
                 let b = if split[e] && records.block_first[owner_block[e] as usize] != u as u32 {
                     records.make_block(u)
                 } else {
@@ -370,7 +405,9 @@ impl Numbering {
                 };
                 records.block.push(b);
             }
-            records.end_patch(t);
+            if let Some(records) = &mut records {
+                records.end_patch(t);
+            }
             positions.end_patch(t);
         }
         Ok(Numbering {
@@ -382,9 +419,15 @@ impl Numbering {
         })
     }
 
+    /// The records' numbering: the positions' where no vertex has a second (normal,
+    /// attributes) group and no edge is split.
+    pub fn records(&self) -> &Order {
+        self.records.as_ref().unwrap_or(&self.positions)
+    }
+
     /// Number of patches.
     pub fn patches(&self) -> usize {
-        self.records.interior.len()
+        self.positions.interior.len()
     }
 
     /// The owner of edge use `edge_use`'s edge: the edge's first use.
@@ -400,7 +443,7 @@ impl Numbering {
 
     /// Record blocks whose positions are the owner's (the extra blocks of split edges).
     pub fn copied_blocks(&self) -> u32 {
-        let r = &self.records;
+        let r = self.records();
         (0..r.block_first.len())
             .filter(|&b| {
                 let u = r.block_first[b] as usize;

@@ -143,6 +143,10 @@ pub struct StitchPlan {
     use_rec: Vec<u32>,
     interior_pos: Vec<u32>,
     interior_rec: Vec<u32>,
+    /// Whether the record ids are the position ids (no vertex with a second normal or
+    /// attributes, no split edge): `corner_rec`, `use_rec` and `interior_rec` are then
+    /// empty.
+    records_are_positions: bool,
     /// Per level, computed once: grid index of each corner, of the sample at step
     /// i (1..n) along local edge k (`edge_g[k(n − 1) + i − 1]`), and the interior rows.
     corner_g: [u32; 3],
@@ -189,20 +193,32 @@ struct AdaptivePlan {
 /// filled in parallel in blocks of uses.
 fn fill_uses(
     uses: usize,
+    with_rec: bool,
     item: impl Fn(usize) -> (u8, u32, u32) + Sync,
 ) -> (Vec<u8>, Vec<u32>, Vec<u32>) {
     const BLOCK: usize = 1 << 12;
-    let (mut flags, mut pos, mut rec) = (vec![0u8; uses], vec![0u32; uses], vec![0u32; uses]);
-    flags
+    let (mut flags, mut pos) = (vec![0u8; uses], vec![0u32; uses]);
+    // Without records apart, the record ids are not kept (an empty array).
+    let mut rec = vec![0u32; if with_rec { uses } else { 0 }];
+    let chunks = flags
         .par_chunks_mut(BLOCK)
         .zip(pos.par_chunks_mut(BLOCK))
-        .zip(rec.par_chunks_mut(BLOCK))
-        .enumerate()
-        .for_each(|(i, ((f, p), r))| {
-            for (j, ((f, p), r)) in f.iter_mut().zip(p).zip(r).enumerate() {
-                (*f, *p, *r) = item(i * BLOCK + j);
+        .enumerate();
+    if with_rec {
+        chunks
+            .zip(rec.par_chunks_mut(BLOCK))
+            .for_each(|((i, (f, p)), r)| {
+                for (j, ((f, p), r)) in f.iter_mut().zip(p).zip(r).enumerate() {
+                    (*f, *p, *r) = item(i * BLOCK + j);
+                }
+            });
+    } else {
+        chunks.for_each(|(i, (f, p))| {
+            for (j, (f, p)) in f.iter_mut().zip(p).enumerate() {
+                (*f, *p, _) = item(i * BLOCK + j);
             }
         });
+    }
     (flags, pos, rec)
 }
 
@@ -288,6 +304,7 @@ impl StitchPlan {
             use_rec: Vec::new(),
             interior_pos: Vec::new(),
             interior_rec: Vec::new(),
+            records_are_positions: false,
             corner_g: [0, 1, 2].map(|k| corner_grid(n, k) as u32),
             edge_g: if uniform {
                 (0..3)
@@ -340,6 +357,8 @@ impl StitchPlan {
     /// samples, for per-edge levels), per corner and edge use in patch order (what the
     /// stitcher reads of each patch lies together, whatever the vertex and edge ids).
     fn resolve(&mut self, mut numbering: Numbering, interiors: &[u64]) {
+        // Where the records are the positions, their ids are the positions' ids.
+        self.records_are_positions = numbering.records.is_none();
         let block_sizes = |order: &Order| -> Vec<u64> {
             order
                 .block_first
@@ -351,7 +370,7 @@ impl StitchPlan {
             None => Bases::grid(self.level),
             Some(_) => Bases::prefix(block_sizes(order), interiors.iter().copied()),
         };
-        let (records, positions) = (&numbering.records, &numbering.positions);
+        let (records, positions) = (numbering.records(), &numbering.positions);
         let (rb, pb) = (bases(records), bases(positions));
         // Per-edge levels: each block's first store slot.
         let block_store: Option<Vec<u32>> = self.adaptive.as_ref().map(|_| {
@@ -370,7 +389,8 @@ impl StitchPlan {
         let flag = |yes: bool, f: u8| if yes { f } else { 0 };
         // One pass over the corners and one over the edge uses, in parallel.
         let uses = 3 * self.patches;
-        (self.corner_flags, self.corner_pos, self.corner_rec) = fill_uses(uses, |c| {
+        let apart = !self.records_are_positions;
+        (self.corner_flags, self.corner_pos, self.corner_rec) = fill_uses(uses, apart, |c| {
             (
                 flag(positions.makes_corner(c), OWNS) | flag(records.makes_corner(c), NEW_REC),
                 id(&pb, positions.corner_item(c)),
@@ -378,7 +398,7 @@ impl StitchPlan {
             )
         });
         let rev = &numbering.use_rev;
-        (self.use_flags, self.use_pos, self.use_rec) = fill_uses(uses, |u| {
+        (self.use_flags, self.use_pos, self.use_rec) = fill_uses(uses, apart, |u| {
             (
                 flag(positions.makes_block(u), OWNS)
                     | flag(records.makes_block(u), NEW_REC)
@@ -388,11 +408,13 @@ impl StitchPlan {
             )
         });
         let patches = 0..self.patches;
-        self.interior_rec = patches
-            .clone()
-            .into_par_iter()
-            .map(|p| id(&rb, records.interior_item(p)))
-            .collect();
+        if apart {
+            self.interior_rec = patches
+                .clone()
+                .into_par_iter()
+                .map(|p| id(&rb, records.interior_item(p)))
+                .collect();
+        }
         self.interior_pos = patches
             .into_par_iter()
             .map(|p| id(&pb, positions.interior_item(p)))
@@ -585,14 +607,19 @@ impl StitchPlan {
             pos.resize(len, NONE);
         }
         let map = self.local_map(p, scratch);
+        let (corner_rec, use_rec, interior_rec) = if self.records_are_positions {
+            (&self.corner_pos, &self.use_pos, &self.interior_pos)
+        } else {
+            (&self.corner_rec, &self.use_rec, &self.interior_rec)
+        };
         for k in 0..3 {
             let g = map.corner[k] as usize;
-            rec[g] = self.corner_rec[3 * p + k];
+            rec[g] = corner_rec[3 * p + k];
             pos[g] = self.corner_pos[3 * p + k];
         }
         for k in 0..3 {
             let u = 3 * p + k;
-            let (r0, p0) = (self.use_rec[u], self.use_pos[u]);
+            let (r0, p0) = (use_rec[u], self.use_pos[u]);
             let eg = map.edges[k];
             // Canonical sample m (1..n) lies at step n − m on a reversed use.
             let mut put = |m: u32, g: u32| {
@@ -605,7 +632,7 @@ impl StitchPlan {
                 eg.iter().zip(0..).for_each(|(&g, m)| put(m, g));
             }
         }
-        let (mut r, mut q) = (self.interior_rec[p], self.interior_pos[p]);
+        let (mut r, mut q) = (interior_rec[p], self.interior_pos[p]);
         for row in map.interior {
             for (a, b) in rec[row.clone()].iter_mut().zip(&mut pos[row.clone()]) {
                 *a = r;

@@ -165,7 +165,7 @@ impl Topology {
     /// The table of `numbering` (of a mesh with `edges` adjacency edges): every item's
     /// (a, b, c) and flags, per patch.
     pub(crate) fn from_numbering(numbering: &Numbering, edges: usize) -> Topology {
-        let rec = &numbering.records;
+        let rec = numbering.records();
         let nf = numbering.patches();
         let abc = |item: Item| [item.a, item.b, item.c];
         let mut table = vec![0u32; TOPO_STRIDE * nf];
