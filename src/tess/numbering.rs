@@ -298,12 +298,11 @@ fn number_corners(
                     continue;
                 }
                 // The first corner of a vertex's second group: from here on the records
-                // are numbered apart.
-                *records = Some(positions.clone());
+                // are numbered apart, from the positions so far.
                 first_group = vertex_item.clone();
             }
+            let records = records.get_or_insert_with(|| positions.clone());
             positions.corner.push(slot);
-            let records = records.as_mut().expect("made above");
             let first = &mut first_group[v as usize];
             let r = if *first == NONE {
                 *first = records.make_corner(c);

@@ -8,6 +8,8 @@
 //! Chunks are small enough to stay in the caches ([`PIPELINE_SAMPLES`]), and the kernel
 //! fills the next chunk on the thread pool while the sink reads the current one.
 
+use std::sync::{Mutex, PoisonError};
+
 use rayon::prelude::*;
 
 use super::CpuEvaluator;
@@ -675,7 +677,7 @@ impl CpuEvaluator {
             }),
         );
         // The first error of a chunk's construction, returned by the sink's next step.
-        let failed = std::sync::Mutex::new(None);
+        let failed = Mutex::new(None);
         // The kernel fills the next chunk on the pool, and the stage takes it there, while
         // the sink reads this one.
         crate::pipelined::double_buffered(
@@ -695,7 +697,10 @@ impl CpuEvaluator {
                         b.triangles.extend(first as u32..(first + count) as u32);
                         let t = b.table.get_or_insert_with(|| builder.empty_table());
                         if let Err(e) = builder.table_of_into(&b.triangles, count, t) {
-                            failed.lock().expect("not poisoned").get_or_insert(e);
+                            failed
+                                .lock()
+                                .unwrap_or_else(PoisonError::into_inner)
+                                .get_or_insert(e);
                             return;
                         }
                         seen(first, t);
@@ -709,7 +714,7 @@ impl CpuEvaluator {
                 })
             },
             |first, count, b| {
-                if let Some(e) = failed.lock().expect("not poisoned").take() {
+                if let Some(e) = failed.lock().unwrap_or_else(PoisonError::into_inner).take() {
                     return Err(e);
                 }
                 sink(Chunk {
@@ -719,7 +724,7 @@ impl CpuEvaluator {
                 })
             },
         )?;
-        match failed.into_inner().expect("not poisoned") {
+        match failed.into_inner().unwrap_or_else(PoisonError::into_inner) {
             Some(e) => Err(e),
             None => Ok(()),
         }

@@ -205,17 +205,33 @@ impl<'a, V: Vector> Stitcher<'a, V> {
         sink: &mut dyn StitchSink<V>,
         progress: &dyn Progress,
     ) -> Result<()> {
+        let pattern = Pattern::Grid {
+            level: self.stager.plan.level,
+        };
+        self.run_staged(sink, progress, |stage, drain| {
+            V::evaluate_staged(evaluator, table, &pattern, stage, drain)
+        })
+    }
+
+    /// Runs `evaluate` with the stitcher's two steps: the stage of each chunk (on the
+    /// thread pool, where the chunk was evaluated) and the drain of each chunk into `sink`
+    /// (advancing `progress`), in order.
+    fn run_staged(
+        &mut self,
+        sink: &mut dyn StitchSink<V>,
+        progress: &dyn Progress,
+        evaluate: impl FnOnce(
+            &mut (dyn FnMut(Chunk<'_, V>) + Send),
+            &mut dyn FnMut(Chunk<'_, V>) -> Result<()>,
+        ) -> Result<()>,
+    ) -> Result<()> {
         let Stitcher {
             stager,
             drainer,
             shared,
         } = self;
         let plan = stager.plan;
-        let pattern = Pattern::Grid { level: plan.level };
-        V::evaluate_staged(
-            evaluator,
-            table,
-            &pattern,
+        evaluate(
             &mut |c: Chunk<'_, V>| stager.stage(c.first, c.positions, c.normals, shared),
             &mut |c: Chunk<'_, V>| {
                 let n = drainer.drain(c.first, plan, shared, sink)?;
@@ -237,24 +253,10 @@ impl Stitcher<'_, [f32; 3]> {
         sink: &mut dyn StitchSink<[f32; 3]>,
         progress: &dyn Progress,
     ) -> Result<()> {
-        let Stitcher {
-            stager,
-            drainer,
-            shared,
-        } = self;
-        let plan = stager.plan;
-        let weights = GridWeightsF32::new(builder.empty_table().kind, plan.level);
-        cpu.grid_f32_built(
-            builder,
-            &weights,
-            seen,
-            &mut |c: Chunk<'_, [f32; 3]>| stager.stage(c.first, c.positions, c.normals, shared),
-            &mut |c: Chunk<'_, [f32; 3]>| {
-                let n = drainer.drain(c.first, plan, shared, sink)?;
-                progress.inc(n as u64);
-                Ok(())
-            },
-        )
+        let weights = GridWeightsF32::new(builder.empty_table().kind, self.stager.plan.level);
+        self.run_staged(sink, progress, |stage, drain| {
+            cpu.grid_f32_built(builder, &weights, seen, stage, drain)
+        })
     }
 }
 
