@@ -236,9 +236,7 @@ impl BackendArgs {
             }),
         })
     }
-}
 
-impl BackendArgs {
     /// Whether these arguments evaluate on the CPU, told without opening a device and
     /// without a word on stderr: `cpu`, or `auto` where every Vulkan adapter is a software
     /// one or there is none (what `auto` then runs on). Where `auto` falls back to the CPU

@@ -17,10 +17,10 @@ use crate::io::atomic;
 use crate::io::writers::{write_stitched, MeshFormat};
 use crate::mesh::creases::split_ends;
 use crate::mesh::{Adjacency, Mesh};
-use crate::patch::validity::{fold_line_of, Certifier};
+use crate::patch::validity::fold_line_of;
 use crate::patch::{PatchBuilder, PatchTable};
 use crate::tess::adaptive::{levels_for_tolerance, ToleranceLevels, ToleranceOptions};
-use crate::tess::stitch::{stitch_built, stitch_into, StitchPlan};
+use crate::tess::stitch::{stitch_certified, stitch_into, StitchPlan};
 
 /// Default cap on the levels `--tolerance` chooses.
 pub const DEFAULT_MAX_LEVEL: u32 = 64;
@@ -150,7 +150,7 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
     };
     let (scheme, stride) = match &patches {
         Patches::Table(t) => (t.scheme, t.stride),
-        Patches::Built(b) => (a.input.scheme, b.empty_table().stride),
+        Patches::Built(b) => (a.input.scheme, b.kind().stride()),
     };
     let eps = match (a.tolerance, a.tolerance_rel) {
         (Some(t), _) => Some(t),
@@ -218,10 +218,8 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
                 Patches::Table(t) => stitch_into(&plan, t, evaluator.as_ref(), sink, &bar)?,
                 Patches::Built(b) => {
                     let cpu = CpuEvaluator::default();
-                    let mut certifier = Certifier::new();
-                    let snap =
-                        stitch_built(&plan, b, &cpu, &mut |_, t| certifier.see(t), sink, &bar)?;
-                    folds = fold_line_of(&mesh.name, scheme, &certifier.finish());
+                    let (snap, counts) = stitch_certified(&plan, b, &cpu, sink, &bar)?;
+                    folds = fold_line_of(&mesh.name, scheme, &counts);
                     snap
                 }
             };
@@ -263,7 +261,7 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
 
 /// Where `tessellate`'s patches come from: a table of every patch (per-edge levels, a
 /// repair, the GPU), or, at one level on the CPU, a builder that builds each chunk's
-/// patches where they are evaluated ([`stitch_built`]).
+/// patches where they are evaluated ([`stitch_certified`]).
 enum Patches<'m> {
     Table(PatchTable),
     Built(PatchBuilder<'m>),

@@ -516,6 +516,11 @@ impl<'a> PatchBuilder<'a> {
         self.mesh
     }
 
+    /// The kind of the patches it builds.
+    pub fn kind(&self) -> PatchKind {
+        self.kind
+    }
+
     /// Fallbacks taken once for the whole mesh while preparing (counted in [`Self::table`]
     /// but in no [`Self::table_of`]).
     pub fn prepared_fallbacks(&self) -> usize {
@@ -549,6 +554,12 @@ impl<'a> PatchBuilder<'a> {
         table: &mut PatchTable,
     ) -> Result<()> {
         self.build_with(triangles.len(), counted, &|i| triangles[i] as usize, table)
+    }
+
+    /// [`Self::table_of_into`] of the triangles `range`, in order, every fallback counted.
+    pub fn range_into(&self, range: std::ops::Range<usize>, table: &mut PatchTable) -> Result<()> {
+        let n = range.len();
+        self.build_with(n, n, &|i| range.start + i, table)
     }
 
     /// A table of no patches of this scheme.

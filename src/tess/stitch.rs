@@ -57,6 +57,7 @@ use crate::eval::{
     grid_len, grid_triangles, Evaluator, PatchPoint, Pattern, Vector, STAGE_SAMPLES,
 };
 use crate::mesh::{Adjacency, CornerAttributes, Mesh};
+use crate::patch::validity::{Certifier, PatchCounts};
 use crate::patch::{PatchBuilder, PatchTable};
 use crate::progress::{NoProgress, Progress};
 use crate::tess::layout;
@@ -390,21 +391,31 @@ impl StitchPlan {
         // One pass over the corners and one over the edge uses, in parallel.
         let uses = 3 * self.patches;
         let apart = !self.records_are_positions;
+        // Where the records are the positions, only the positions are looked up (the
+        // record id is not kept).
         (self.corner_flags, self.corner_pos, self.corner_rec) = fill_uses(uses, apart, |c| {
+            let owns = positions.makes_corner(c);
+            let (new_rec, rec) = match apart {
+                true => (records.makes_corner(c), id(&rb, records.corner_item(c))),
+                false => (owns, 0),
+            };
             (
-                flag(positions.makes_corner(c), OWNS) | flag(records.makes_corner(c), NEW_REC),
+                flag(owns, OWNS) | flag(new_rec, NEW_REC),
                 id(&pb, positions.corner_item(c)),
-                id(&rb, records.corner_item(c)),
+                rec,
             )
         });
         let rev = &numbering.use_rev;
         (self.use_flags, self.use_pos, self.use_rec) = fill_uses(uses, apart, |u| {
+            let owns = positions.makes_block(u);
+            let (new_rec, rec) = match apart {
+                true => (records.makes_block(u), id(&rb, records.block_item(u))),
+                false => (owns, 0),
+            };
             (
-                flag(positions.makes_block(u), OWNS)
-                    | flag(records.makes_block(u), NEW_REC)
-                    | flag(rev[u], REV),
+                flag(owns, OWNS) | flag(new_rec, NEW_REC) | flag(rev[u], REV),
                 id(&pb, positions.block_item(u)),
-                id(&rb, records.block_item(u)),
+                rec,
             )
         });
         let patches = 0..self.patches;
@@ -1010,17 +1021,12 @@ pub fn stitch_into<V: Vector>(
             }
         }
     }
-    if !stitcher.is_complete() {
-        return Err(Error::Invalid(
-            "stitching: the evaluator did not deliver every patch".into(),
-        ));
-    }
-    Ok(stitcher.max_snap())
+    stitched(&stitcher)
 }
 
 /// [`stitch_into`] in f32 on the CPU of the patches `builder` builds, each chunk's table
 /// built where it is evaluated (the whole table is never held) and seen by `seen` (its
-/// first patch, its table; a [`crate::patch::validity::Certifier`], say) before it is
+/// first patch, its table; a [`Certifier`], as [`stitch_certified`] does) before it is
 /// evaluated; `plan` must be uniform. The samples are bitwise those of [`stitch_into`]
 /// with the CPU evaluator on the table `builder` builds.
 pub fn stitch_built(
@@ -1039,17 +1045,44 @@ pub fn stitch_built(
             plan.is_uniform()
         )));
     }
-    let kind = builder.empty_table().kind;
-    crate::eval::cpu::grid_fits(plan.level, kind.stride() * 12 + 24)?;
+    crate::eval::cpu::grid_fits(plan.level, builder.kind().stride() * 12 + 24)?;
     let mut stitcher = Stitcher::<[f32; 3]>::new(plan, sink.needs());
     progress.start("evaluating", plan.patches() as u64);
     stitcher.run_grid_built(cpu, builder, seen, sink, progress)?;
+    stitched(&stitcher)
+}
+
+/// The largest snap distance of a stitching, or the error of one that was not given every
+/// patch.
+fn stitched<V: Vector>(stitcher: &Stitcher<'_, V>) -> Result<f64> {
     if !stitcher.is_complete() {
         return Err(Error::Invalid(
             "stitching: the evaluator did not deliver every patch".into(),
         ));
     }
     Ok(stitcher.max_snap())
+}
+
+/// What `tessellate` runs on the CPU at one level: [`stitch_built`] with each chunk's
+/// table seen by a [`Certifier`], whose subdivisions run at the end; the largest snap
+/// distance and the verdicts counted (those of `validity::count` on the whole table).
+pub fn stitch_certified(
+    plan: &StitchPlan,
+    builder: &PatchBuilder<'_>,
+    cpu: &CpuEvaluator,
+    sink: &mut dyn StitchSink<[f32; 3]>,
+    progress: &dyn Progress,
+) -> Result<(f64, PatchCounts)> {
+    let mut certifier = Certifier::new();
+    let snap = stitch_built(
+        plan,
+        builder,
+        cpu,
+        &mut |_, t| certifier.see(t),
+        sink,
+        progress,
+    )?;
+    Ok((snap, certifier.finish()))
 }
 
 /// Stitches the whole grid evaluation of `level` in memory, in precision `V`.

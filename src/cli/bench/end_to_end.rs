@@ -13,10 +13,9 @@ use crate::eval::cpu::{CpuEvaluator, F32Kernel};
 use crate::eval::grid_len;
 use crate::io::writers::{ply_file_bytes, write_stitched, MeshFormat};
 use crate::mesh::{Adjacency, LoadOptions, Mesh};
-use crate::patch::validity::{Certifier, PatchCounts};
 use crate::patch::{PatchBuilder, Scheme, SchemeOptions};
 use crate::progress::NoProgress;
-use crate::tess::stitch::{stitch_built, CountingSink, Needs, StitchPlan, StitchSink};
+use crate::tess::stitch::{stitch_certified, CountingSink, Needs, StitchPlan};
 
 /// One end-to-end measurement.
 #[derive(Clone, Debug, Serialize)]
@@ -249,7 +248,7 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
     let (need, _, _) = tessellation_need(
         &mesh,
         adjacency.edges.len(),
-        builder.empty_table().stride,
+        builder.kind().stride(),
         level,
         MeshFormat::Ply.needs(),
         MeshFormat::Ply.buffer_bytes(level, mesh.triangles.len()),
@@ -368,29 +367,8 @@ pub fn run_end_to_end(a: &BenchArgs) -> anyhow::Result<()> {
 /// Wall and CPU seconds of a step (see [`timed`]).
 type WallCpu = (f64, Option<f64>);
 
-/// What `tessellate` runs after its set-up, on the CPU at one level: each chunk's patches
-/// built, certified ([`Certifier`]) and evaluated in the pool job that evaluates them (f32
-/// kernel), stitched into `sink`, and the subdivisions of the certificate at the end.
-fn tessellate_built(
-    plan: &StitchPlan,
-    builder: &PatchBuilder<'_>,
-    cpu: &CpuEvaluator,
-    sink: &mut dyn StitchSink<[f32; 3]>,
-) -> crate::Result<PatchCounts> {
-    let mut certifier = Certifier::new();
-    stitch_built(
-        plan,
-        builder,
-        cpu,
-        &mut |_, t| certifier.see(t),
-        sink,
-        &NoProgress,
-    )?;
-    Ok(certifier.finish())
-}
-
-/// The best of 2 evaluations of `plan` into memory ([`tessellate_built`] into a sink that
-/// keeps nothing, [`CountingSink`]).
+/// The best of 2 evaluations of `plan` into memory as `tessellate` runs them
+/// ([`stitch_certified`] into a sink that keeps nothing, [`CountingSink`]).
 fn time_evaluation(
     plan: &StitchPlan,
     builder: &PatchBuilder<'_>,
@@ -398,7 +376,13 @@ fn time_evaluation(
 ) -> anyhow::Result<WallCpu> {
     best_of(2, || {
         let mut sink = CountingSink::default();
-        std::hint::black_box(tessellate_built(plan, builder, cpu, &mut sink)?);
+        std::hint::black_box(stitch_certified(
+            plan,
+            builder,
+            cpu,
+            &mut sink,
+            &NoProgress,
+        )?);
         anyhow::ensure!(sink.records == plan.records, "stitching lost records");
         Ok(())
     })
@@ -407,7 +391,7 @@ fn time_evaluation(
 /// What `tessellate` builds before it evaluates a uniform level on the CPU: the adjacency,
 /// the scheme's builder (G1 checks its options; nothing per patch) and, after the memory
 /// check, the stitch plan of `level`; with the seconds of the adjacency and of the plan.
-/// The patches are built and certified in the evaluation ([`tessellate_built`]).
+/// The patches are built and certified in the evaluation ([`stitch_certified`]).
 struct SetUp<'m> {
     builder: PatchBuilder<'m>,
     adjacency: Adjacency,
@@ -429,7 +413,7 @@ impl<'m> SetUp<'m> {
         let (need, _, _) = tessellation_need(
             mesh,
             adjacency.edges.len(),
-            builder.empty_table().stride,
+            builder.kind().stride(),
             level,
             Needs::RECORDS,
             (0, 0),
@@ -620,7 +604,7 @@ fn time_file_writes(
                 plan,
                 "bench",
                 &NoProgress,
-                &mut |sink| tessellate_built(plan, builder, cpu, sink).map(|_| ()),
+                &mut |sink| stitch_certified(plan, builder, cpu, sink, &NoProgress).map(|_| ()),
             )?;
             Ok(())
         })?;
@@ -656,7 +640,7 @@ fn time_obj_loading(
         obj_plan,
         "bench",
         &NoProgress,
-        &mut |sink| tessellate_built(obj_plan, builder, cpu, sink).map(|_| ()),
+        &mut |sink| stitch_certified(obj_plan, builder, cpu, sink, &NoProgress).map(|_| ()),
     )?;
     let obj_bytes = std::fs::metadata(&obj.0)?.len();
     let mut words = 0;

@@ -578,12 +578,11 @@ enum Source<'s, 'm> {
 }
 
 /// One of the two sets of buffers of the kernel's steps: the samples of a chunk, and for
-/// a [`Source::Built`], the chunk's table and triangles.
+/// a [`Source::Built`], the chunk's table.
 struct ChunkBuffers {
     positions: Vec<[f32; 3]>,
     normals: Vec<[f32; 3]>,
     table: Option<PatchTable>,
-    triangles: Vec<u32>,
 }
 
 impl CpuEvaluator {
@@ -654,7 +653,7 @@ impl CpuEvaluator {
     ) -> Result<()> {
         let (kind, n) = match &source {
             Source::Table(t) => (t.kind, t.len()),
-            Source::Built(b, _) => (b.empty_table().kind, b.mesh().triangles.len()),
+            Source::Built(b, _) => (b.kind(), b.mesh().triangles.len()),
         };
         check_weights(kind, weights)?;
         let per = weights.per;
@@ -665,7 +664,6 @@ impl CpuEvaluator {
             positions: vec![[0f32; 3]; patches * per],
             normals: vec![[0f32; 3]; patches * per],
             table: None,
-            triangles: Vec::new(),
         };
         // A second set only where there is a second chunk.
         let (mut cur, mut next) = (
@@ -693,10 +691,8 @@ impl CpuEvaluator {
                 match &mut source {
                     Source::Table(table) => run_patches_f32(table, weights, kernel, first, p, q),
                     Source::Built(builder, seen) => {
-                        b.triangles.clear();
-                        b.triangles.extend(first as u32..(first + count) as u32);
                         let t = b.table.get_or_insert_with(|| builder.empty_table());
-                        if let Err(e) = builder.table_of_into(&b.triangles, count, t) {
+                        if let Err(e) = builder.range_into(first..first + count, t) {
                             failed
                                 .lock()
                                 .unwrap_or_else(PoisonError::into_inner)

@@ -373,14 +373,11 @@ where
 /// (bounded memory).
 pub fn count_builder(builder: &PatchBuilder<'_>) -> Result<PatchCounts> {
     const CHUNK: usize = 1 << 16;
-    let n = builder.mesh().triangles.len() as u32;
+    let n = builder.mesh().triangles.len();
     let mut total = PatchCounts::default();
     let mut table = builder.empty_table();
-    let mut ids = Vec::with_capacity(CHUNK);
     for start in (0..n).step_by(CHUNK) {
-        ids.clear();
-        ids.extend(start..(start + CHUNK as u32).min(n));
-        builder.table_of_into(&ids, 0, &mut table)?;
+        builder.range_into(start..(start + CHUNK).min(n), &mut table)?;
         total = total.merge(count(&table));
     }
     Ok(total)

@@ -253,7 +253,7 @@ impl Stitcher<'_, [f32; 3]> {
         sink: &mut dyn StitchSink<[f32; 3]>,
         progress: &dyn Progress,
     ) -> Result<()> {
-        let weights = GridWeightsF32::new(builder.empty_table().kind, self.stager.plan.level);
+        let weights = GridWeightsF32::new(builder.kind(), self.stager.plan.level);
         self.run_staged(sink, progress, |stage, drain| {
             cpu.grid_f32_built(builder, &weights, seen, stage, drain)
         })
