@@ -151,7 +151,7 @@ pub use analysis::stats::{continuity, stats_report, Continuity, CosStats, StatsR
 
 /// The fair G1 surface: normals and tangent lengths chosen to lower the bending energy
 /// under the validity certificate.
-pub use analysis::fair::{fair, FairOptions, FairReport};
+pub use analysis::fair::{fair, fair_with_progress, FairOptions, FairReport};
 /// Fairness: the bending energy ∫ (κ₁² + κ₂²) dA of the patches (per patch or in total)
 /// and the jump of normal curvature across edges (the G2 defect).
 pub use analysis::fairness::{

@@ -53,3 +53,27 @@ fn fair_needs_the_g1_scheme() {
         "{err}"
     );
 }
+
+/// `--fair-sweeps 1` runs exactly one sweep (the report says so), and without `--fair`
+/// it is refused in one line naming `--fair`.
+#[test]
+fn fair_sweeps_bounds_the_sweeps() {
+    let v = crate::common::g1tess_json(&[
+        "stats",
+        "icosphere:1",
+        "--backend",
+        "cpu",
+        "--json",
+        "--fair",
+        "--fair-sweeps",
+        "1",
+    ]);
+    assert_eq!(v["fair"]["sweeps"], 1, "{v}");
+    let out = Command::new(env!("CARGO_BIN_EXE_g1tess"))
+        .args(["stats", "icosphere:1", "--fair-sweeps", "1"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--fair"), "{err}");
+}

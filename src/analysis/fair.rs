@@ -15,6 +15,7 @@ use crate::mesh::Mesh;
 use crate::patch::repair::fair::{run, Params};
 use crate::patch::validity::{check_table, PatchCounts};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
+use crate::progress::{NoProgress, Progress};
 use crate::{Error, Result};
 
 /// Options of [`fair`].
@@ -231,6 +232,17 @@ fn left_out(e: &EnergyTotal) -> usize {
 /// # Ok::<(), g1tess::Error>(())
 /// ```
 pub fn fair(mesh: &Mesh, opts: &FairOptions) -> Result<(Mesh, FairReport)> {
+    fair_with_progress(mesh, opts, &NoProgress)
+}
+
+/// [`fair`], reporting its phases to `progress`: the energy of the input and of the
+/// result (patches), the crease-free start, the first judging (patches) and each sweep
+/// (normal groups and interior edges). The result is the same as [`fair`]'s.
+pub fn fair_with_progress(
+    mesh: &Mesh,
+    opts: &FairOptions,
+    progress: &dyn Progress,
+) -> Result<(Mesh, FairReport)> {
     opts.check()?;
     let kind = Scheme::G1.kind();
     let exact = BendingEnergy::new(kind, &FairnessOptions::default())?;
@@ -239,12 +251,15 @@ pub fn fair(mesh: &Mesh, opts: &FairOptions) -> Result<(Mesh, FairReport)> {
         &FairnessOptions::default().with_subdivisions(opts.subdivisions),
     )?;
     let measure = |m: &Mesh| -> Result<(PatchCounts, EnergyTotal)> {
+        progress.start("fair: energy", m.triangles.len() as u64);
         let table = PatchTable::build(m, Scheme::G1, &opts.scheme_options)?;
         let verdicts = check_table(&table);
         let counts = verdicts
             .iter()
             .fold(PatchCounts::default(), PatchCounts::with);
-        Ok((counts, exact.total_certified(&table, &verdicts)?))
+        let total = exact.total_certified(&table, &verdicts)?;
+        progress.inc(m.triangles.len() as u64);
+        Ok((counts, total))
     };
     let (before, energy_before) = measure(mesh)?;
     let corners = 3 * mesh.triangles.len();
@@ -258,7 +273,7 @@ pub fn fair(mesh: &Mesh, opts: &FairOptions) -> Result<(Mesh, FairReport)> {
         scheme_options: opts.scheme_options,
     };
     let energy = |p: &[glam::DVec3]| search_rule.points(p);
-    let (out_mesh, out) = run(mesh, &params, &energy)?;
+    let (out_mesh, out) = run(mesh, &params, &energy, progress)?;
     let (after, energy_after) = measure(&out_mesh)?;
     let report = FairReport {
         before,

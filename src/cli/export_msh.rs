@@ -82,7 +82,7 @@ pub fn run(a: &ExportMshArgs) -> anyhow::Result<()> {
     // repair's new ones too) go into the crease group, and whose split normals decide where
     // a non-manifold edge's triangles get edge nodes of their own.
     let repair = a.input.repair_folds;
-    let (mesh, table, folds) = a.input.prepare(mesh)?;
+    let (mesh, table, folds) = a.input.prepare(mesh, a.quiet)?;
     if let Some(line) = folds {
         out::stderr_line(&line);
     }

@@ -44,7 +44,7 @@ pub fn run(a: &ExportNetArgs) -> anyhow::Result<()> {
         &format!("{stride} control points each"),
     )?;
     // With --repair-folds the patches of the repaired mesh.
-    let (mesh, _) = a.input.repaired(&mesh)?;
+    let (mesh, _) = a.input.repaired(&mesh, a.quiet)?;
     let table = crate::patch::PatchTable::build(&mesh, a.input.scheme, &a.input.scheme_options())?;
     write_nets(&a.output, &TEMP_FILES, &mesh, &table)?;
     if !a.quiet {

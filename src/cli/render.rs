@@ -308,7 +308,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     );
     let mut mesh = a.input.load_mesh()?;
     // With --fair every row draws the fair mesh.
-    if let Some((m, report)) = a.input.faired(&mesh)? {
+    if let Some((m, report)) = a.input.faired(&mesh, a.quiet)? {
         out::stderr_line(&report.to_text(&mesh.name));
         mesh = m;
     }

@@ -199,10 +199,10 @@ fn repaired_or_faired<'a>(
     Option<crate::patch::repair::RepairReport>,
     Option<crate::analysis::fair::FairReport>,
 )> {
-    if let Some((m, report)) = a.input.faired(mesh)? {
+    if let Some((m, report)) = a.input.faired(mesh, a.quiet || a.backend.quiet)? {
         return Ok((std::borrow::Cow::Owned(m), None, Some(report)));
     }
-    let (m, repair) = a.input.repaired(mesh)?;
+    let (m, repair) = a.input.repaired(mesh, a.quiet || a.backend.quiet)?;
     Ok((m, repair, None))
 }
 

@@ -133,7 +133,7 @@ pub fn run(a: &TessellateArgs) -> anyhow::Result<()> {
         let (table, folds) = prepared?;
         (mesh, Some(table), folds, adjacency, Some(plan))
     } else {
-        let (mesh, table, folds) = a.input.prepare(mesh)?;
+        let (mesh, table, folds) = a.input.prepare(mesh, a.quiet)?;
         let adjacency = mesh.adjacency();
         (mesh, Some(table), folds, adjacency, None)
     };

@@ -191,6 +191,52 @@ fn fair_is_the_same_on_one_thread_and_on_two() {
     assert_eq!(report1, report);
 }
 
+/// A progress that records every phase and the units reported in it.
+#[derive(Default)]
+struct Phases(std::sync::Mutex<Vec<(String, u64, u64)>>);
+
+impl crate::Progress for Phases {
+    fn start(&self, phase: &str, total: u64) {
+        self.0.lock().unwrap().push((phase.to_string(), total, 0));
+    }
+    fn inc(&self, n: u64) {
+        if let Some(last) = self.0.lock().unwrap().last_mut() {
+            last.2 += n;
+        }
+    }
+}
+
+/// `fair_with_progress` gives `fair`'s result and reports its phases with exact counts:
+/// on the torus of 200 triangles (100 vertices, one normal group each; 300 interior
+/// edges), the energy of 200 patches, the start, judging 200 patches, and each sweep over
+/// 100 groups and 300 edges (with two sweeps, both run: the first gains more than 0.1 %),
+/// then the energy again; every counted phase reports exactly its total.
+#[test]
+fn fair_reports_its_phases_with_exact_counts() {
+    let mesh = load("torus200");
+    let opts = FairOptions::default().with_sweeps(2);
+    let phases = Phases::default();
+    let (faired, report) = crate::fair_with_progress(&mesh, &opts, &phases).unwrap();
+    let (plain, plain_report) = fair(&mesh, &opts).unwrap();
+    assert_eq!(faired.corner_normals, plain.corner_normals);
+    assert_eq!(report, plain_report);
+    let got = phases.0.into_inner().unwrap();
+    let want = [
+        ("fair: energy", 200, 200),
+        ("fair: start", 0, 0),
+        ("fair: judging", 200, 200),
+        ("fair: sweep 1/2", 400, 400),
+        ("fair: sweep 2/2", 400, 400),
+        ("fair: energy", 200, 200),
+    ];
+    let want: Vec<(String, u64, u64)> = want
+        .iter()
+        .map(|&(p, t, n)| (p.to_string(), t, n))
+        .collect();
+    assert_eq!(report.sweeps, 2);
+    assert_eq!(got, want);
+}
+
 /// Suzanne with its file normals, bounded to 15°: the input forces creases at 3 groups
 /// (doubled triangles) and no G1 repair can move its normals less than 27.1°, so some
 /// patches stay uncertified (six sweeps: 76 folded before, 42 after, energy of the others

@@ -38,6 +38,7 @@ use super::groups::{set_group, Groups};
 use crate::mesh::Mesh;
 use crate::patch::validity::Verdict;
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
+use crate::progress::Progress;
 use crate::Result;
 
 /// The energy of one patch from its control points (+∞ where it folds).
@@ -102,8 +103,16 @@ pub(crate) struct Outcome {
 }
 
 /// The fair mesh and what the search did (see the module documentation).
-pub(crate) fn run(mesh: &Mesh, params: &Params, energy: Energy<'_>) -> Result<(Mesh, Outcome)> {
+/// Reports its phases to `progress`: the crease-free start (no count), the first judging
+/// and integration (patches) and each sweep (normal groups, then interior edges).
+pub(crate) fn run(
+    mesh: &Mesh,
+    params: &Params,
+    energy: Energy<'_>,
+    progress: &dyn Progress,
+) -> Result<(Mesh, Outcome)> {
     let mut out = Outcome::default();
+    progress.start("fair: start", 0);
     let mut work = match Search::start(mesh, Scheme::G1, &params.scheme_options)? {
         Err(_) => mesh.clone(),
         Ok(mut search) => {
@@ -125,7 +134,8 @@ pub(crate) fn run(mesh: &Mesh, params: &Params, energy: Energy<'_>) -> Result<(M
         out.clamped_groups = clamp_to_bound(&mut work, &groups, &input, b);
     }
     let cx = Checker::new(mesh, Scheme::G1, &params.scheme_options);
-    let (ok, e) = judge_and_integrate(&work, &cx, energy)?;
+    progress.start("fair: judging", mesh.triangles.len() as u64);
+    let (ok, e) = judge_and_integrate(&work, &cx, energy, progress)?;
     out.start_left = ok.iter().filter(|x| x[0] > 0).count();
     let mut st = State {
         work,
@@ -148,9 +158,16 @@ pub(crate) fn run(mesh: &Mesh, params: &Params, energy: Energy<'_>) -> Result<(M
         .filter(|&g| st.ring(g).is_none())
         .count();
     let mut now = out.objective[0];
-    for _ in 0..params.sweeps {
+    let ng = st.groups.list.len();
+    let items = ng + if params.arms { edges.len() } else { 0 };
+    for sweep in 0..params.sweeps {
         out.sweeps += 1;
-        for g in 0..st.groups.list.len() as u32 {
+        progress.start(
+            &format!("fair: sweep {}/{}", sweep + 1, params.sweeps),
+            items as u64,
+        );
+        for g in 0..ng as u32 {
+            tick(progress, g as usize);
             match st.normal_step(g)? {
                 Step::Moved => out.normal_moves += 1,
                 Step::Refused => out.refused += 1,
@@ -159,6 +176,7 @@ pub(crate) fn run(mesh: &Mesh, params: &Params, energy: Energy<'_>) -> Result<(M
         }
         if params.arms {
             for (i, edge) in edges.iter().enumerate() {
+                tick(progress, ng + i);
                 match st.arm_step(i, edge)? {
                     Step::Moved => out.arm_moves += 1,
                     Step::Refused => out.refused += 1,
@@ -169,6 +187,7 @@ pub(crate) fn run(mesh: &Mesh, params: &Params, energy: Energy<'_>) -> Result<(M
         let next = st.objective();
         let done = now - next <= params.tolerance * now.abs();
         now = next;
+        progress.inc((items - items.saturating_sub(1) / TICK * TICK) as u64);
         if done {
             break;
         }
@@ -189,6 +208,17 @@ pub(crate) fn run(mesh: &Mesh, params: &Params, energy: Energy<'_>) -> Result<(M
     (out.arm_edges_scaled, out.arm_scale_range) = arm_summary(&work);
     out.creases_made = new_creases(mesh, &work);
     Ok((work, out))
+}
+
+/// Items (groups, edges) per progress report of a sweep.
+const TICK: usize = 256;
+
+/// Reports `TICK` more items done when item `i` (0-based) starts a new run of them (the
+/// sweep reports the rest, `items - (items - 1) / TICK * TICK`, at its end).
+fn tick(progress: &dyn Progress, i: usize) {
+    if i > 0 && i.is_multiple_of(TICK) {
+        progress.inc(TICK as u64);
+    }
 }
 
 /// Brings every group's normal in `work` within `bound` degrees of its input normal
@@ -212,11 +242,13 @@ fn clamp_to_bound(work: &mut Mesh, groups: &Groups, input: &[DVec3], bound: f64)
     moved
 }
 
-/// The [`verdicts`] and the energy of every patch of `work`, in blocks.
+/// The [`verdicts`] and the energy of every patch of `work`, in blocks (each reported to
+/// `progress` when done).
 fn judge_and_integrate(
     work: &Mesh,
     cx: &Checker,
     energy: Energy<'_>,
+    progress: &dyn Progress,
 ) -> Result<(Vec<[u8; 2]>, Vec<f64>)> {
     let nt = work.triangles.len() as u32;
     let (mut ok, mut e) = (Vec::new(), Vec::new());
@@ -233,6 +265,7 @@ fn judge_and_integrate(
                 .into_par_iter()
                 .map(|i| energy(table.patch(i))),
         );
+        progress.inc(tris.len() as u64);
     }
     Ok((ok, e))
 }
