@@ -184,17 +184,21 @@ class Mesh:
         native, report = self._native.repair_folds(scheme)
         return Mesh._wrap(native), json.loads(report)
 
-    def fair(self, normal_bound: float = 15.0) -> Tuple["Mesh", Dict[str, Any]]:
+    def fair(self, normal_bound: float = 15.0, sweeps: int = 6) -> Tuple["Mesh", Dict[str, Any]]:
         """The fair G1 surface (what ``--fair`` does): vertex normals and tangent lengths
         chosen to lower the bending energy, the vertices kept, every patch certified valid
         and no crease made; normals given in the file move at most ``normal_bound``
-        degrees, estimated ones are free. Returns the mesh, to tessellate, take statistics
-        of or export as any other, and the report (the ``fair`` object of ``g1tess stats
-        --fair --json``: energies before and after, largest normal change, creases made)."""
+        degrees, estimated ones are free; at most ``sweeps`` sweeps (``--fair-sweeps``;
+        each costs about as much as the first). Returns the mesh, to tessellate, take
+        statistics of or export as any other, and the report (the ``fair`` object of
+        ``g1tess stats --fair --json``: energies before and after, largest normal change,
+        creases made, sweeps run)."""
         bound = float(normal_bound)
         if not 0.0 <= bound <= 180.0:
             raise ValueError(f"normal_bound must be between 0 and 180 degrees, got {normal_bound!r}")
-        native, report = self._native.fair(bound)
+        if not isinstance(sweeps, int) or isinstance(sweeps, bool) or not 0 <= sweeps <= 1000:
+            raise ValueError(f"sweeps must be an integer from 0 to 1000, got {sweeps!r}")
+        native, report = self._native.fair(bound, sweeps)
         return Mesh._wrap(native), json.loads(report)
 
     def __repr__(self) -> str:

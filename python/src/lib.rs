@@ -492,14 +492,20 @@ impl PyMesh {
         .map_err(py_err)
     }
 
-    /// fair(normal_bound_deg) -> (Mesh, str): the fair G1 surface's mesh (what `--fair`
-    /// does: normals and tangent lengths chosen to lower the bending energy, every patch
-    /// certified, no crease made; normals given in the file move at most
-    /// `normal_bound_deg` degrees) and the report as JSON (the `fair` object of
-    /// `stats --fair --json`).
-    fn fair(&self, py: Python<'_>, normal_bound_deg: f64) -> PyResult<(PyMesh, String)> {
+    /// fair(normal_bound_deg, sweeps) -> (Mesh, str): the fair G1 surface's mesh (what
+    /// `--fair` does: normals and tangent lengths chosen to lower the bending energy,
+    /// every patch certified, no crease made; normals given in the file move at most
+    /// `normal_bound_deg` degrees; at most `sweeps` sweeps) and the report as JSON (the
+    /// `fair` object of `stats --fair --json`).
+    fn fair(
+        &self,
+        py: Python<'_>,
+        normal_bound_deg: f64,
+        sweeps: usize,
+    ) -> PyResult<(PyMesh, String)> {
         let opts = FairOptions::default()
             .with_normal_bound_deg(normal_bound_deg)
+            .with_sweeps(sweeps)
             .with_scheme_options(self.options);
         let (mesh, json) = py
             .detach(|| -> g1tess::Result<_> {

@@ -45,3 +45,14 @@ def test_fair_refuses_a_bound_outside_0_to_180():
     mesh = g1tess.load(TORUS)
     with pytest.raises(ValueError, match="normal_bound must be between 0 and 180"):
         mesh.fair(normal_bound=-1)
+
+
+def test_fair_sweeps_is_the_cli_fair_sweeps(cli):
+    # One sweep, in the package and on the command line: the same report, and it says
+    # one sweep ran.
+    mesh = g1tess.load(TORUS)
+    _, report = mesh.fair(sweeps=1)
+    s = json.loads(cli("stats", TORUS, "--backend", "cpu", "--json", "--fair", "--fair-sweeps", "1").stdout)
+    assert report == s["fair"] and report["sweeps"] == 1
+    with pytest.raises(ValueError, match="sweeps must be an integer"):
+        mesh.fair(sweeps=-1)
