@@ -273,7 +273,12 @@ pub fn fair_with_progress(
         scheme_options: opts.scheme_options,
     };
     let energy = |p: &[glam::DVec3]| search_rule.points(p);
-    let (out_mesh, out) = run(mesh, &params, &energy, progress)?;
+    // The search runs on a worker of the pool: each trial integrates a few patches in
+    // parallel, and from outside the pool every such call would hand its work to a worker
+    // and sleep until it is done (3.8 million context switches in one sweep of a 124,008-
+    // triangle mesh, 0.26 million on a worker). The result is the same either way (the
+    // energies are summed in order).
+    let (out_mesh, out) = rayon::scope(|_| run(mesh, &params, &energy, progress))?;
     let (after, energy_after) = measure(&out_mesh)?;
     let report = FairReport {
         before,
