@@ -199,10 +199,11 @@ fn repaired_or_faired<'a>(
     Option<crate::patch::repair::RepairReport>,
     Option<crate::analysis::fair::FairReport>,
 )> {
-    if let Some((m, report)) = a.input.faired(mesh, a.quiet || a.backend.quiet)? {
+    let quiet = a.quiet || a.backend.quiet;
+    if let Some((m, report)) = a.input.faired(mesh, quiet)? {
         return Ok((std::borrow::Cow::Owned(m), None, Some(report)));
     }
-    let (m, repair) = a.input.repaired(mesh, a.quiet || a.backend.quiet)?;
+    let (m, repair) = a.input.repaired(mesh, quiet)?;
     Ok((m, repair, None))
 }
 

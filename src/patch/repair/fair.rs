@@ -167,7 +167,7 @@ pub(crate) fn run(
             items as u64,
         );
         for g in 0..ng as u32 {
-            tick(progress, g as usize);
+            progress.inc(1);
             match st.normal_step(g)? {
                 Step::Moved => out.normal_moves += 1,
                 Step::Refused => out.refused += 1,
@@ -176,7 +176,7 @@ pub(crate) fn run(
         }
         if params.arms {
             for (i, edge) in edges.iter().enumerate() {
-                tick(progress, ng + i);
+                progress.inc(1);
                 match st.arm_step(i, edge)? {
                     Step::Moved => out.arm_moves += 1,
                     Step::Refused => out.refused += 1,
@@ -187,7 +187,6 @@ pub(crate) fn run(
         let next = st.objective();
         let done = now - next <= params.tolerance * now.abs();
         now = next;
-        progress.inc((items - items.saturating_sub(1) / TICK * TICK) as u64);
         if done {
             break;
         }
@@ -208,17 +207,6 @@ pub(crate) fn run(
     (out.arm_edges_scaled, out.arm_scale_range) = arm_summary(&work);
     out.creases_made = new_creases(mesh, &work);
     Ok((work, out))
-}
-
-/// Items (groups, edges) per progress report of a sweep.
-const TICK: usize = 256;
-
-/// Reports `TICK` more items done when item `i` (0-based) starts a new run of them (the
-/// sweep reports the rest, `items - (items - 1) / TICK * TICK`, at its end).
-fn tick(progress: &dyn Progress, i: usize) {
-    if i > 0 && i.is_multiple_of(TICK) {
-        progress.inc(TICK as u64);
-    }
 }
 
 /// Brings every group's normal in `work` within `bound` degrees of its input normal
