@@ -116,7 +116,7 @@ pub use patch::{Layout, PatchKind, PatchTable, Scheme, SchemeOptions, SurfacePoi
 /// The validity certificate of each patch (valid, folded or undecided), and the repair of
 /// folded patches with its report.
 pub use patch::repair::{repair, RepairOptions, RepairReport};
-pub use patch::validity::{check_table, PatchCounts, Verdict};
+pub use patch::validity::{check_table, singular_at_a_corner, PatchCounts, Verdict};
 
 /// Built-in meshes (icosphere, torus, ...) by name or by parameters.
 pub use mesh::generators;

@@ -13,7 +13,7 @@ use serde::Serialize;
 use super::fairness::{BendingEnergy, EnergyTotal, FairnessOptions};
 use crate::mesh::Mesh;
 use crate::patch::repair::fair::{run, Params};
-use crate::patch::validity::{check_table, PatchCounts};
+use crate::patch::validity::{check_table, singular_at_a_corner, PatchCounts, Verdict};
 use crate::patch::{PatchTable, Scheme, SchemeOptions};
 use crate::progress::{NoProgress, Progress};
 use crate::{Error, Result};
@@ -156,6 +156,13 @@ pub struct FairReport {
     /// Lower bound, in degrees, of the normal change of any repair that keeps G1 (0 where
     /// every input patch is certified).
     pub normal_change_lower_bound_deg: f64,
+    /// Patches of the fair surface left uncertified (folded or undecided) whose Jacobian is
+    /// 0 at a corner, so that no certificate can prove them valid
+    /// ([`crate::singular_at_a_corner`]). Where the two edges of a
+    /// triangle at a vertex are crease edges between the same two normals, both boundary
+    /// curves leave the vertex along the line where the two tangent planes meet, for any
+    /// choice of the normals: the crease structure of the input forces such a patch.
+    pub singular_at_a_corner: usize,
     /// Normal groups brought back to the bound after the crease-free start.
     pub groups_clamped: usize,
     /// Normal groups the sweeps leave alone (at a vertex of more than 32 corners).
@@ -187,7 +194,7 @@ impl FairReport {
             });
         format!(
             "{mesh}: fair G1: bending energy {:.4e} -> {:.4e} ({} and {} patches left out); \
-             {} folded and {} undecided patches before, {} folded and {} undecided after; \
+             {} folded and {} undecided patches before, {} folded and {} undecided after{}; \
              largest normal change {:.3}° ({bound}); {} creases made; arms of {} edges \
              scaled by {:.3}–{:.3}; {} sweeps",
             self.energy_before.energy,
@@ -198,6 +205,10 @@ impl FairReport {
             self.before.undecided,
             self.after.folded,
             self.after.undecided,
+            match self.singular_at_a_corner {
+                0 => String::new(),
+                n => format!(" ({n} with J = 0 at a corner, which no certificate proves valid)"),
+            },
             self.max_normal_change_deg,
             self.creases_made,
             self.arm_edges_scaled,
@@ -250,7 +261,7 @@ pub fn fair_with_progress(
         kind,
         &FairnessOptions::default().with_subdivisions(opts.subdivisions),
     )?;
-    let measure = |m: &Mesh| -> Result<(PatchCounts, EnergyTotal)> {
+    let measure = |m: &Mesh| -> Result<(PatchCounts, EnergyTotal, usize)> {
         progress.start("fair: energy", m.triangles.len() as u64);
         let table = PatchTable::build(m, Scheme::G1, &opts.scheme_options)?;
         let verdicts = check_table(&table);
@@ -258,10 +269,13 @@ pub fn fair_with_progress(
             .iter()
             .fold(PatchCounts::default(), PatchCounts::with);
         let total = exact.total_certified(&table, &verdicts)?;
+        let singular = (verdicts.iter().enumerate())
+            .filter(|&(i, v)| *v != Verdict::Valid && singular_at_a_corner(&table, i))
+            .count();
         progress.inc(m.triangles.len() as u64);
-        Ok((counts, total))
+        Ok((counts, total, singular))
     };
-    let (before, energy_before) = measure(mesh)?;
+    let (before, energy_before, _) = measure(mesh)?;
     let corners = 3 * mesh.triangles.len();
     let free = corners > 0 && mesh.load_report.normals_estimated >= corners;
     let params = Params {
@@ -279,7 +293,7 @@ pub fn fair_with_progress(
     // triangle mesh, 0.26 million on a worker). The result is the same either way (the
     // energies are summed in order).
     let (out_mesh, out) = rayon::scope(|_| run(mesh, &params, &energy, progress))?;
-    let (after, energy_after) = measure(&out_mesh)?;
+    let (after, energy_after, singular) = measure(&out_mesh)?;
     let report = FairReport {
         before,
         after,
@@ -291,6 +305,7 @@ pub fn fair_with_progress(
         start_uncertified: out.start_left,
         crease_forced_groups: out.forced_groups,
         normal_change_lower_bound_deg: out.lower_bound_deg,
+        singular_at_a_corner: singular,
         groups_clamped: out.clamped_groups,
         groups_left_out: out.groups_left_out,
         normal_moves: out.normal_moves,

@@ -383,6 +383,16 @@ pub fn count_builder(builder: &PatchBuilder<'_>) -> Result<PatchCounts> {
     Ok(total)
 }
 
+/// Whether no certificate can prove patch `i` of `table` valid, whatever its cost: the
+/// Jacobian J is at most the certificate's tolerance at a corner of the domain (the corner's
+/// Bernstein coefficient of J). A normal in its triangle's plane, a degenerate triangle, or
+/// two boundary curves that leave the corner in one direction make J vanish there; two
+/// crease edges at a vertex that separate the same two normals do the last (both of their
+/// curves leave along the line where the two tangent planes meet).
+pub fn singular_at_a_corner(table: &PatchTable, i: usize) -> bool {
+    Geometry::new(table, i).never_certified()
+}
+
 /// One line about the folded patches of `table` (built for `mesh`): `None` when every
 /// patch is certified valid.
 pub fn fold_line(mesh_name: &str, table: &PatchTable) -> Option<String> {
