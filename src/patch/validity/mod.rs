@@ -420,8 +420,9 @@ pub fn undecided_note(c: &PatchCounts) -> Option<String> {
         format!(
             "{} of {} patches undecided: the validity certificate neither proved them valid \
              nor found a fold within its bounds on cost (cells per patch, and a budget \
-             proportional to the patch count); normals in or near their triangle's plane \
-             make patches undecidable",
+             proportional to the patch count); normals in or near their triangle's plane, \
+             and two boundary curves that leave a corner in one direction (as two crease \
+             edges between the same two normals make them), make patches undecidable",
             c.undecided,
             c.total()
         )
