@@ -10,11 +10,11 @@
 
 use serde::Serialize;
 
-use super::fairness::{BendingEnergy, EnergyTotal, FairnessOptions};
+use super::fairness::{total_of_parts, BendingEnergy, EnergyTotal, FairnessOptions};
 use crate::mesh::Mesh;
 use crate::patch::repair::fair::{run, Params};
-use crate::patch::validity::{check_table, singular_at_a_corner, PatchCounts, Verdict};
-use crate::patch::{PatchTable, Scheme, SchemeOptions};
+use crate::patch::validity::{check_in_chunks, singular_at_a_corner, PatchCounts, Verdict};
+use crate::patch::{PatchBuilder, Scheme, SchemeOptions};
 use crate::progress::{NoProgress, Progress};
 use crate::{Error, Result};
 
@@ -219,6 +219,52 @@ impl FairReport {
     }
 }
 
+/// Patches per chunk of [`measure`] where [`fair`] calls it (the whole mesh's table is
+/// never held).
+const CHUNK: usize = 1 << 15;
+
+/// The verdicts of the G1 patches of `mesh` counted, the bending energy (`exact`) of the
+/// certified ones, and how many of the others are [`singular_at_a_corner`]: what
+/// [`crate::check_table`] and [`BendingEnergy::total_certified`] give on the whole table, bit for
+/// bit, from chunks of `chunk` patches built one at a time ([`check_in_chunks`]). Reports each chunk's patches to `progress`.
+pub(crate) fn measure(
+    mesh: &Mesh,
+    scheme_options: &SchemeOptions,
+    exact: &BendingEnergy,
+    progress: &dyn Progress,
+    chunk: usize,
+) -> Result<(PatchCounts, EnergyTotal, usize)> {
+    let builder = PatchBuilder::new(mesh, Scheme::G1, scheme_options)?;
+    let mut parts = Vec::with_capacity(mesh.triangles.len());
+    let mut singular = 0;
+    let (verdicts, decided) = check_in_chunks(&builder, chunk, |table, _, first| {
+        // Only the patches the first stage certified now; those the subdivisions decide
+        // are integrated from the certifier's copy once they are certified.
+        parts.extend(exact.parts(table, |i| first[i] == Some(Verdict::Valid))?);
+        singular += (0..table.len())
+            .filter(|&i| matches!(first[i], Some(v) if v != Verdict::Valid))
+            .filter(|&i| singular_at_a_corner(table, i))
+            .count();
+        progress.inc(table.len() as u64);
+        Ok(())
+    })?;
+    if let Some(kept) = &decided.table {
+        let valid = |k: usize| decided.verdicts[k] == Verdict::Valid;
+        for (k, part) in exact.parts(kept, valid)?.into_iter().enumerate() {
+            parts[decided.at[k]] = part;
+            singular += usize::from(!valid(k) && singular_at_a_corner(kept, k));
+        }
+    }
+    Ok((counts_of(&verdicts), total_of_parts(&parts), singular))
+}
+
+/// The counts of `verdicts`.
+fn counts_of(verdicts: &[Verdict]) -> PatchCounts {
+    verdicts
+        .iter()
+        .fold(PatchCounts::default(), PatchCounts::with)
+}
+
 /// Patches an energy total leaves out.
 fn left_out(e: &EnergyTotal) -> usize {
     e.uncertified_patches + e.singular_patches + e.unresolved_patches
@@ -261,19 +307,9 @@ pub fn fair_with_progress(
         kind,
         &FairnessOptions::default().with_subdivisions(opts.subdivisions),
     )?;
-    let measure = |m: &Mesh| -> Result<(PatchCounts, EnergyTotal, usize)> {
+    let measure = |m: &Mesh| {
         progress.start("fair: energy", m.triangles.len() as u64);
-        let table = PatchTable::build(m, Scheme::G1, &opts.scheme_options)?;
-        let verdicts = check_table(&table);
-        let counts = verdicts
-            .iter()
-            .fold(PatchCounts::default(), PatchCounts::with);
-        let total = exact.total_certified(&table, &verdicts)?;
-        let singular = (verdicts.iter().enumerate())
-            .filter(|&(i, v)| *v != Verdict::Valid && singular_at_a_corner(&table, i))
-            .count();
-        progress.inc(m.triangles.len() as u64);
-        Ok((counts, total, singular))
+        measure(m, &opts.scheme_options, &exact, progress, CHUNK)
     };
     let (before, energy_before, _) = measure(mesh)?;
     let corners = 3 * mesh.triangles.len();

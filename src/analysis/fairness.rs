@@ -721,39 +721,73 @@ impl BendingEnergy {
 
     fn sum(&self, table: &PatchTable, verdicts: Option<&[Verdict]>) -> Result<EnergyTotal> {
         self.check(table)?;
-        let g = self.geometry;
-        let blocks: Vec<EnergyTotal> = (0..table.len().div_ceil(ENERGY_BLOCK))
-            .into_par_iter()
-            .map(|b| {
-                let mut t = EnergyTotal::default();
-                for i in b * ENERGY_BLOCK..((b + 1) * ENERGY_BLOCK).min(table.len()) {
-                    if verdicts.is_some_and(|v| v[i] != Verdict::Valid) {
-                        t.uncertified_patches += 1;
-                        continue;
-                    }
-                    let e = self.adaptive(self.geom(&table.patch(i)[..g]));
-                    if !e.energy.is_finite() {
-                        t.singular_patches += 1;
-                    } else if e.resolved {
-                        t.energy += e.energy;
-                    } else {
-                        t.unresolved_patches += 1;
-                        t.unresolved_energy += e.energy;
-                    }
-                }
-                t
-            })
-            .collect();
-        Ok(blocks
-            .iter()
-            .fold(EnergyTotal::default(), |a, b| EnergyTotal {
-                energy: a.energy + b.energy,
-                singular_patches: a.singular_patches + b.singular_patches,
-                unresolved_patches: a.unresolved_patches + b.unresolved_patches,
-                unresolved_energy: a.unresolved_energy + b.unresolved_energy,
-                uncertified_patches: a.uncertified_patches + b.uncertified_patches,
-            }))
+        Ok(sum_parts(table.len(), |i| {
+            let left_out = verdicts.is_some_and(|v| v[i] != Verdict::Valid);
+            (!left_out).then(|| self.part(table, i))
+        }))
     }
+
+    /// The energy of patch `i` of `table` (of this kind) as [`Self::total`] finds it.
+    fn part(&self, table: &PatchTable, i: usize) -> PatchEnergy {
+        self.adaptive(self.geom(&table.patch(i)[..self.geometry]))
+    }
+
+    /// [`Self::part`] of every patch of `table` that `wanted` names, `None` for the others, in
+    /// parallel: a chunk's share of [`total_of_parts`] (the caller holds no table of the
+    /// whole mesh).
+    pub(crate) fn parts(
+        &self,
+        table: &PatchTable,
+        wanted: impl Fn(usize) -> bool + Sync,
+    ) -> Result<Vec<Option<PatchEnergy>>> {
+        self.check(table)?;
+        Ok((0..table.len())
+            .into_par_iter()
+            .map(|i| wanted(i).then(|| self.part(table, i)))
+            .collect())
+    }
+}
+
+/// The total of one energy per patch (`None`: left out, not certified), summed as
+/// [`BendingEnergy::total_certified`] sums them: bitwise its total where the parts are its
+/// patches' energies.
+pub(crate) fn total_of_parts(parts: &[Option<PatchEnergy>]) -> EnergyTotal {
+    sum_parts(parts.len(), |i| parts[i])
+}
+
+/// The sum of `n` patches' parts (`part(i)`, `None` where left out) in blocks of
+/// [`ENERGY_BLOCK`], each in order, the blocks in parallel and added in order.
+fn sum_parts(n: usize, part: impl Fn(usize) -> Option<PatchEnergy> + Sync) -> EnergyTotal {
+    let blocks: Vec<EnergyTotal> = (0..n.div_ceil(ENERGY_BLOCK))
+        .into_par_iter()
+        .map(|b| {
+            let mut t = EnergyTotal::default();
+            for i in b * ENERGY_BLOCK..((b + 1) * ENERGY_BLOCK).min(n) {
+                let Some(e) = part(i) else {
+                    t.uncertified_patches += 1;
+                    continue;
+                };
+                if !e.energy.is_finite() {
+                    t.singular_patches += 1;
+                } else if e.resolved {
+                    t.energy += e.energy;
+                } else {
+                    t.unresolved_patches += 1;
+                    t.unresolved_energy += e.energy;
+                }
+            }
+            t
+        })
+        .collect();
+    blocks
+        .iter()
+        .fold(EnergyTotal::default(), |a, b| EnergyTotal {
+            energy: a.energy + b.energy,
+            singular_patches: a.singular_patches + b.singular_patches,
+            unresolved_patches: a.unresolved_patches + b.unresolved_patches,
+            unresolved_energy: a.unresolved_energy + b.unresolved_energy,
+            uncertified_patches: a.uncertified_patches + b.uncertified_patches,
+        })
 }
 
 /// The normal curvature, in the direction across an edge, of a surface with derivatives

@@ -821,3 +821,33 @@ fn scaled_arms_keep_g1_and_watertight() {
     // Watertight: one curve in both uses (rounding of the evaluation only).
     assert!(c.max_gap <= 1e-12 * mesh.diagonal(), "gap {}", c.max_gap);
 }
+
+/// The verdicts found a chunk at a time (`check_in_chunks`, as the repair's start and the
+/// fair's energy find them) are `check_table`'s of the whole table, fold witnesses included:
+/// Suzanne's G1 patches (76 folded) and PN patches in chunks of 64, fandisk's G1 patches
+/// (creases at 30°, one undecided) in chunks of 1,000. Each chunk is seen once, in order.
+#[test]
+fn verdicts_in_chunks_are_the_whole_tables() {
+    let cases = [
+        ("suzanne.obj", None, Scheme::G1, 64),
+        ("suzanne.obj", None, Scheme::Pn, 64),
+        ("fandisk.obj", Some(30.0), Scheme::G1, 1000),
+    ];
+    for (name, crease, scheme, chunk) in cases {
+        let opts = LoadOptions::default().with_crease_angle(crease);
+        let mesh = Mesh::load(&common::shared_spec(name), &opts).unwrap();
+        let builder =
+            crate::patch::PatchBuilder::new(&mesh, scheme, &SchemeOptions::default()).unwrap();
+        let mut starts = Vec::new();
+        let (got, _) = crate::patch::validity::check_in_chunks(&builder, chunk, |t, start, v| {
+            assert_eq!(t.len(), v.len());
+            starts.push(start);
+            Ok(())
+        })
+        .unwrap();
+        let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
+        assert_eq!(got, crate::check_table(&table), "{name} {scheme}");
+        let n = mesh.triangles.len();
+        assert_eq!(starts, (0..n).step_by(chunk).collect::<Vec<_>>(), "{name}");
+    }
+}

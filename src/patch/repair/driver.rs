@@ -13,9 +13,12 @@ use super::groups::Groups;
 use super::RepairReport;
 use crate::mesh::creases::normal_key;
 use crate::mesh::Mesh;
-use crate::patch::validity::{check_table, PatchCounts, Verdict};
-use crate::patch::{PatchBuilder, PatchTable, Scheme, SchemeOptions};
+use crate::patch::validity::{check_in_chunks, PatchCounts, Verdict};
+use crate::patch::{PatchBuilder, Scheme, SchemeOptions};
 use crate::Result;
+
+/// Patches per chunk where [`Search::start`] builds and certifies the input's patches.
+const START_CHUNK: usize = 1 << 15;
 
 /// What the search found: the repaired mesh and its report, or, where every patch was
 /// already certified, the verdicts' counts.
@@ -69,8 +72,6 @@ fn plan_with(
 
 /// What the input was: kept for the report.
 struct Input {
-    /// The input's patches.
-    table: PatchTable,
     /// Their verdicts (the certificate's alone).
     verdicts: Vec<Verdict>,
     before: PatchCounts,
@@ -131,8 +132,15 @@ impl<'a> Search<'a> {
         scheme: Scheme,
         opts: &SchemeOptions,
     ) -> Result<std::result::Result<Search<'a>, PatchCounts>> {
-        let table = PatchTable::build(mesh, scheme, opts)?;
-        let mut verdicts = check_table(&table);
+        // The input's patches are built and certified a chunk at a time: the whole
+        // mesh's table is never held (the repair's end builds the patches it changed
+        // again, `measure_changed`).
+        let builder = PatchBuilder::new(mesh, scheme, opts)?;
+        let mut faces: Vec<DVec3> = Vec::with_capacity(mesh.triangles.len());
+        let (mut verdicts, _) = check_in_chunks(&builder, START_CHUNK, |table, _, _| {
+            faces.extend_from_slice(&table.flat_normals);
+            Ok(())
+        })?;
         let before = verdicts
             .iter()
             .fold(PatchCounts::default(), PatchCounts::with);
@@ -145,24 +153,29 @@ impl<'a> Search<'a> {
         // fold ([`Checker::judge`]), and repairs the input's too.
         let input_verdicts = verdicts.clone();
         if scheme == Scheme::G1 {
-            let weak: Vec<bool> = (0..verdicts.len())
-                .into_par_iter()
-                .map(|t| {
-                    verdicts[t] == Verdict::Valid
-                        && (cx.element.of(&table, t) <= LAGRANGE_MARGIN
-                            || inside_out(&table, t, mesh.corner_normals[t]))
-                })
-                .collect();
-            for (t, w) in weak.into_iter().enumerate() {
-                if w {
-                    verdicts[t] = Verdict::Undecided;
-                    bad.push(t as u32);
+            let mut table = builder.empty_table();
+            let n = mesh.triangles.len();
+            for start in (0..n).step_by(START_CHUNK) {
+                builder.range_into(start..(start + START_CHUNK).min(n), &mut table)?;
+                let weak: Vec<bool> = (0..table.len())
+                    .into_par_iter()
+                    .map(|i| {
+                        let t = start + i;
+                        verdicts[t] == Verdict::Valid
+                            && (cx.element.of(&table, i) <= LAGRANGE_MARGIN
+                                || inside_out(&table, i, mesh.corner_normals[t]))
+                    })
+                    .collect();
+                for (i, w) in weak.into_iter().enumerate() {
+                    if w {
+                        verdicts[start + i] = Verdict::Undecided;
+                        bad.push((start + i) as u32);
+                    }
                 }
             }
             bad.sort_unstable();
         }
         let groups = Groups::new(mesh);
-        let faces: Vec<DVec3> = table.flat_normals.clone();
         let (lower_bound, forced) = corner_bound(mesh, &faces, &groups);
         Ok(Ok(Search {
             mesh,
@@ -183,7 +196,6 @@ impl<'a> Search<'a> {
             flattened: 0,
             pages: 0,
             input: Input {
-                table,
                 verdicts: input_verdicts,
                 before,
                 group_of_corner: groups.of_corner.clone(),
@@ -302,16 +314,16 @@ impl<'a> Search<'a> {
         let after = finals
             .iter()
             .fold(PatchCounts::default(), PatchCounts::with);
-        let (grid, table0) = (&self.cx.grids.distance, &self.input.table);
-        let max_distance = changed
-            .par_iter()
-            .enumerate()
-            .map(|(i, &t)| {
+        // The input's patches of `changed`, built again: bitwise those of the whole table.
+        let table0 =
+            PatchBuilder::new(self.mesh, self.cx.scheme, &self.cx.opts)?.table_of(changed, 0)?;
+        let grid = &self.cx.grids.distance;
+        let max_distance = (0..changed.len())
+            .into_par_iter()
+            .map(|i| {
                 grid.weights
                     .iter()
-                    .map(|w| {
-                        (table.eval_weights(i, w).p - table0.eval_weights(t as usize, w).p).length()
-                    })
+                    .map(|w| (table.eval_weights(i, w).p - table0.eval_weights(i, w).p).length())
                     .fold(0.0, f64::max)
             })
             .reduce(|| 0.0, f64::max);

@@ -76,7 +76,7 @@ pub(crate) use quick::QUICK_BLEND_BOUND;
 #[cfg(test)]
 use quick::{quick_flat, quick_half, quick_quartic, Quick};
 use quick::{quick_gregory, NormalPart};
-pub use stream::Certifier;
+pub use stream::{check_in_chunks, Certifier};
 #[cfg(test)]
 use {super::PatchBuilder, crate::Result};
 

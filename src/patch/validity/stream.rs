@@ -5,8 +5,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{check_listed, classify, PatchCounts, Scratch, Stage};
-use crate::patch::PatchTable;
+use super::{check_listed, classify, PatchCounts, Scratch, Stage, Verdict};
+use crate::patch::{PatchBuilder, PatchTable};
+use crate::Result;
 
 /// The verdicts of a table's patches counted from its chunks, in order: each chunk's first
 /// stages at once, and the patches the subdivisions decide kept (their control points and
@@ -21,6 +22,8 @@ pub struct Certifier {
     kept: Option<PatchTable>,
     /// Their stages, with their index in `kept`.
     stages: Vec<(usize, Stage)>,
+    /// Their index among the patches seen.
+    at: Vec<usize>,
     /// Patches seen.
     seen: usize,
 }
@@ -32,12 +35,19 @@ impl Certifier {
             done: PatchCounts::default(),
             kept: None,
             stages: Vec::new(),
+            at: Vec::new(),
             seen: 0,
         }
     }
 
     /// Takes the next chunk of the table (its patches follow those seen).
     pub fn see(&mut self, chunk: &PatchTable) {
+        self.see_verdicts(chunk);
+    }
+
+    /// [`Self::see`], returning the verdict of each patch of `chunk` that the first stage
+    /// gave (`None` where the subdivisions decide: [`Self::finish_verdicts`] gives those).
+    pub fn see_verdicts(&mut self, chunk: &PatchTable) -> Vec<Option<Verdict>> {
         let stages: Vec<Stage> = (0..chunk.len())
             .into_par_iter()
             .map_init(
@@ -51,28 +61,88 @@ impl Certifier {
             fallbacks: 0,
             ..*chunk
         });
+        let mut out = Vec::with_capacity(stages.len());
         for (i, stage) in stages.into_iter().enumerate() {
             match stage {
-                Stage::Done(v) => self.done = self.done.with(&v),
+                Stage::Done(v) => {
+                    self.done = self.done.with(&v);
+                    out.push(Some(v));
+                }
                 _ => {
                     self.stages.push((kept.len(), stage));
+                    self.at.push(self.seen + i);
                     kept.points.extend_from_slice(chunk.patch(i));
                     kept.flat_normals.push(chunk.flat_normals[i]);
+                    out.push(None);
                 }
             }
         }
         self.seen += chunk.len();
+        out
     }
 
     /// The verdicts of every patch seen, counted.
     pub fn finish(self) -> PatchCounts {
-        match &self.kept {
+        self.finish_verdicts().counts
+    }
+
+    /// The verdicts of every patch seen, counted, with those the subdivisions gave.
+    pub fn finish_verdicts(self) -> Decided {
+        let verdicts: Vec<Verdict> = match &self.kept {
             Some(kept) => check_listed(kept, &self.stages, self.seen)
-                .iter()
-                .fold(self.done, |c, r| c.with(&r.0)),
-            None => self.done,
+                .into_iter()
+                .map(|r| r.0)
+                .collect(),
+            None => Vec::new(),
+        };
+        Decided {
+            counts: verdicts.iter().fold(self.done, PatchCounts::with),
+            verdicts,
+            at: self.at,
+            table: self.kept,
         }
     }
+}
+
+/// What the subdivisions of a [`Certifier`] decided, beside the counts of all.
+pub struct Decided {
+    /// The verdicts of every patch seen, counted.
+    pub counts: PatchCounts,
+    /// The verdicts of the patches the subdivisions decided, in the order seen.
+    pub verdicts: Vec<Verdict>,
+    /// Their index among the patches seen.
+    pub at: Vec<usize>,
+    /// Their patches (patch k is the k-th of `verdicts`); `None` where nothing was seen.
+    pub table: Option<PatchTable>,
+}
+
+/// The verdicts of every patch that `builder` builds, [`super::check_table`]'s of the
+/// whole table bit for bit, from chunks of `chunk` patches built one at a time in the same
+/// memory (the subdivisions run at the end, as [`Certifier`] runs them). `each` sees every
+/// chunk: its table, the index of its first patch and the first stage's verdicts (`None`
+/// where the subdivisions decide). Returns every verdict, with what the subdivisions
+/// decided.
+pub fn check_in_chunks(
+    builder: &PatchBuilder<'_>,
+    chunk: usize,
+    mut each: impl FnMut(&PatchTable, usize, &[Option<Verdict>]) -> Result<()>,
+) -> Result<(Vec<Verdict>, Decided)> {
+    let n = builder.mesh().triangles.len();
+    let chunk = chunk.max(1);
+    let mut certifier = Certifier::new();
+    let mut table = builder.empty_table();
+    let mut verdicts = Vec::with_capacity(n);
+    for start in (0..n).step_by(chunk) {
+        builder.range_into(start..(start + chunk).min(n), &mut table)?;
+        let first = certifier.see_verdicts(&table);
+        each(&table, start, &first)?;
+        verdicts.extend(first.iter().map(|v| v.unwrap_or(Verdict::Undecided)));
+    }
+    let decided = certifier.finish_verdicts();
+    for (&i, v) in decided.at.iter().zip(&decided.verdicts) {
+        verdicts[i] = *v;
+    }
+    Ok((verdicts, decided))
 }
 
 impl Default for Certifier {
