@@ -225,8 +225,9 @@ const CHUNK: usize = 1 << 15;
 
 /// The verdicts of the G1 patches of `mesh` counted, the bending energy (`exact`) of the
 /// certified ones, and how many of the others are [`singular_at_a_corner`]: what
-/// [`crate::check_table`] and [`BendingEnergy::total_certified`] give on the whole table, bit for
-/// bit, from chunks of `chunk` patches built one at a time ([`check_in_chunks`]). Reports each chunk's patches to `progress`.
+/// [`crate::check_table`] and [`BendingEnergy::total_certified`] give on the whole table,
+/// bit for bit, from chunks of `chunk` patches built one at a time ([`check_in_chunks`]).
+/// Reports each chunk's patches to `progress`.
 pub(crate) fn measure(
     mesh: &Mesh,
     scheme_options: &SchemeOptions,
@@ -237,7 +238,7 @@ pub(crate) fn measure(
     let builder = PatchBuilder::new(mesh, Scheme::G1, scheme_options)?;
     let mut parts = Vec::with_capacity(mesh.triangles.len());
     let mut singular = 0;
-    let (verdicts, decided) = check_in_chunks(&builder, chunk, |table, _, first| {
+    let (_, decided) = check_in_chunks(&builder, chunk, |table, _, first| {
         // Only the patches the first stage certified now; those the subdivisions decide
         // are integrated from the certifier's copy once they are certified.
         parts.extend(exact.parts(table, |i| first[i] == Some(Verdict::Valid))?);
@@ -255,14 +256,7 @@ pub(crate) fn measure(
             singular += usize::from(!valid(k) && singular_at_a_corner(kept, k));
         }
     }
-    Ok((counts_of(&verdicts), total_of_parts(&parts), singular))
-}
-
-/// The counts of `verdicts`.
-fn counts_of(verdicts: &[Verdict]) -> PatchCounts {
-    verdicts
-        .iter()
-        .fold(PatchCounts::default(), PatchCounts::with)
+    Ok((decided.counts, total_of_parts(&parts), singular))
 }
 
 /// Patches an energy total leaves out.
