@@ -562,6 +562,23 @@ impl<'a> PatchBuilder<'a> {
         self.build_with(n, n, &|i| range.start + i, table)
     }
 
+    /// Builds the triangles a chunk of `chunk` at a time, in order, into one table whose
+    /// memory each chunk reuses, and hands each to `each` with the index of its first
+    /// triangle (every fallback counted).
+    pub fn for_each_chunk(
+        &self,
+        chunk: usize,
+        mut each: impl FnMut(&PatchTable, usize) -> Result<()>,
+    ) -> Result<()> {
+        let (n, chunk) = (self.mesh.triangles.len(), chunk.max(1));
+        let mut table = self.empty_table();
+        for start in (0..n).step_by(chunk) {
+            self.range_into(start..(start + chunk).min(n), &mut table)?;
+            each(&table, start)?;
+        }
+        Ok(())
+    }
+
     /// A table of no patches of this scheme.
     pub fn empty_table(&self) -> PatchTable {
         PatchTable {

@@ -153,17 +153,15 @@ impl<'a> Search<'a> {
         // fold ([`Checker::judge`]), and repairs the input's too.
         let input_verdicts = verdicts.clone();
         if scheme == Scheme::G1 {
-            let mut table = builder.empty_table();
-            let n = mesh.triangles.len();
-            for start in (0..n).step_by(START_CHUNK) {
-                builder.range_into(start..(start + START_CHUNK).min(n), &mut table)?;
+            // A second pass over the chunks, taken only where some patch is uncertified.
+            builder.for_each_chunk(START_CHUNK, |table, start| {
                 let weak: Vec<bool> = (0..table.len())
                     .into_par_iter()
                     .map(|i| {
                         let t = start + i;
                         verdicts[t] == Verdict::Valid
-                            && (cx.element.of(&table, i) <= LAGRANGE_MARGIN
-                                || inside_out(&table, i, mesh.corner_normals[t]))
+                            && (cx.element.of(table, i) <= LAGRANGE_MARGIN
+                                || inside_out(table, i, mesh.corner_normals[t]))
                     })
                     .collect();
                 for (i, w) in weak.into_iter().enumerate() {
@@ -172,7 +170,8 @@ impl<'a> Search<'a> {
                         bad.push((start + i) as u32);
                     }
                 }
-            }
+                Ok(())
+            })?;
             bad.sort_unstable();
         }
         let groups = Groups::new(mesh);

@@ -372,14 +372,11 @@ where
 /// The verdicts of every patch `builder` builds, counted, a chunk of triangles at a time
 /// (bounded memory).
 pub fn count_builder(builder: &PatchBuilder<'_>) -> Result<PatchCounts> {
-    const CHUNK: usize = 1 << 16;
-    let n = builder.mesh().triangles.len();
     let mut total = PatchCounts::default();
-    let mut table = builder.empty_table();
-    for start in (0..n).step_by(CHUNK) {
-        builder.range_into(start..(start + CHUNK).min(n), &mut table)?;
-        total = total.merge(count(&table));
-    }
+    builder.for_each_chunk(1 << 16, |table, _| {
+        total = total.merge(count(table));
+        Ok(())
+    })?;
     Ok(total)
 }
 

@@ -42,12 +42,19 @@ impl Certifier {
 
     /// Takes the next chunk of the table (its patches follow those seen).
     pub fn see(&mut self, chunk: &PatchTable) {
-        self.see_verdicts(chunk);
+        self.take(chunk, |_| {});
     }
 
     /// [`Self::see`], returning the verdict of each patch of `chunk` that the first stage
     /// gave (`None` where the subdivisions decide: [`Self::finish_verdicts`] gives those).
     pub fn see_verdicts(&mut self, chunk: &PatchTable) -> Vec<Option<Verdict>> {
+        let mut out = Vec::with_capacity(chunk.len());
+        self.take(chunk, |v| out.push(v));
+        out
+    }
+
+    /// [`Self::see`], handing `first` each patch's first-stage verdict in order.
+    fn take(&mut self, chunk: &PatchTable, mut first: impl FnMut(Option<Verdict>)) {
         let stages: Vec<Stage> = (0..chunk.len())
             .into_par_iter()
             .map_init(
@@ -61,24 +68,22 @@ impl Certifier {
             fallbacks: 0,
             ..*chunk
         });
-        let mut out = Vec::with_capacity(stages.len());
         for (i, stage) in stages.into_iter().enumerate() {
             match stage {
                 Stage::Done(v) => {
                     self.done = self.done.with(&v);
-                    out.push(Some(v));
+                    first(Some(v));
                 }
                 _ => {
                     self.stages.push((kept.len(), stage));
                     self.at.push(self.seen + i);
                     kept.points.extend_from_slice(chunk.patch(i));
                     kept.flat_normals.push(chunk.flat_normals[i]);
-                    out.push(None);
+                    first(None);
                 }
             }
         }
         self.seen += chunk.len();
-        out
     }
 
     /// The verdicts of every patch seen, counted.
@@ -127,17 +132,14 @@ pub fn check_in_chunks(
     chunk: usize,
     mut each: impl FnMut(&PatchTable, usize, &[Option<Verdict>]) -> Result<()>,
 ) -> Result<(Vec<Verdict>, Decided)> {
-    let n = builder.mesh().triangles.len();
-    let chunk = chunk.max(1);
     let mut certifier = Certifier::new();
-    let mut table = builder.empty_table();
-    let mut verdicts = Vec::with_capacity(n);
-    for start in (0..n).step_by(chunk) {
-        builder.range_into(start..(start + chunk).min(n), &mut table)?;
-        let first = certifier.see_verdicts(&table);
-        each(&table, start, &first)?;
+    let mut verdicts = Vec::with_capacity(builder.mesh().triangles.len());
+    builder.for_each_chunk(chunk, |table, start| {
+        let first = certifier.see_verdicts(table);
+        each(table, start, &first)?;
         verdicts.extend(first.iter().map(|v| v.unwrap_or(Verdict::Undecided)));
-    }
+        Ok(())
+    })?;
     let decided = certifier.finish_verdicts();
     for (&i, v) in decided.at.iter().zip(&decided.verdicts) {
         verdicts[i] = *v;
