@@ -125,7 +125,7 @@ fn bench_json_rows_and_rates_are_consistent() {
 }
 
 /// `bench --gpu-check --json` (what scripts/gpu-check.sh runs) on a small mesh: the
-/// adapter named, the copy bandwidth positive, the three rows with their sample counts,
+/// adapter named, the copy bandwidth positive, the four rows with their sample counts,
 /// and every rate and bandwidth fraction consistent with the reported numbers. Without an
 /// adapter it fails with one line (with CI=true an adapter must exist).
 #[test]
@@ -169,14 +169,22 @@ fn bench_gpu_check_rows_are_consistent() {
         [
             ("device_resident", Some(2)),
             ("readback_f32", Some(2)),
+            ("tessellator_frame", Some(2)),
             ("device_resident", Some(3)),
             ("readback_f32", Some(3)),
+            ("tessellator_frame", Some(3)),
             ("statistics", None)
         ]
     );
     for r in rows {
         let samples = r["samples"].as_f64().unwrap();
         let expect = match r["level"].as_u64() {
+            // The welded surface's vertices: sphere320 is closed (162 vertices, 480 edges,
+            // 320 faces), so V + E (l − 1) + F (l − 1)(l − 2)/2.
+            Some(l) if r["step"] == "tessellator_frame" => {
+                let l = l as usize;
+                162 + 480 * (l - 1) + 320 * (l - 1) * (l - 2) / 2
+            }
             Some(l) => 320 * grid_len(l as u32),
             // 21 samples on each of sphere320's 480 interior edges.
             None => 21 * 480,
@@ -198,6 +206,10 @@ fn bench_gpu_check_rows_are_consistent() {
     }
     // f32 grid samples write 24 bytes.
     assert_eq!(rows[0]["bytes_per_sample"].as_u64(), Some(24));
+    // A welded vertex: 24 bytes, and its share of 3 l² F 32-bit indices: 3840 · 4 / 642 and
+    // 8640 · 4 / 1442 bytes at levels 2 and 3, both just under 24, rounded up.
+    assert_eq!(rows[2]["bytes_per_sample"].as_u64(), Some(48));
+    assert_eq!(rows[5]["bytes_per_sample"].as_u64(), Some(48));
 }
 
 #[test]

@@ -96,7 +96,8 @@ pub struct BenchArgs {
     pub end_to_end: bool,
     /// For a machine with a real GPU: the adapter, its memory bandwidth (a device-side
     /// buffer copy), then device-resident evaluation (no readback), evaluation read back
-    /// as f32, and the GPU statistics path, each as a fraction of that bandwidth, on the
+    /// as f32, a frame of the device-resident tessellator (`GpuTessellator`, buffers kept),
+    /// and the GPU statistics path, each as a fraction of that bandwidth, on the
     /// first mesh and scheme (default the bunny, G1) at each of `--levels`
     /// (scripts/gpu-check.sh).
     #[arg(long)]
@@ -806,7 +807,7 @@ pub fn to_text(r: &BenchReport) -> String {
 /// One row of `bench --gpu-check`.
 #[derive(Clone, Debug, Serialize)]
 pub struct GpuCheckRow {
-    /// "device_resident", "readback_f32", "statistics".
+    /// "device_resident", "readback_f32", "tessellator_frame", "statistics".
     pub step: String,
     pub what: String,
     pub level: Option<u32>,
@@ -911,6 +912,10 @@ pub fn run_gpu_check(a: &BenchArgs) -> anyhow::Result<()> {
     };
     let min = Duration::from_millis(500);
     gpu.time_grid(&table, 1)?; // pipelines built, driver warm
+                               // The device-resident tessellator as a wgpu host runs it each frame: built once, then
+                               // one encoder per frame (evaluation, weld and indices on the device), submitted and
+                               // waited for; nothing read back.
+    let mut tess = crate::GpuTessellator::new(&ctx.device, &ctx.queue, &mesh, &table, a.precision)?;
     for &level in &a.levels {
         let samples = (grid_len(level) * table.len()) as u64;
         if !a.quiet {
@@ -943,6 +948,32 @@ pub fn run_gpu_check(a: &BenchArgs) -> anyhow::Result<()> {
             r,
             out_bytes,
         );
+        if tess.check_level(level).is_ok() {
+            let mut frame = || -> anyhow::Result<crate::gpu::tessellator::TessCounts> {
+                let mut encoder = ctx.device.create_command_encoder(&Default::default());
+                let counts = tess.tessellate(&ctx.device, &ctx.queue, &mut encoder, level)?;
+                ctx.queue.submit([encoder.finish()]);
+                ctx.wait()?;
+                Ok(counts)
+            };
+            let counts = frame()?; // buffers grown to this level
+            let f = best_time(min, || frame().map(|_| ()))?;
+            ctx.check()?;
+            let vertices = counts.vertices as u64;
+            let bytes =
+                vertices * crate::gpu::tessellator::VERTEX_BYTES + 4 * counts.indices as u64;
+            row(
+                "tessellator_frame",
+                "GpuTessellator::tessellate: one frame's encoder (vertices, welded indices) \
+                 submitted and waited for, buffers kept; samples are vertices, bytes the \
+                 vertex and index bytes written per vertex (rounded)"
+                    .into(),
+                Some(level),
+                vertices,
+                f,
+                bytes.div_ceil(vertices.max(1)),
+            );
+        }
     }
     let f64_stats = ctx.supports_f64();
     let stats_gpu = GpuEvaluator::new(
