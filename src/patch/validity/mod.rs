@@ -70,6 +70,7 @@ mod blend;
 mod lanes;
 mod quick;
 mod stream;
+mod subdivide;
 use blend::{blend_extent, blend_terms, BlendExtent};
 #[cfg(test)]
 pub(crate) use quick::QUICK_BLEND_BOUND;
@@ -77,6 +78,9 @@ pub(crate) use quick::QUICK_BLEND_BOUND;
 use quick::{quick_flat, quick_half, quick_quartic, Quick};
 use quick::{quick_gregory, NormalPart};
 pub use stream::{check_in_chunks, Certifier};
+#[cfg(test)]
+use subdivide::children;
+use subdivide::{check_within, CellSearch};
 #[cfg(test)]
 use {super::PatchBuilder, crate::Result};
 
@@ -276,12 +280,13 @@ fn check_listed(
     let of = |kind: Stage| -> Vec<usize> {
         (0..listed.len()).filter(|&k| listed[k].1 == kind).collect()
     };
-    let search = |depth: u32, cells: usize| {
-        move |k: usize, stop: usize| {
-            let i = listed[k].0;
-            let geom = Geometry::new(table, i);
-            check_within(table, i, &geom, depth, cells, stop)
-        }
+    // Each search keeps its waiting cells between rounds; its patch's geometry is built
+    // again for each round (a small part of a round's cells).
+    let start =
+        |depth: u32, cells: usize| move |k: usize| CellSearch::new(listed[k].0, depth, cells);
+    let search = |s: &mut CellSearch, stop: usize| {
+        let geom = Geometry::new(table, s.i);
+        s.run(table, &geom, stop)
     };
     let mut out = vec![(Verdict::Undecided, 0, false); listed.len()];
     let mut store = |ks: &[usize], results: Vec<(Verdict, usize, bool)>| {
@@ -295,7 +300,8 @@ fn check_listed(
     let results = shared(
         &ks,
         budget(FIRST_FLOOR, FIRST_SHARE),
-        search(MAX_DEPTH, MAX_CELLS),
+        start(MAX_DEPTH, MAX_CELLS),
+        search,
     );
     let deeper: Vec<usize> = ks
         .iter()
@@ -308,13 +314,15 @@ fn check_listed(
     let results = shared(
         &ks,
         budget(WITNESS_FLOOR, WITNESS_SHARE),
-        search(MAX_DEPTH, MAX_CELLS),
+        start(MAX_DEPTH, MAX_CELLS),
+        search,
     );
     store(&ks, results);
     let results = shared(
         &deeper,
         budget(DEEP_FLOOR, DEEP_SHARE),
-        search(DEEP_DEPTH, DEEP_CELLS),
+        start(DEEP_DEPTH, DEEP_CELLS),
+        search,
     );
     store(&deeper, results);
     out
@@ -324,21 +332,35 @@ fn check_listed(
 /// few.
 const FIRST_ROUND: usize = 64;
 
-/// `search(i, stop)` (the verdict, the cells examined, whether it stopped at `stop`) of
-/// every patch of `ids`, in parallel, within `budget` cells. The first round gives each
-/// search an equal share of the budget, at most [`FIRST_ROUND`] cells; each further
-/// round runs the searches that stopped again, each with an equal share of what the
-/// finished ones left over, while that share at least doubles. A search examines its
-/// cells in the same order whatever its share, so running it again repeats its start
-/// and only its last count is charged: the work is at most twice the budget, plus the
-/// first round.
-fn shared<F>(ids: &[usize], budget: usize, search: F) -> Vec<(Verdict, usize, bool)>
+/// Searches that [`shared`] keeps from one round to the next, at most: each holds its
+/// waiting cells (at most 3 per level of the subdivision, about 4 KB at its deepest), so
+/// they hold at most about 32 MB. Past this many, a search stopped is run again from its
+/// start, which gives the same result for more work.
+const KEPT_SEARCHES: usize = 8192;
+
+/// `search(state, stop)` (the verdict, the cells examined, whether it stopped at `stop`) of
+/// every patch of `ids`, in parallel, within `budget` cells, each from its `start(i)`. The
+/// first round gives each search an equal share of the budget, at most [`FIRST_ROUND`]
+/// cells; each further round runs the searches that stopped again, each with an equal
+/// share of what the finished ones left over, while that share at least doubles. A search
+/// examines its cells in the same order whatever its share, and one that stops goes on
+/// from its state in the next round (or, past [`KEPT_SEARCHES`], starts again, repeating
+/// its start); only its last count is charged: the work is at most twice the budget, plus
+/// the first round.
+fn shared<S, F>(
+    ids: &[usize],
+    budget: usize,
+    start: impl Fn(usize) -> S + Sync,
+    search: F,
+) -> Vec<(Verdict, usize, bool)>
 where
-    F: Fn(usize, usize) -> (Verdict, usize, bool) + Sync,
+    S: Send,
+    F: Fn(&mut S, usize) -> (Verdict, usize, bool) + Sync,
 {
     let mut out = vec![(Verdict::Undecided, 0, false); ids.len()];
-    // Positions in `ids` of the searches not finished, and the cells the finished used.
-    let mut open: Vec<usize> = (0..ids.len()).collect();
+    // Positions in `ids` of the searches not finished (with the state of those kept), and
+    // the cells the finished used.
+    let mut open: Vec<(usize, Option<S>)> = (0..ids.len()).map(|k| (k, None)).collect();
     let mut used = 0usize;
     let mut share = 0usize;
     while !open.is_empty() {
@@ -352,13 +374,20 @@ where
             break;
         }
         share = next;
-        let results: Vec<(Verdict, usize, bool)> =
-            open.par_iter().map(|&k| search(ids[k], share)).collect();
+        let results: Vec<(usize, S, (Verdict, usize, bool))> = open
+            .into_par_iter()
+            .map(|(k, state)| {
+                let mut state = state.unwrap_or_else(|| start(ids[k]));
+                let r = search(&mut state, share);
+                (k, state, r)
+            })
+            .collect();
         let mut still = Vec::new();
-        for (k, r) in open.into_iter().zip(results) {
+        for (k, state, r) in results {
             out[k] = r;
             if r.2 {
-                still.push(k);
+                let keep = still.len() < KEPT_SEARCHES;
+                still.push((k, keep.then_some(state)));
             } else {
                 used += r.1;
             }
@@ -1086,96 +1115,6 @@ pub const DEEP_SHARE: usize = 1024;
 /// Cells those deeper subdivisions share at least: four whole ones.
 pub const DEEP_FLOOR: usize = 4 * DEEP_CELLS;
 
-/// [`check_patch`] by subdivision of the patch (`geom`) down to `max_depth` levels or
-/// `max_cells` cells: the verdict, the cells examined, and whether it stopped at `stop`
-/// cells (undecided then). It examines the cells in the same order whatever `stop` is,
-/// so wherever it examines no more than `stop` cells, the verdict is that without it.
-fn check_within(
-    table: &PatchTable,
-    i: usize,
-    geom: &Geometry,
-    max_depth: u32,
-    max_cells: usize,
-    stop: usize,
-) -> (Verdict, usize, bool) {
-    let witness = |b: [f64; 3]| -> Option<Verdict> {
-        let (j, scale) = jacobian(table, i, b);
-        // Below −1e-12 |S_s| |S_t|: far beyond the rounding of the evaluation.
-        (j < -1e-12 * scale).then_some(Verdict::Folded {
-            s: b[1],
-            t: b[2],
-            jacobian: j,
-        })
-    };
-    let whole = WHOLE;
-    for b in whole.iter().chain([[1.0 / 3.0; 3]].iter()) {
-        if let Some(v) = witness(*b) {
-            return (v, 0, false);
-        }
-    }
-    // Each cell with its bound, computed with its siblings' (four lanes, `bound4`) when
-    // its parent is split; the whole domain's alone.
-    let mut work = Work::new();
-    let mut stack = vec![(whole, 0u32, geom.bound(&whole, &mut work.one))];
-    let mut cells = 0usize;
-    let mut undecided = false;
-    while let Some((cell, depth, (lower, b, suspect))) = stack.pop() {
-        if cells >= stop {
-            return (Verdict::Undecided, cells, true);
-        }
-        cells += 1;
-        if lower > 0.0
-            || geom
-                .normal_part
-                .as_ref()
-                .is_some_and(|q| q.lower(&cell, &mut work.one) > 0.0)
-        {
-            continue;
-        }
-        let leaf = depth >= max_depth || cells + stack.len() + 4 > max_cells;
-        // Witnesses (two evaluations of the patch) are looked for where the polynomial part
-        // itself fails, deep in the subdivision and at a last cell; elsewhere the cell only
-        // needs a smaller remainder, which its children get.
-        if suspect || leaf || depth >= WITNESS_DEPTH {
-            let centroid = std::array::from_fn(|j| (cell[0][j] + cell[1][j] + cell[2][j]) / 3.0);
-            for p in [b, centroid] {
-                if let Some(v) = witness(p) {
-                    return (v, cells, false);
-                }
-            }
-        }
-        if leaf {
-            undecided = true;
-            continue;
-        }
-        let children = children(&cell);
-        let bounds = geom.bound4(&children, &mut work.four);
-        for (child, bound) in children.into_iter().zip(bounds) {
-            stack.push((child, depth + 1, bound));
-        }
-    }
-    let v = if undecided {
-        Verdict::Undecided
-    } else {
-        Verdict::Valid
-    };
-    (v, cells, false)
-}
-
-/// The four children of `cell` in the subdivision (midpoints of its edges): the middle one
-/// first, then those at its corners 0, 1 and 2.
-fn children(cell: &Cell) -> [Cell; 4] {
-    let mid = |a: [f64; 3], b: [f64; 3]| std::array::from_fn(|j| 0.5 * (a[j] + b[j]));
-    let [u0, u1, u2] = *cell;
-    let (m01, m12, m20) = (mid(u0, u1), mid(u1, u2), mid(u2, u0));
-    [
-        [m12, m20, m01],
-        [u0, m01, m20],
-        [m01, u1, m12],
-        [m20, m12, u2],
-    ]
-}
-
 #[cfg(test)]
 mod tests {
     use super::{
@@ -1332,7 +1271,7 @@ mod tests {
             }
         };
         let all: usize = needs.iter().sum();
-        let out = shared(&ids, all, search);
+        let out = shared(&ids, all, |i| i, |&mut i: &mut usize, stop| search(i, stop));
         assert!(out.iter().all(|r| r.0 == Verdict::Valid && !r.2));
         let runs_all = runs.lock().unwrap().clone();
         // The first round (64 cells each) finishes 1, 5, 40 and 2, the second (4,033
@@ -1350,12 +1289,63 @@ mod tests {
                 (Verdict::Undecided, stop, true)
             }
         };
-        let out = shared(&ids, 6000, search);
+        let out = shared(
+            &ids,
+            6000,
+            |i| i,
+            |&mut i: &mut usize, stop| search(i, stop),
+        );
         let stopped: Vec<usize> = (0..needs.len()).filter(|&k| out[k].2).collect();
         assert_eq!(stopped, vec![2, 5]);
         assert_eq!(out[2].1, 1984);
         let charged: usize = out.iter().map(|r| r.1).sum();
         assert!(charged <= 6000, "{charged}");
+    }
+
+    /// A subdivision stopped and run on ([`CellSearch`], as [`shared`] runs them) gives
+    /// bitwise what one run gives: the same verdict (a fold's witness too) and the same
+    /// cells, on every Suzanne patch that goes to a subdivision, G1 and PN, stopped after
+    /// 1, 64 and 500 cells.
+    #[test]
+    fn a_search_run_on_is_the_search_run_once() {
+        let path = format!("{}/tests/data/suzanne.obj", env!("CARGO_MANIFEST_DIR"));
+        let mesh = Mesh::load(&path, &LoadOptions::default()).unwrap();
+        let mut compared = [0usize; 2];
+        for scheme in [Scheme::G1, Scheme::Pn] {
+            let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
+            for i in 0..table.len() {
+                let Some(geom) = classify(&table, i, &mut scratch()).1 else {
+                    continue;
+                };
+                let once = check_within(&table, i, &geom, MAX_DEPTH, MAX_CELLS, usize::MAX);
+                for first in [1, 64, 500] {
+                    let mut search = super::CellSearch::new(i, MAX_DEPTH, MAX_CELLS);
+                    let early = search.run(&table, &geom, first);
+                    let on = if early.2 {
+                        search.run(&table, &geom, usize::MAX)
+                    } else {
+                        early
+                    };
+                    let bits = |v: &Verdict| match *v {
+                        Verdict::Folded { s, t, jacobian } => {
+                            [s, t, jacobian].map(f64::to_bits).to_vec()
+                        }
+                        Verdict::Valid => vec![0],
+                        Verdict::Undecided => vec![1],
+                    };
+                    assert_eq!(
+                        (bits(&on.0), on.1, on.2),
+                        (bits(&once.0), once.1, once.2),
+                        "{scheme} {i} {first}"
+                    );
+                    // Stopped only where one run takes more cells.
+                    assert_eq!(early.2, once.1 > first, "{scheme} {i}");
+                    compared[early.2 as usize] += 1;
+                }
+            }
+        }
+        // Searches that finished within their first stop, and searches stopped and run on.
+        assert_eq!(compared, [416, 490]);
     }
 
     /// A G1 patch whose normals lie in its triangle's plane is never certified: J's
