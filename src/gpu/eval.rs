@@ -282,7 +282,8 @@ pub struct Buffers {
 }
 
 impl Buffers {
-    /// Allocates buffers of the given sizes in bytes (each rounded up to a multiple of 16).
+    /// Allocates buffers of the given sizes in bytes (each rounded up to a multiple of 16),
+    /// the staging buffer as large as the output.
     pub fn new(
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
@@ -291,6 +292,29 @@ impl Buffers {
         out_bytes: u64,
         grid_weights_bytes: u64,
     ) -> Buffers {
+        Self::with_staging(
+            device,
+            layout,
+            [
+                patch_data_bytes,
+                points_bytes,
+                out_bytes,
+                grid_weights_bytes,
+            ],
+            out_bytes,
+        )
+    }
+
+    /// [`Buffers::new`] with sizes `[patch data, points, out, grid weights]` and a staging
+    /// buffer of `staging_bytes` (16 where nothing is read back: a mappable buffer is
+    /// host memory the driver may pin).
+    pub fn with_staging(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        sizes: [u64; 4],
+        staging_bytes: u64,
+    ) -> Buffers {
+        let [patch_data_bytes, points_bytes, out_bytes, grid_weights_bytes] = sizes;
         let size = |b: u64| b.max(16).div_ceil(16) * 16;
         let buffer = |label, bytes, usage| {
             device.create_buffer(&wgpu::BufferDescriptor {
@@ -309,7 +333,7 @@ impl Buffers {
         let patch_data = buffer("patch data", patch_data_bytes, U::STORAGE | U::COPY_DST);
         let points = buffer("points", points_bytes.max(32), U::STORAGE | U::COPY_DST);
         let out = buffer("out", out_bytes, U::STORAGE | U::COPY_SRC);
-        let staging = buffer("staging", out_bytes, U::MAP_READ | U::COPY_DST);
+        let staging = buffer("staging", staging_bytes, U::MAP_READ | U::COPY_DST);
         let grid_weights = buffer(
             "grid weights",
             grid_weights_bytes.max(32),
@@ -954,13 +978,18 @@ impl GpuEvaluator {
             }
             _ => None,
         };
-        let buffers = Buffers::new(
+        let out_bytes = (out_samples * sample_bytes) as u64;
+        let buffers = Buffers::with_staging(
             device,
             &self.layout,
-            (patches_per_chunk * upload_bytes) as u64,
-            32,
-            (out_samples * sample_bytes) as u64,
-            if use_table { table_bytes } else { 32 },
+            [
+                (patches_per_chunk * upload_bytes) as u64,
+                32,
+                out_bytes,
+                if use_table { table_bytes } else { 32 },
+            ],
+            // Nothing is read back into a target that keeps nothing.
+            if target.reads() { out_bytes } else { 16 },
         );
         let patch_uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("grid basis (uniform)"),
