@@ -79,8 +79,10 @@ use quick::{quick_flat, quick_half, quick_quartic, Quick};
 use quick::{quick_gregory, NormalPart};
 pub use stream::{check_in_chunks, Certifier};
 #[cfg(test)]
+use subdivide::check_within;
+#[cfg(test)]
 use subdivide::children;
-use subdivide::{check_within, CellSearch};
+use subdivide::CellSearch;
 #[cfg(test)]
 use {super::PatchBuilder, crate::Result};
 
@@ -288,6 +290,29 @@ fn check_listed(
         let geom = Geometry::new(table, s.i);
         s.run(table, &geom, stop)
     };
+    // A first subdivision records what its cells give; where it leaves its patch undecided
+    // (not stopped), the deeper one reads that instead of computing it again, within
+    // [`MEMO_CELLS`] cells in all. Which memos are kept can vary from run to run; the
+    // verdicts cannot (a memo holds what the computation gives, bit for bit).
+    let memos = std::sync::Mutex::new(std::collections::HashMap::new());
+    let room = std::sync::atomic::AtomicUsize::new(MEMO_CELLS);
+    let first_search = |s: &mut CellSearch, stop: usize| {
+        let r = search(s, stop);
+        if !r.2 {
+            // Finished: the memo goes with it, or to the deeper subdivision.
+            let memo = s.take_memo();
+            if let (Verdict::Undecided, Some(m)) = (r.0, memo) {
+                use std::sync::atomic::Ordering::Relaxed;
+                let fits = room
+                    .fetch_update(Relaxed, Relaxed, |left| left.checked_sub(m.len()))
+                    .is_ok();
+                if fits {
+                    memos.lock().expect("memo table").insert(s.i, m);
+                }
+            }
+        }
+        r
+    };
     let mut out = vec![(Verdict::Undecided, 0, false); listed.len()];
     let mut store = |ks: &[usize], results: Vec<(Verdict, usize, bool)>| {
         for (&k, (v, cells, stopped)) in ks.iter().zip(results) {
@@ -300,8 +325,8 @@ fn check_listed(
     let results = shared(
         &ks,
         budget(FIRST_FLOOR, FIRST_SHARE),
-        start(MAX_DEPTH, MAX_CELLS),
-        search,
+        |k| start(MAX_DEPTH, MAX_CELLS)(k).recording(),
+        first_search,
     );
     let deeper: Vec<usize> = ks
         .iter()
@@ -321,12 +346,22 @@ fn check_listed(
     let results = shared(
         &deeper,
         budget(DEEP_FLOOR, DEEP_SHARE),
-        start(DEEP_DEPTH, DEEP_CELLS),
+        |k| {
+            let s = start(DEEP_DEPTH, DEEP_CELLS)(k);
+            match memos.lock().expect("memo table").remove(&s.i) {
+                Some(m) => s.reading(m),
+                None => s,
+            }
+        },
         search,
     );
     store(&deeper, results);
     out
 }
+
+/// Cells whose bounds the first subdivisions of a range keep for the deeper ones
+/// ([`check_listed`]), at most: about 260 bytes each, so about 70 MB.
+const MEMO_CELLS: usize = 1 << 18;
 
 /// Cells of each search in the first round of [`shared`], at most: most patches need a
 /// few.
@@ -981,9 +1016,16 @@ pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
         (stage, Some(geom)) => (stage, geom),
         (stage, None) => (stage, Geometry::new(table, i)),
     };
-    match check_within(table, i, &geom, MAX_DEPTH, MAX_CELLS, usize::MAX).0 {
+    // The first subdivision records what its cells give, which the deeper reads.
+    let mut first = CellSearch::new(i, MAX_DEPTH, MAX_CELLS).recording();
+    match first.run(table, &geom, usize::MAX).0 {
         Verdict::Undecided if stage == Stage::First => {
-            check_within(table, i, &geom, DEEP_DEPTH, DEEP_CELLS, usize::MAX).0
+            let deep = CellSearch::new(i, DEEP_DEPTH, DEEP_CELLS);
+            let mut deep = match first.take_memo() {
+                Some(m) => deep.reading(m),
+                None => deep,
+            };
+            deep.run(table, &geom, usize::MAX).0
         }
         v => v,
     }
@@ -1346,6 +1388,61 @@ mod tests {
         }
         // Searches that finished within their first stop, and searches stopped and run on.
         assert_eq!(compared, [416, 490]);
+    }
+
+    /// A deeper subdivision that reads what the first recorded ([`super::CellSearch`]'s
+    /// memo) gives bitwise what one without it gives, run at once or stopped after 64
+    /// cells and run on: on every patch of Suzanne's G1 surface that the first subdivision
+    /// leaves undecided.
+    #[test]
+    fn a_deeper_search_reading_the_first_is_the_deeper_search() {
+        use super::{CellSearch, DEEP_CELLS, DEEP_DEPTH};
+        let bits = |r: (Verdict, usize, bool)| {
+            let v = match r.0 {
+                Verdict::Folded { s, t, jacobian } => [s, t, jacobian].map(f64::to_bits),
+                Verdict::Valid => [0; 3],
+                Verdict::Undecided => [1; 3],
+            };
+            (v, r.1, r.2)
+        };
+        let mut deeper = Vec::new();
+        for (file, scheme) in [("suzanne", Scheme::G1), ("suzanne", Scheme::Pn)] {
+            let path = format!("{}/tests/data/{file}.obj", env!("CARGO_MANIFEST_DIR"));
+            let mesh = Mesh::load(&path, &LoadOptions::default()).unwrap();
+            let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
+            let mut count = 0;
+            for i in 0..table.len() {
+                let (Stage::First, Some(geom)) = classify(&table, i, &mut scratch()) else {
+                    continue;
+                };
+                let mut first = CellSearch::new(i, MAX_DEPTH, MAX_CELLS).recording();
+                let r = first.run(&table, &geom, usize::MAX);
+                if r.0 != Verdict::Undecided {
+                    continue;
+                }
+                let plain = check_within(&table, i, &geom, DEEP_DEPTH, DEEP_CELLS, usize::MAX);
+                let memo = first.take_memo().unwrap();
+                assert!(memo.len() > 0);
+                let mut read = CellSearch::new(i, DEEP_DEPTH, DEEP_CELLS).reading(memo);
+                assert_eq!(bits(read.run(&table, &geom, usize::MAX)), bits(plain));
+                // Stopped early, then on.
+                let memo = {
+                    let mut f = CellSearch::new(i, MAX_DEPTH, MAX_CELLS).recording();
+                    f.run(&table, &geom, usize::MAX);
+                    f.take_memo().unwrap()
+                };
+                let mut read = CellSearch::new(i, DEEP_DEPTH, DEEP_CELLS).reading(memo);
+                let early = read.run(&table, &geom, 64);
+                assert!(early.2 || bits(early) == bits(plain));
+                if early.2 {
+                    assert_eq!(bits(read.run(&table, &geom, usize::MAX)), bits(plain));
+                }
+                count += 1;
+            }
+            deeper.push(count);
+        }
+        // Suzanne's PN patches left undecided are never certifiable (no deeper search).
+        assert_eq!(deeper, [6, 0]);
     }
 
     /// A G1 patch whose normals lie in its triangle's plane is never certified: J's

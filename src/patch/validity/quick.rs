@@ -1,7 +1,7 @@
 //! The certificate's quick test of a G1 (Gregory) patch on its whole domain, before any
 //! subdivision ([`quick_gregory`]): sufficient tests, each a few dozen products, that
-//! certify the bulk of the patches of a fine mesh; where they fail, the subdivision of
-//! [`super::check_within`] decides.
+//! certify the bulk of the patches of a fine mesh; where they fail, the subdivision
+//! ([`super::check_patch`]) decides.
 
 use glam::DVec3;
 

@@ -1,4 +1,4 @@
-//! The subdivision of one patch's domain ([`check_within`], [`CellSearch`]): cells
+//! The subdivision of one patch's domain ([`CellSearch`]): cells
 //! examined depth first, each certified by its bound, split into four, or searched for a
 //! witness of a fold.
 
@@ -8,6 +8,7 @@ use super::{jacobian, Cell, Geometry, PatchTable, Verdict, Work, WHOLE, WITNESS_
 /// `max_cells` cells: the verdict, the cells examined, and whether it stopped at `stop`
 /// cells (undecided then). It examines the cells in the same order whatever `stop` is,
 /// so wherever it examines no more than `stop` cells, the verdict is that without it.
+#[cfg(test)]
 pub(super) fn check_within(
     table: &PatchTable,
     i: usize,
@@ -19,11 +20,66 @@ pub(super) fn check_within(
     CellSearch::new(i, max_depth, max_cells).run(table, geom, stop)
 }
 
-/// A cell of the subdivision waiting to be examined: the cell, its depth, and its bound
-/// ([`Geometry::bound`]).
-type Pending = (Cell, u32, (f64, [f64; 3], bool));
+/// A cell's bound ([`Geometry::bound`]).
+type Bound = (f64, [f64; 3], bool);
 
-/// The subdivision of one patch ([`check_within`]), which can stop at a number of cells
+/// A cell of the subdivision waiting to be examined: the cell, its depth, and its bound.
+type Pending = (Cell, u32, Bound);
+
+/// What a subdivision found on the cells it examined, kept so that a deeper subdivision of
+/// the same patch ([`super::DEEP_DEPTH`]), which examines the same cells in the same order
+/// (with the subtrees of the cells it splits further between them), need not compute it
+/// again: per cell, in the order examined, its children's bounds where it was split, its
+/// normal part's lower bound where it was computed, and whether its witness points were
+/// evaluated (without a fold, or the subdivision would have ended there). Each is what the
+/// computation gives, bit for bit, so a subdivision that reads it gives what one without
+/// it gives.
+#[derive(Default)]
+pub(super) struct CellMemo {
+    cells: Vec<(Cell, Memo)>,
+    /// The next of `cells` that a reading search has not met.
+    next: usize,
+}
+
+#[derive(Default)]
+struct Memo {
+    children: Option<[Bound; 4]>,
+    normal_part: Option<f64>,
+    no_witness: bool,
+}
+
+impl CellMemo {
+    /// Cells remembered.
+    pub(super) fn len(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// What was found on `cell`, if it is the next cell remembered (a cell is met once).
+    fn take(&mut self, cell: &Cell) -> Option<&Memo> {
+        let (c, m) = self.cells.get(self.next)?;
+        if c != cell {
+            return None;
+        }
+        self.next += 1;
+        Some(m)
+    }
+}
+
+/// A recording search records the cells it examines after this many: most subdivisions
+/// end before (on the 2 M-triangle ogre, the first subdivisions that leave their patch
+/// undecided take 797 to 4,093 cells), and recording costs a little on each cell.
+const RECORD_AFTER: usize = 512;
+
+/// What [`CellSearch::run`] does with a cell (a split cell's children's bounds are in its
+/// [`Memo`]).
+enum Step {
+    Certified,
+    Folded(Verdict),
+    Leaf,
+    Split,
+}
+
+/// The subdivision of one patch ([`super::check_patch`]), which can stop at a number of cells
 /// and go on from there: [`CellSearch::run`] with a larger `stop` examines the cells that
 /// a new search would examine after those, in the same order, so a search stopped and run
 /// again gives what one run with the larger `stop` gives, without examining its first
@@ -37,6 +93,11 @@ pub(super) struct CellSearch {
     stack: Option<Vec<Pending>>,
     cells: usize,
     undecided: bool,
+    /// What the cells examined gave, where the search records it ([`CellSearch::recording`])
+    /// or reads it ([`CellSearch::reading`]).
+    memo: Option<CellMemo>,
+    /// Whether `memo` is being written (else read).
+    records: bool,
 }
 
 impl CellSearch {
@@ -48,7 +109,30 @@ impl CellSearch {
             stack: None,
             cells: 0,
             undecided: false,
+            memo: None,
+            records: false,
         }
+    }
+
+    /// A search that records what its cells give ([`CellSearch::take_memo`]).
+    pub(super) fn recording(mut self) -> CellSearch {
+        self.memo = Some(CellMemo::default());
+        self.records = true;
+        self
+    }
+
+    /// A search that reads what `memo` (recorded by a search of the same patch) holds
+    /// instead of computing it again.
+    pub(super) fn reading(mut self, memo: CellMemo) -> CellSearch {
+        self.memo = Some(memo);
+        self.records = false;
+        self
+    }
+
+    /// What a recording search recorded (nothing after a stop: a search stopped records
+    /// afresh from where it goes on, so memory stays with the searches running).
+    pub(super) fn take_memo(&mut self) -> Option<CellMemo> {
+        self.memo.take()
     }
 
     /// Goes on until the verdict, or until `stop` cells in all (undecided and stopped:
@@ -84,43 +168,76 @@ impl CellSearch {
                     .insert(vec![(WHOLE, 0u32, geom.bound(&WHOLE, &mut work.one))])
             }
         };
+        let records = self.records;
         while let Some(next) = stack.pop() {
             if self.cells >= stop {
                 // Put back: the next run examines it first.
                 stack.push(next);
+                if records {
+                    // What it held is dropped; the search records again from here.
+                    self.memo = Some(CellMemo::default());
+                }
                 return (Verdict::Undecided, self.cells, true);
             }
             let (cell, depth, (lower, b, suspect)) = next;
             self.cells += 1;
-            if lower > 0.0
-                || geom
-                    .normal_part
-                    .as_ref()
-                    .is_some_and(|q| q.lower(&cell, &mut work.one) > 0.0)
-            {
-                continue;
-            }
-            let leaf = depth >= self.max_depth || self.cells + stack.len() + 4 > self.max_cells;
-            // Witnesses (two evaluations of the patch) are looked for where the polynomial
-            // part itself fails, deep in the subdivision and at a last cell; elsewhere the
-            // cell only needs a smaller remainder, which its children get.
-            if suspect || leaf || depth >= WITNESS_DEPTH {
-                let centroid =
-                    std::array::from_fn(|j| (cell[0][j] + cell[1][j] + cell[2][j]) / 3.0);
-                for p in [b, centroid] {
-                    if let Some(v) = witness(p) {
-                        return (v, self.cells, false);
+            // What a recording search found here (read by a deeper one).
+            let known = match &mut self.memo {
+                Some(m) if !records => m
+                    .take(&cell)
+                    .map(|m| (m.normal_part, m.children, m.no_witness)),
+                _ => None,
+            };
+            let (known_np, known_children, no_witness) = known.unwrap_or((None, None, false));
+            let mut found = Memo::default();
+            let step = 'cell: {
+                if lower > 0.0 {
+                    break 'cell Step::Certified;
+                }
+                if let Some(q) = &geom.normal_part {
+                    let l = known_np.unwrap_or_else(|| q.lower(&cell, &mut work.one));
+                    found.normal_part = Some(l);
+                    if l > 0.0 {
+                        break 'cell Step::Certified;
                     }
                 }
+                let leaf = depth >= self.max_depth || self.cells + stack.len() + 4 > self.max_cells;
+                // Witnesses (two evaluations of the patch) are looked for where the
+                // polynomial part itself fails, deep in the subdivision and at a last cell;
+                // elsewhere the cell only needs a smaller remainder, which its children get.
+                if (suspect || leaf || depth >= WITNESS_DEPTH) && !no_witness {
+                    let centroid =
+                        std::array::from_fn(|j| (cell[0][j] + cell[1][j] + cell[2][j]) / 3.0);
+                    for p in [b, centroid] {
+                        if let Some(v) = witness(p) {
+                            break 'cell Step::Folded(v);
+                        }
+                    }
+                    found.no_witness = true;
+                }
+                if leaf {
+                    break 'cell Step::Leaf;
+                }
+                let bounds =
+                    known_children.unwrap_or_else(|| geom.bound4(&children(&cell), &mut work.four));
+                found.children = Some(bounds);
+                Step::Split
+            };
+            if let Step::Split = step {
+                let bounds = found.children.expect("a split cell's children's bounds");
+                for (child, bound) in children(&cell).into_iter().zip(bounds) {
+                    stack.push((child, depth + 1, bound));
+                }
             }
-            if leaf {
-                self.undecided = true;
-                continue;
+            if let (true, Some(m)) = (records && self.cells > RECORD_AFTER, &mut self.memo) {
+                if found.normal_part.is_some() || found.children.is_some() || found.no_witness {
+                    m.cells.push((cell, found));
+                }
             }
-            let children = children(&cell);
-            let bounds = geom.bound4(&children, &mut work.four);
-            for (child, bound) in children.into_iter().zip(bounds) {
-                stack.push((child, depth + 1, bound));
+            match step {
+                Step::Folded(v) => return (v, self.cells, false),
+                Step::Leaf => self.undecided = true,
+                Step::Certified | Step::Split => {}
             }
         }
         let v = if self.undecided {
