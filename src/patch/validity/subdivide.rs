@@ -1,8 +1,15 @@
 //! The subdivision of one patch's domain ([`CellSearch`]): cells
 //! examined depth first, each certified by its bound, split into four, or searched for a
-//! witness of a fold.
+//! witness of a fold; and the subdivisions of many patches within shared budgets
+//! ([`check_listed`]).
 
-use super::{jacobian, Cell, Geometry, PatchTable, Verdict, Work, WHOLE, WITNESS_DEPTH};
+use rayon::prelude::*;
+
+use super::{
+    jacobian, Cell, Geometry, PatchTable, Stage, Verdict, Work, DEEP_CELLS, DEEP_DEPTH, DEEP_FLOOR,
+    DEEP_SHARE, FIRST_FLOOR, FIRST_SHARE, MAX_CELLS, MAX_DEPTH, WHOLE, WITNESS_DEPTH,
+    WITNESS_FLOOR, WITNESS_SHARE,
+};
 
 /// [`check_patch`] by subdivision of the patch (`geom`) down to `max_depth` levels or
 /// `max_cells` cells: the verdict, the cells examined, and whether it stopped at `stop`
@@ -261,4 +268,168 @@ pub(super) fn children(cell: &Cell) -> [Cell; 4] {
         [m01, u1, m12],
         [m20, m12, u2],
     ]
+}
+
+/// The subdivisions of the patches `listed` of `table` (patch index and first stage,
+/// neither [`Stage::Done`], in increasing order), within the budgets of a range of `n`
+/// patches ([`check_range`]): per listed patch, its verdict, the cells examined, and
+/// whether a search stopped at its share. The verdicts depend on the listed patches, their
+/// order and `n` only, so a caller may list patches of a table that holds nothing else.
+pub(super) fn check_listed(
+    table: &PatchTable,
+    listed: &[(usize, Stage)],
+    n: usize,
+) -> Vec<(Verdict, usize, bool)> {
+    let budget = |floor: usize, per_patch: usize| floor.max(per_patch.saturating_mul(n));
+    let of = |kind: Stage| -> Vec<usize> {
+        (0..listed.len()).filter(|&k| listed[k].1 == kind).collect()
+    };
+    // Each search keeps its waiting cells between rounds; its patch's geometry is built
+    // again for each round (a small part of a round's cells).
+    let start =
+        |depth: u32, cells: usize| move |k: usize| CellSearch::new(listed[k].0, depth, cells);
+    let search = |s: &mut CellSearch, stop: usize| {
+        let geom = Geometry::new(table, s.i);
+        s.run(table, &geom, stop)
+    };
+    // A first subdivision records what its cells give; where it leaves its patch undecided
+    // (not stopped), the deeper one reads that instead of computing it again, within
+    // [`MEMO_CELLS`] cells in all. Which memos are kept can vary from run to run; the
+    // verdicts cannot (a memo holds what the computation gives, bit for bit).
+    let memos = std::sync::Mutex::new(std::collections::HashMap::new());
+    let room = std::sync::atomic::AtomicUsize::new(MEMO_CELLS);
+    let first_search = |s: &mut CellSearch, stop: usize| {
+        let r = search(s, stop);
+        if !r.2 {
+            // Finished: the memo goes with it, or to the deeper subdivision.
+            let memo = s.take_memo();
+            if let (Verdict::Undecided, Some(m)) = (r.0, memo) {
+                use std::sync::atomic::Ordering::Relaxed;
+                let fits = room
+                    .fetch_update(Relaxed, Relaxed, |left| left.checked_sub(m.len()))
+                    .is_ok();
+                if fits {
+                    memos.lock().expect("memo table").insert(s.i, m);
+                }
+            }
+        }
+        r
+    };
+    let mut out = vec![(Verdict::Undecided, 0, false); listed.len()];
+    let mut store = |ks: &[usize], results: Vec<(Verdict, usize, bool)>| {
+        for (&k, (v, cells, stopped)) in ks.iter().zip(results) {
+            let o = &mut out[k];
+            *o = (v, o.1 + cells, stopped);
+        }
+    };
+    // The first subdivisions; those they leave undecided (not stopped) go deeper.
+    let ks = of(Stage::First);
+    let results = shared(
+        &ks,
+        budget(FIRST_FLOOR, FIRST_SHARE),
+        |k| start(MAX_DEPTH, MAX_CELLS)(k).recording(),
+        first_search,
+    );
+    let deeper: Vec<usize> = ks
+        .iter()
+        .zip(&results)
+        .filter(|(_, r)| r.0 == Verdict::Undecided && !r.2)
+        .map(|(&k, _)| k)
+        .collect();
+    store(&ks, results);
+    let ks = of(Stage::Witness);
+    let results = shared(
+        &ks,
+        budget(WITNESS_FLOOR, WITNESS_SHARE),
+        start(MAX_DEPTH, MAX_CELLS),
+        search,
+    );
+    store(&ks, results);
+    let results = shared(
+        &deeper,
+        budget(DEEP_FLOOR, DEEP_SHARE),
+        |k| {
+            let s = start(DEEP_DEPTH, DEEP_CELLS)(k);
+            match memos.lock().expect("memo table").remove(&s.i) {
+                Some(m) => s.reading(m),
+                None => s,
+            }
+        },
+        search,
+    );
+    store(&deeper, results);
+    out
+}
+
+/// Cells whose bounds the first subdivisions of a range keep for the deeper ones
+/// ([`check_listed`]), at most: about 260 bytes each, so about 70 MB.
+const MEMO_CELLS: usize = 1 << 18;
+
+/// Cells of each search in the first round of [`shared`], at most: most patches need a
+/// few.
+const FIRST_ROUND: usize = 64;
+
+/// Searches that [`shared`] keeps from one round to the next, at most: each holds its
+/// waiting cells (at most 3 per level of the subdivision, about 4 KB at its deepest), so
+/// they hold at most about 32 MB. Past this many, a search stopped is run again from its
+/// start, which gives the same result for more work.
+const KEPT_SEARCHES: usize = 8192;
+
+/// `search(state, stop)` (the verdict, the cells examined, whether it stopped at `stop`) of
+/// every patch of `ids`, in parallel, within `budget` cells, each from its `start(i)`. The
+/// first round gives each search an equal share of the budget, at most [`FIRST_ROUND`]
+/// cells; each further round runs the searches that stopped again, each with an equal
+/// share of what the finished ones left over, while that share at least doubles. A search
+/// examines its cells in the same order whatever its share, and one that stops goes on
+/// from its state in the next round (or, past [`KEPT_SEARCHES`], starts again, repeating
+/// its start); only its last count is charged: the work is at most twice the budget, plus
+/// the first round.
+pub(super) fn shared<S, F>(
+    ids: &[usize],
+    budget: usize,
+    start: impl Fn(usize) -> S + Sync,
+    search: F,
+) -> Vec<(Verdict, usize, bool)>
+where
+    S: Send,
+    F: Fn(&mut S, usize) -> (Verdict, usize, bool) + Sync,
+{
+    let mut out = vec![(Verdict::Undecided, 0, false); ids.len()];
+    // Positions in `ids` of the searches not finished (with the state of those kept), and
+    // the cells the finished used.
+    let mut open: Vec<(usize, Option<S>)> = (0..ids.len()).map(|k| (k, None)).collect();
+    let mut used = 0usize;
+    let mut share = 0usize;
+    while !open.is_empty() {
+        let even = budget.saturating_sub(used) / open.len();
+        let next = if share == 0 {
+            even.min(FIRST_ROUND)
+        } else {
+            even
+        };
+        if next == 0 || next < 2 * share {
+            break;
+        }
+        share = next;
+        let results: Vec<(usize, S, (Verdict, usize, bool))> = open
+            .into_par_iter()
+            .map(|(k, state)| {
+                let mut state = state.unwrap_or_else(|| start(ids[k]));
+                let r = search(&mut state, share);
+                (k, state, r)
+            })
+            .collect();
+        let mut still = Vec::new();
+        for (k, state, r) in results {
+            out[k] = r;
+            if r.2 {
+                let keep = still.len() < KEPT_SEARCHES;
+                still.push((k, keep.then_some(state)));
+            } else {
+                used += r.1;
+            }
+        }
+        open = still;
+    }
+    out
 }
