@@ -152,33 +152,52 @@ impl Geometry {
                 jc[g][l] += w * (s[0][l] * tb[0][l] + s[1][l] * tb[1][l] + s[2][l] * tb[2][l]);
             }
         }
+        // As `finish`, the four lanes side by side: |S_s| and |S_t| bounds (largest lengths,
+        // in coefficient order), `Across::maxima` (largest |d · (ΔG_m × n)|, likewise), and
+        // J's smallest coefficient (the first smallest, as `conclude`); each lane's values
+        // are those of its own fold, the same operations in the same order.
+        let (mut ps, mut pt) = ([0.0f64; 4], [0.0f64; 4]);
+        for v in &r[..dlen] {
+            for l in 0..4 {
+                ps[l] = f64::max(ps[l], length(&v[0], l));
+                pt[l] = f64::max(pt[l], length(&v[1], l));
+            }
+        }
+        let sides = self.normal_part.as_ref().map(|q| {
+            let mut sides = [[[0.0f64; 4]; 3]; 2];
+            for d in &r[..dlen] {
+                for (v, side) in sides.iter_mut().enumerate() {
+                    let x = &d[v];
+                    for (m, most) in side.iter_mut().enumerate() {
+                        let g = q.across.gn[m];
+                        for l in 0..4 {
+                            let a = dot([x[0][l], x[1][l], x[2][l]], g).abs();
+                            most[l] = f64::max(most[l], a);
+                        }
+                    }
+                }
+            }
+            sides
+        });
+        let jlen = t.powers[2 * m as usize].len();
+        let (mut imin, mut jmin) = ([0usize; 4], [f64::INFINITY; 4]);
+        for (g, c) in jc[..jlen].iter().enumerate() {
+            for l in 0..4 {
+                if c[l] < jmin[l] {
+                    (imin[l], jmin[l]) = (g, c[l]);
+                }
+            }
+        }
         std::array::from_fn(|l| {
-            let ps = r[..dlen]
-                .iter()
-                .map(|v| length(&v[0], l))
-                .fold(0.0, f64::max);
-            let pt = r[..dlen]
-                .iter()
-                .map(|v| length(&v[1], l))
-                .fold(0.0, f64::max);
-            let lane: [f64; 45] = std::array::from_fn(|g| jc[g][l]);
-            // As `finish`: `Across::maxima` in lane l.
-            let maxima = |q: &Across| {
-                let side = |v: usize| {
-                    std::array::from_fn(|m| {
-                        r[..dlen]
-                            .iter()
-                            .map(|d| {
-                                let x = &d[v];
-                                dot([x[0][l], x[1][l], x[2][l]], q.gn[m]).abs()
-                            })
-                            .fold(0.0, f64::max)
-                    })
-                };
-                (side(0), side(1))
+            let maxima = |_: &Across| {
+                let s = sides.as_ref().expect("the normal part's maxima");
+                (
+                    std::array::from_fn(|m| s[0][m][l]),
+                    std::array::from_fn(|m| s[1][m][l]),
+                )
             };
-            let remainder = self.remainder(ps, pt, &slopes[l], maxima);
-            self.conclude(&lane, remainder, &cells[l])
+            let remainder = self.remainder(ps[l], pt[l], &slopes[l], maxima);
+            self.conclude_at(imin[l], jmin[l], remainder, &cells[l])
         })
     }
 }

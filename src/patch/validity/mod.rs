@@ -749,6 +749,20 @@ impl Geometry {
                     (0, f64::INFINITY),
                     |a, (i, v)| if v < a.1 { (i, v) } else { a },
                 );
+        self.conclude_at(imin, jmin, remainder, cell)
+    }
+
+    /// [`Self::conclude`] from J's smallest coefficient `jmin`, the first at index `imin`.
+    #[inline(always)]
+    fn conclude_at(
+        &self,
+        imin: usize,
+        jmin: f64,
+        remainder: f64,
+        cell: &Cell,
+    ) -> (f64, [f64; 3], bool) {
+        let t = tables();
+        let m = self.n.max(1) - 1;
         let lower = jmin - remainder - self.tol;
         // The Greville point of the smallest coefficient, mapped into the cell.
         let g = t.powers[2 * m as usize][imin];
