@@ -1244,8 +1244,9 @@ mod tests {
 
     /// A deeper subdivision that reads what the first recorded ([`super::CellSearch`]'s
     /// memo) gives bitwise what one without it gives, run at once or stopped after 64
-    /// cells and run on: on every patch of Suzanne's G1 surface that the first subdivision
-    /// leaves undecided.
+    /// cells and run on, and with the memo of a first subdivision that was itself stopped
+    /// and run on: on every patch of Suzanne's G1 surface that the first subdivision leaves
+    /// undecided. A search that has ended gives its result again.
     #[test]
     fn a_deeper_search_reading_the_first_is_the_deeper_search() {
         use super::{CellSearch, DEEP_CELLS, DEEP_DEPTH};
@@ -1277,12 +1278,17 @@ mod tests {
                 assert!(memo.len() > 0);
                 let mut read = CellSearch::new(i, DEEP_DEPTH, DEEP_CELLS).reading(memo);
                 assert_eq!(bits(read.run(&table, &geom, usize::MAX)), bits(plain));
-                // Stopped early, then on.
+                assert_eq!(bits(read.run(&table, &geom, usize::MAX)), bits(plain));
+                assert_eq!(bits(first.run(&table, &geom, usize::MAX)), bits(r));
+                // A memo of a first search stopped after 64 cells and run on (it records
+                // afresh from there), read by a deeper search also stopped and run on.
                 let memo = {
                     let mut f = CellSearch::new(i, MAX_DEPTH, MAX_CELLS).recording();
-                    f.run(&table, &geom, usize::MAX);
+                    assert!(f.run(&table, &geom, 64).2);
+                    assert_eq!(bits(f.run(&table, &geom, usize::MAX)), bits(r));
                     f.take_memo().unwrap()
                 };
+                assert!(memo.len() > 0);
                 let mut read = CellSearch::new(i, DEEP_DEPTH, DEEP_CELLS).reading(memo);
                 let early = read.run(&table, &geom, 64);
                 assert!(early.2 || bits(early) == bits(plain));

@@ -11,7 +11,7 @@ use super::{
     WITNESS_FLOOR, WITNESS_SHARE,
 };
 
-/// [`check_patch`] by subdivision of the patch (`geom`) down to `max_depth` levels or
+/// [`super::check_patch`] by subdivision of the patch (`geom`) down to `max_depth` levels or
 /// `max_cells` cells: the verdict, the cells examined, and whether it stopped at `stop`
 /// cells (undecided then). It examines the cells in the same order whatever `stop` is,
 /// so wherever it examines no more than `stop` cells, the verdict is that without it.
@@ -26,6 +26,9 @@ pub(super) fn check_within(
 ) -> (Verdict, usize, bool) {
     CellSearch::new(i, max_depth, max_cells).run(table, geom, stop)
 }
+
+/// What a search gives: the verdict, the cells examined, whether it stopped at its share.
+type Outcome = (Verdict, usize, bool);
 
 /// A cell's bound ([`Geometry::bound`]).
 type Bound = (f64, [f64; 3], bool);
@@ -100,6 +103,8 @@ pub(super) struct CellSearch {
     stack: Option<Vec<Pending>>,
     cells: usize,
     undecided: bool,
+    /// The result once the search has ended (not stopped): a search run again gives it.
+    done: Option<(Verdict, usize, bool)>,
     /// What the cells examined gave, where the search records it ([`CellSearch::recording`])
     /// or reads it ([`CellSearch::reading`]).
     memo: Option<CellMemo>,
@@ -116,6 +121,7 @@ impl CellSearch {
             stack: None,
             cells: 0,
             undecided: false,
+            done: None,
             memo: None,
             records: false,
         }
@@ -145,6 +151,25 @@ impl CellSearch {
     /// Goes on until the verdict, or until `stop` cells in all (undecided and stopped:
     /// the search can go on); `geom` is the patch's [`Geometry`] each time.
     pub(super) fn run(
+        &mut self,
+        table: &PatchTable,
+        geom: &Geometry,
+        stop: usize,
+    ) -> (Verdict, usize, bool) {
+        if let Some(r) = self.done {
+            return r;
+        }
+        let r = self.go_on(table, geom, stop);
+        if !r.2 {
+            // Ended: its waiting cells are not needed again.
+            self.done = Some(r);
+            self.stack = Some(Vec::new());
+        }
+        r
+    }
+
+    /// [`CellSearch::run`] of a search not ended.
+    fn go_on(
         &mut self,
         table: &PatchTable,
         geom: &Geometry,
@@ -303,12 +328,14 @@ pub(super) fn check_listed(
         if !r.2 {
             // Finished: the memo goes with it, or to the deeper subdivision.
             let memo = s.take_memo();
-            if let (Verdict::Undecided, Some(m)) = (r.0, memo) {
+            if let (Verdict::Undecided, Some(mut m)) = (r.0, memo) {
+                // Charged by what it holds.
+                m.cells.shrink_to_fit();
                 use std::sync::atomic::Ordering::Relaxed;
                 let fits = room
                     .fetch_update(Relaxed, Relaxed, |left| left.checked_sub(m.len()))
                     .is_ok();
-                if fits {
+                if fits && m.len() > 0 {
                     memos.lock().expect("memo table").insert(s.i, m);
                 }
             }
@@ -362,18 +389,21 @@ pub(super) fn check_listed(
 }
 
 /// Cells whose bounds the first subdivisions of a range keep for the deeper ones
-/// ([`check_listed`]), at most: about 260 bytes each, so about 70 MB.
+/// ([`check_listed`]), at most: about 260 bytes each, so about 70 MB (each memo shrunk to
+/// what it holds before it is charged). A first subdivision running records at most
+/// [`super::MAX_CELLS`] cells (about 1 MB) until it ends.
 const MEMO_CELLS: usize = 1 << 18;
 
 /// Cells of each search in the first round of [`shared`], at most: most patches need a
 /// few.
 const FIRST_ROUND: usize = 64;
 
-/// Searches that [`shared`] keeps from one round to the next, at most: each holds its
-/// waiting cells (at most 3 per level of the subdivision, about 4 KB at its deepest), so
-/// they hold at most about 32 MB. Past this many, a search stopped is run again from its
-/// start, which gives the same result for more work.
-const KEPT_SEARCHES: usize = 8192;
+/// Searches that [`shared`] keeps from one round to the next, at most, and runs at once:
+/// each holds its waiting cells (at most 3 per level of its subdivision and one more, about
+/// 120 bytes each, in a vector of at most 64: about 8 KB), so the kept searches and those
+/// running hold at most about 64 MB. Past this many, a search stopped is run again from its
+/// start in the next round, which gives the same result for more work.
+const KEPT_SEARCHES: usize = 4096;
 
 /// `search(state, stop)` (the verdict, the cells examined, whether it stopped at `stop`) of
 /// every patch of `ids`, in parallel, within `budget` cells, each from its `start(i)`. The
@@ -411,22 +441,32 @@ where
             break;
         }
         share = next;
-        let results: Vec<(usize, S, (Verdict, usize, bool))> = open
-            .into_par_iter()
-            .map(|(k, state)| {
-                let mut state = state.unwrap_or_else(|| start(ids[k]));
-                let r = search(&mut state, share);
-                (k, state, r)
-            })
-            .collect();
-        let mut still = Vec::new();
-        for (k, state, r) in results {
-            out[k] = r;
-            if r.2 {
-                let keep = still.len() < KEPT_SEARCHES;
-                still.push((k, keep.then_some(state)));
-            } else {
-                used += r.1;
+        // In batches of [`KEPT_SEARCHES`], so that the states alive at once stay bounded;
+        // a search's state is dropped where it finishes, and the first stopped ones kept.
+        let (mut still, mut kept) = (Vec::new(), 0usize);
+        let mut rest = open.into_iter();
+        loop {
+            let batch: Vec<(usize, Option<S>)> = rest.by_ref().take(KEPT_SEARCHES).collect();
+            if batch.is_empty() {
+                break;
+            }
+            let results: Vec<(usize, Option<S>, Outcome)> = batch
+                .into_par_iter()
+                .map(|(k, state)| {
+                    let mut state = state.unwrap_or_else(|| start(ids[k]));
+                    let r = search(&mut state, share);
+                    (k, r.2.then_some(state), r)
+                })
+                .collect();
+            for (k, state, r) in results {
+                out[k] = r;
+                if r.2 {
+                    let keep = kept < KEPT_SEARCHES;
+                    kept += keep as usize;
+                    still.push((k, state.filter(|_| keep)));
+                } else {
+                    used += r.1;
+                }
             }
         }
         open = still;
