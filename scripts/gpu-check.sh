@@ -30,5 +30,5 @@ for arg in "$@"; do
   case "$arg" in --levels|--levels=*) LEVELS=() ;; esac
 done
 
-echo "== $(date -u +%Y-%m-%dT%H:%M:%SZ) $(uname -srm)"
+echo "== $(date -u +%Y-%m-%dT%H:%M:%SZ) $(uname -srm)" >&2  # stdout is the report (JSON with --json)
 exec timeout 300 "$BIN" bench --gpu-check --bandwidth-mib 256 "${LEVELS[@]}" "$@"
