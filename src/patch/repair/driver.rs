@@ -137,13 +137,11 @@ impl<'a> Search<'a> {
         // again, `measure_changed`).
         let builder = PatchBuilder::new(mesh, scheme, opts)?;
         let mut faces: Vec<DVec3> = Vec::with_capacity(mesh.triangles.len());
-        let (mut verdicts, _) = check_in_chunks(&builder, START_CHUNK, |table, _, _| {
+        let (mut verdicts, decided) = check_in_chunks(&builder, START_CHUNK, |table, _, _| {
             faces.extend_from_slice(&table.flat_normals);
             Ok(())
         })?;
-        let before = verdicts
-            .iter()
-            .fold(PatchCounts::default(), PatchCounts::with);
+        let before = decided.counts;
         let mut bad = uncertified(&verdicts);
         if bad.is_empty() {
             return Ok(Err(before));

@@ -23,7 +23,7 @@ pub(super) fn check_within(
     max_depth: u32,
     max_cells: usize,
     stop: usize,
-) -> (Verdict, usize, bool) {
+) -> Outcome {
     CellSearch::new(i, max_depth, max_cells).run(table, geom, stop)
 }
 
@@ -51,7 +51,7 @@ pub(super) struct CellMemo {
     next: usize,
 }
 
-#[derive(Default)]
+#[derive(Clone, Copy, Default)]
 struct Memo {
     children: Option<[Bound; 4]>,
     normal_part: Option<f64>,
@@ -80,8 +80,7 @@ impl CellMemo {
 /// undecided take 797 to 4,093 cells), and recording costs a little on each cell.
 const RECORD_AFTER: usize = 512;
 
-/// What [`CellSearch::run`] does with a cell (a split cell's children's bounds are in its
-/// [`Memo`]).
+/// What [`CellSearch::run`] did with a cell (a split cell's children are on its stack).
 enum Step {
     Certified,
     Folded(Verdict),
@@ -104,7 +103,7 @@ pub(super) struct CellSearch {
     cells: usize,
     undecided: bool,
     /// The result once the search has ended (not stopped): a search run again gives it.
-    done: Option<(Verdict, usize, bool)>,
+    done: Option<Outcome>,
     /// What the cells examined gave, where the search records it ([`CellSearch::recording`])
     /// or reads it ([`CellSearch::reading`]).
     memo: Option<CellMemo>,
@@ -142,20 +141,16 @@ impl CellSearch {
         self
     }
 
-    /// What a recording search recorded (nothing after a stop: a search stopped records
-    /// afresh from where it goes on, so memory stays with the searches running).
+    /// What a recording search recorded since its last stop (a search stopped drops what
+    /// it recorded and records afresh from where it goes on, so memory stays with the
+    /// searches running).
     pub(super) fn take_memo(&mut self) -> Option<CellMemo> {
         self.memo.take()
     }
 
     /// Goes on until the verdict, or until `stop` cells in all (undecided and stopped:
     /// the search can go on); `geom` is the patch's [`Geometry`] each time.
-    pub(super) fn run(
-        &mut self,
-        table: &PatchTable,
-        geom: &Geometry,
-        stop: usize,
-    ) -> (Verdict, usize, bool) {
+    pub(super) fn run(&mut self, table: &PatchTable, geom: &Geometry, stop: usize) -> Outcome {
         if let Some(r) = self.done {
             return r;
         }
@@ -169,12 +164,7 @@ impl CellSearch {
     }
 
     /// [`CellSearch::run`] of a search not ended.
-    fn go_on(
-        &mut self,
-        table: &PatchTable,
-        geom: &Geometry,
-        stop: usize,
-    ) -> (Verdict, usize, bool) {
+    fn go_on(&mut self, table: &PatchTable, geom: &Geometry, stop: usize) -> Outcome {
         let i = self.i;
         let witness = |b: [f64; 3]| -> Option<Verdict> {
             let (j, scale) = jacobian(table, i, b);
@@ -215,19 +205,19 @@ impl CellSearch {
             self.cells += 1;
             // What a recording search found here (read by a deeper one).
             let known = match &mut self.memo {
-                Some(m) if !records => m
-                    .take(&cell)
-                    .map(|m| (m.normal_part, m.children, m.no_witness)),
+                Some(m) if !records => m.take(&cell).copied(),
                 _ => None,
-            };
-            let (known_np, known_children, no_witness) = known.unwrap_or((None, None, false));
+            }
+            .unwrap_or_default();
             let mut found = Memo::default();
             let step = 'cell: {
                 if lower > 0.0 {
                     break 'cell Step::Certified;
                 }
                 if let Some(q) = &geom.normal_part {
-                    let l = known_np.unwrap_or_else(|| q.lower(&cell, &mut work.one));
+                    let l = known
+                        .normal_part
+                        .unwrap_or_else(|| q.lower(&cell, &mut work.one));
                     found.normal_part = Some(l);
                     if l > 0.0 {
                         break 'cell Step::Certified;
@@ -237,7 +227,7 @@ impl CellSearch {
                 // Witnesses (two evaluations of the patch) are looked for where the
                 // polynomial part itself fails, deep in the subdivision and at a last cell;
                 // elsewhere the cell only needs a smaller remainder, which its children get.
-                if (suspect || leaf || depth >= WITNESS_DEPTH) && !no_witness {
+                if (suspect || leaf || depth >= WITNESS_DEPTH) && !known.no_witness {
                     let centroid =
                         std::array::from_fn(|j| (cell[0][j] + cell[1][j] + cell[2][j]) / 3.0);
                     for p in [b, centroid] {
@@ -250,17 +240,15 @@ impl CellSearch {
                 if leaf {
                     break 'cell Step::Leaf;
                 }
+                let children = children(&cell);
                 let bounds =
-                    known_children.unwrap_or_else(|| geom.bound4(&children(&cell), &mut work.four));
+                    (known.children).unwrap_or_else(|| geom.bound4(&children, &mut work.four));
                 found.children = Some(bounds);
-                Step::Split
-            };
-            if let Step::Split = step {
-                let bounds = found.children.expect("a split cell's children's bounds");
-                for (child, bound) in children(&cell).into_iter().zip(bounds) {
+                for (child, bound) in children.into_iter().zip(bounds) {
                     stack.push((child, depth + 1, bound));
                 }
-            }
+                Step::Split
+            };
             if let (true, Some(m)) = (records && self.cells > RECORD_AFTER, &mut self.memo) {
                 if found.normal_part.is_some() || found.children.is_some() || found.no_witness {
                     m.cells.push((cell, found));
@@ -304,7 +292,7 @@ pub(super) fn check_listed(
     table: &PatchTable,
     listed: &[(usize, Stage)],
     n: usize,
-) -> Vec<(Verdict, usize, bool)> {
+) -> Vec<Outcome> {
     let budget = |floor: usize, per_patch: usize| floor.max(per_patch.saturating_mul(n));
     let of = |kind: Stage| -> Vec<usize> {
         (0..listed.len()).filter(|&k| listed[k].1 == kind).collect()
@@ -343,7 +331,7 @@ pub(super) fn check_listed(
         r
     };
     let mut out = vec![(Verdict::Undecided, 0, false); listed.len()];
-    let mut store = |ks: &[usize], results: Vec<(Verdict, usize, bool)>| {
+    let mut store = |ks: &[usize], results: Vec<Outcome>| {
         for (&k, (v, cells, stopped)) in ks.iter().zip(results) {
             let o = &mut out[k];
             *o = (v, o.1 + cells, stopped);
@@ -419,10 +407,10 @@ pub(super) fn shared<S, F>(
     budget: usize,
     start: impl Fn(usize) -> S + Sync,
     search: F,
-) -> Vec<(Verdict, usize, bool)>
+) -> Vec<Outcome>
 where
     S: Send,
-    F: Fn(&mut S, usize) -> (Verdict, usize, bool) + Sync,
+    F: Fn(&mut S, usize) -> Outcome + Sync,
 {
     let mut out = vec![(Verdict::Undecided, 0, false); ids.len()];
     // Positions in `ids` of the searches not finished (with the state of those kept), and
