@@ -192,16 +192,26 @@ impl Vector for [f32; 3] {
     }
 }
 
-/// Samples a stage gets at most (whole patches of a grid, one at least), from
-/// [`staged_chunks`] and from the CPU's f32 grid kernel: 384 KiB of f32 positions and
-/// normals, so that a chunk and what a stage builds of it (the stitcher: 28 bytes a
-/// sample) stay in a core's cache. (On the 1.1 M-triangle bunny at level 8, 2^14 took
-/// 0.75 CPU s where 2^16 took 0.85.)
+/// Samples a stage gets at most per thread of the pool ([`stage_samples`]): 384 KiB of
+/// f32 positions and normals, so that a thread's share of a chunk and what a stage builds
+/// of it (the stitcher: 28 bytes a sample) stay in a core's cache. (On the 1.1 M-triangle
+/// bunny at level 8 on 2 cores, 2^14 a stage took 0.75 CPU s where 2^16 took 0.85.)
 pub const STAGE_SAMPLES: usize = 1 << 14;
+
+/// Samples a stage gets at most (whole patches of a grid, one at least), from
+/// [`staged_chunks`] and from the CPU's f32 grid kernel: [`STAGE_SAMPLES`] for each thread
+/// of the pool (64 at most), so that every thread has a share of each stage's parallel
+/// steps. A stage's steps end in a join and the stages follow one another, so stages of
+/// 2^14 samples on 16 threads left most of them waiting: on the 2 M-triangle ogre, 16
+/// Xeon cores tessellated level 8 into memory in 1.46 s with stages of 2^14 samples and in
+/// 0.70 s with 2^18 (level 4: 0.73 and 0.43 s).
+pub(crate) fn stage_samples() -> usize {
+    STAGE_SAMPLES * rayon::current_num_threads().clamp(1, 64)
+}
 
 /// The staged evaluation through a plain one: `evaluate` hands its chunks (of items of
 /// `item_len` samples: a grid's patches, or points) to a sink that splits each into runs of
-/// whole items of at most [`STAGE_SAMPLES`] samples (one item at least), runs `stage` on
+/// whole items of at most [`stage_samples`] samples (one item at least), runs `stage` on
 /// run k + 1 on the thread pool while `sink` reads run k on the calling thread, each run
 /// staged before the sink gets it. The default of [`Evaluator::evaluate_f32_staged`] and
 /// [`Vector::evaluate_staged`].
@@ -212,7 +222,7 @@ pub fn staged_chunks<V: Sync>(
     sink: &mut dyn FnMut(Chunk<'_, V>) -> Result<()>,
 ) -> Result<()> {
     let item_len = item_len.max(1);
-    let step = (STAGE_SAMPLES / item_len).max(1);
+    let step = (stage_samples() / item_len).max(1);
     evaluate(&mut |c: Chunk<'_, V>| {
         let items = c.positions.len().div_ceil(item_len);
         // Item `start` is patch (grid) or point `c.first + start`.

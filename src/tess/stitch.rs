@@ -54,7 +54,7 @@ use rayon::prelude::*;
 
 use crate::eval::cpu::CpuEvaluator;
 use crate::eval::{
-    grid_len, grid_triangles, Evaluator, PatchPoint, Pattern, Vector, STAGE_SAMPLES,
+    grid_len, grid_triangles, stage_samples, Evaluator, PatchPoint, Pattern, Vector,
 };
 use crate::mesh::{Adjacency, CornerAttributes, Mesh};
 use crate::patch::validity::{Certifier, PatchCounts};
@@ -776,10 +776,10 @@ impl<V> StitchSink<V> for CountingSink {
 
 /// Most patches of the grid of `level` whose output the stitcher builds in parallel
 /// before the sink sees them in order (a run; it holds two, the one the sink reads and the
-/// one built meanwhile): a run holds at most `STAGE_SAMPLES` (2^14) grid points, one patch
-/// at least.
-pub fn batch_patches(level: u32) -> usize {
-    (STAGE_SAMPLES / grid_len(level).max(1)).max(1)
+/// one built meanwhile): a run holds at most `samples` grid points (the stages'
+/// [`crate::eval::stage_samples`]), one patch at least.
+pub fn batch_patches(level: u32, samples: usize) -> usize {
+    (samples / grid_len(level).max(1)).max(1)
 }
 
 /// What a stitched evaluation holds while it streams ([`memory_estimate`]).
@@ -850,7 +850,7 @@ pub fn memory_estimate(
     if needs.triangles {
         patch = patch.saturating_add(n2.saturating_mul(24));
     }
-    let batch = (2 * batch_patches(level.max(1)) as u64).min(t.max(1));
+    let batch = (2 * batch_patches(level.max(1), stage_samples()) as u64).min(t.max(1));
     let batch_bytes = patch.saturating_mul(batch).saturating_add(n2 * 12);
     StitchMemory {
         store_points,

@@ -184,6 +184,49 @@ fn chunking_does_not_change_the_output() {
     }
 }
 
+/// The stages follow the pool: 2^14 samples for each of its threads. What `tessellate`
+/// runs on the CPU (patches built, certified and evaluated per stage, then stitched) gives
+/// the same mesh, bit for bit, and the same verdicts with stages of 2^14 samples (1
+/// thread: 191 stages on the bunny at level 8), 3 · 2^14 and 16 · 2^14 (12 stages).
+#[test]
+fn stages_follow_the_pool_and_leave_the_output_alone() {
+    use crate::patch::PatchBuilder;
+    use crate::tess::stitch::stitch_certified;
+    let mesh = load(&common::shared_spec("stanford-bunny.obj"));
+    let plan = crate::StitchPlan::new(&mesh, &mesh.adjacency(), 8).unwrap();
+    let builder = PatchBuilder::new(&mesh, Scheme::G1, &SchemeOptions::default()).unwrap();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            assert_eq!(crate::eval::stage_samples(), threads << 14);
+            let mut out = StitchedMesh::<[f32; 3]>::default();
+            let cpu = CpuEvaluator::default();
+            let (snap, counts) =
+                stitch_certified(&plan, &builder, &cpu, &mut out, &NoProgress).unwrap();
+            (out, snap.to_bits(), counts)
+        })
+    };
+    let bits =
+        |v: &[[f32; 3]]| -> Vec<[u32; 3]> { v.iter().map(|p| p.map(f32::to_bits)).collect() };
+    let (a, snap, counts) = run(1);
+    // 69,451 patches of 45 samples: 191 stages of up to 364 patches on one thread, 12 of
+    // up to 5,825 on 16.
+    assert_eq!(mesh.triangles.len(), 69_451);
+    assert_eq!(mesh.triangles.len().div_ceil((1 << 14) / 45), 191);
+    assert_eq!(mesh.triangles.len().div_ceil((16 << 14) / 45), 12);
+    for threads in [3, 16] {
+        let (b, s, c) = run(threads);
+        assert_eq!(a.triangles, b.triangles, "{threads} threads");
+        assert_eq!(a.record_position, b.record_position, "{threads} threads");
+        assert_eq!(bits(&a.positions), bits(&b.positions), "{threads} threads");
+        assert_eq!(bits(&a.normals), bits(&b.normals), "{threads} threads");
+        assert_eq!((snap, counts), (s, c), "{threads} threads");
+    }
+}
+
 /// suzanne.obj: 42 boundary edges and one non-manifold edge are kept and reported.
 #[test]
 fn boundary_and_nonmanifold_edges_are_kept() {
@@ -344,11 +387,15 @@ fn memory_estimate_counts_the_store_and_bounds_batches() {
     // Level 8: 45 points per patch, all 320 patches in one chunk of 14400 samples,
     // positions and normals, twice.
     assert_eq!(m.chunk_bytes, 14400 * 2 * 2 * 12);
-    // Runs of at most 2^14 grid points: 29 patches of 561 points at level 32, 364 of 45
-    // at level 8, one at level 5000 (12.5 M points).
-    assert_eq!(batch_patches(32), 29);
-    assert_eq!(batch_patches(8), 364);
-    assert_eq!(batch_patches(5000), 1);
+    // Runs of at most 2^14 grid points (a thread's share): 29 patches of 561 points at
+    // level 32, 364 of 45 at level 8, one at level 5000 (12.5 M points); with 16 threads'
+    // shares (2^18 points), 467 and 5825.
+    let s = crate::eval::STAGE_SAMPLES;
+    assert_eq!(batch_patches(32, s), 29);
+    assert_eq!(batch_patches(8, s), 364);
+    assert_eq!(batch_patches(5000, s), 1);
+    assert_eq!(batch_patches(32, 16 * s), 467);
+    assert_eq!(batch_patches(8, 16 * s), 5825);
     // Absurd levels saturate instead of wrapping.
     let huge = memory_estimate(3, 3, 1, u32::MAX, 24, 1 << 22, Needs::ALL);
     assert!(huge.total() >= u64::MAX / 2);

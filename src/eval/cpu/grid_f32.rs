@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use super::CpuEvaluator;
 #[cfg(doc)] // links in the documentation
 use crate::eval::Evaluator;
-use crate::eval::{grid_barycentrics, grid_corners, Chunk, ChunkF32, STAGE_SAMPLES};
+use crate::eval::{grid_barycentrics, grid_corners, stage_samples, Chunk, ChunkF32};
 use crate::patch::{PatchBuilder, PatchKind, PatchTable};
 use crate::Result;
 
@@ -600,8 +600,9 @@ impl CpuEvaluator {
 
     /// [`Self::grid_f32`] with a stage run on each chunk in the thread-pool job that
     /// evaluated it, before the sink gets the chunk (see
-    /// [`Evaluator::evaluate_f32_staged`]); chunks of at most `STAGE_SAMPLES` samples, so
-    /// that the chunk and what the stage builds of it stay in the core's cache.
+    /// [`Evaluator::evaluate_f32_staged`]); chunks of at most
+    /// [`stage_samples`](crate::eval::stage_samples) samples, so that each thread's share
+    /// of the chunk and what the stage builds of it stay in its core's cache.
     pub(crate) fn grid_f32_staged(
         &self,
         table: &PatchTable,
@@ -609,7 +610,7 @@ impl CpuEvaluator {
         stage: &mut (dyn FnMut(ChunkF32<'_>) + Send),
         sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
     ) -> Result<()> {
-        self.grid_f32_chunks(table, weights, STAGE_SAMPLES, stage, sink)
+        self.grid_f32_chunks(table, weights, stage_samples(), stage, sink)
     }
 
     /// The f32 kernel in chunks of at most `most` samples (and `chunk_samples`; one patch
@@ -638,7 +639,7 @@ impl CpuEvaluator {
         sink: &mut dyn FnMut(ChunkF32<'_>) -> Result<()>,
     ) -> Result<()> {
         let source = Source::Built(builder, seen);
-        self.source_chunks(source, weights, STAGE_SAMPLES, stage, sink)
+        self.source_chunks(source, weights, stage_samples(), stage, sink)
     }
 
     /// The f32 kernel over `source` in chunks of at most `most` samples (and

@@ -13,7 +13,7 @@
 //! A uniform plan is evaluated through [`Vector::evaluate_staged`]: the CPU's f32 kernel
 //! stages each chunk in the thread-pool job that evaluated it, while the calling thread
 //! drains the chunk before it into the sink, so the pool is handed work once a chunk (of
-//! up to `STAGE_SAMPLES` samples) rather than once per few patches. Runs of a non-uniform
+//! up to `stage_samples()` samples) rather than once per few patches. Runs of a non-uniform
 //! plan ([`Stitcher::push_patches`]) are staged and drained the same way.
 
 use std::sync::{Mutex, PoisonError};
@@ -25,7 +25,7 @@ use super::{
     VertexRecord, NEW_REC, NONE, OWNS, REV,
 };
 use crate::eval::cpu::{CpuEvaluator, GridWeightsF32};
-use crate::eval::{grid_len, grid_triangles, Chunk, Evaluator, Pattern, Vector, STAGE_SAMPLES};
+use crate::eval::{grid_len, grid_triangles, stage_samples, Chunk, Evaluator, Pattern, Vector};
 use crate::mesh::CornerAttributes;
 use crate::patch::{PatchBuilder, PatchTable};
 use crate::progress::Progress;
@@ -263,7 +263,7 @@ impl Stitcher<'_, [f32; 3]> {
 impl<'a, V: Vector> Stitcher<'a, V> {
     /// Stitches the samples of whole patches, from patch `first` on (the next one), each
     /// in its sample order ([`StitchPlan::patch_points`]): what a [`Pattern::Points`]
-    /// evaluation of those points gives. Runs of about `STAGE_SAMPLES` samples are staged
+    /// evaluation of those points gives. Runs of about `stage_samples()` samples are staged
     /// on the thread pool while the sink takes the run before.
     pub fn push_patches(
         &mut self,
@@ -278,14 +278,15 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             shared,
         } = self;
         let plan = stager.plan;
-        // Where each run starts (patch, sample): whole patches, up to STAGE_SAMPLES samples
+        // Where each run starts (patch, sample): whole patches, up to `most` samples
         // (one patch at least). The last run ends where the samples do: a length that is
         // not whole patches is its stage's error.
+        let most = stage_samples();
         let mut cuts = vec![(first, 0)];
         let (mut p, mut end, mut run) = (first, 0, 0);
         while end < positions.len() && p < plan.patches() {
             let len = plan.patch_len(p);
-            if run > 0 && run + len > STAGE_SAMPLES {
+            if run > 0 && run + len > most {
                 cuts.push((p, end));
                 run = 0;
             }
