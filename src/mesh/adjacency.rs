@@ -138,11 +138,12 @@ pub struct EdgeIndex<'a> {
     /// Group of vertex v: `half_edges[offsets[v]..offsets[v + 1]]`.
     offsets: Vec<u32>,
     half_edges: Vec<u32>,
-    /// (Read by the unit tests; the library walks the edges.)
-    #[cfg_attr(not(test), allow(dead_code))]
     /// Number of edges.
     pub edges: usize,
     pub counts: EdgeCounts,
+    /// Ranges of lower vertices, in order, covering them all, and the number of edges of
+    /// each (where [`Adjacency::new`] splits its work).
+    pieces: Vec<(std::ops::Range<usize>, usize)>,
 }
 
 /// One edge as [`EdgeIndex::edges`] yields it.
@@ -206,17 +207,7 @@ impl<'a> EdgeIndex<'a> {
                 count
             })
             .collect();
-        let mut offsets = vec![0u32; vertices + 1];
-        let mut total = 0u32;
-        for v in 0..vertices {
-            offsets[v] = total;
-            for c in cursors.iter_mut() {
-                let k = c[v];
-                c[v] = total;
-                total += k;
-            }
-        }
-        offsets[vertices] = total;
+        let offsets = group_offsets(&mut cursors, vertices);
         // Each half-edge as the key (upper vertex, half-edge), at its range's cursor in its
         // lower vertex's group: every slot is written by exactly one range.
         let keys: Vec<AtomicU64> = (0..3 * n)
@@ -240,7 +231,7 @@ impl<'a> EdgeIndex<'a> {
                 }
             });
         drop(cursors);
-        let mut keys: Vec<u64> = keys.into_iter().map(AtomicU64::into_inner).collect();
+        let mut keys: Vec<u64> = keys.into_par_iter().map(AtomicU64::into_inner).collect();
         // Vertex ranges: each group ordered by upper vertex, ties by half-edge (that is, by
         // triangle then local edge), and its edges counted.
         let pieces = (4 * threads).clamp(1, vertices.max(1));
@@ -254,13 +245,13 @@ impl<'a> EdgeIndex<'a> {
             rest = tail;
         }
         let offsets_ref = &offsets;
-        let (edges, counts) = slices
+        let per_piece: Vec<(std::ops::Range<usize>, usize, EdgeCounts)> = slices
             .into_par_iter()
             .map(|(range, keys)| {
                 let base = offsets_ref[range.start] as usize;
                 let mut edges = 0usize;
                 let mut counts = EdgeCounts::default();
-                for v in range {
+                for v in range.clone() {
                     let g = &mut keys
                         [offsets_ref[v] as usize - base..offsets_ref[v + 1] as usize - base];
                     g.sort_unstable();
@@ -286,22 +277,19 @@ impl<'a> EdgeIndex<'a> {
                         j = e;
                     }
                 }
-                (edges, counts)
+                (range, edges, counts)
             })
-            .reduce(
-                || (0, EdgeCounts::default()),
-                |a, b| {
-                    (
-                        a.0 + b.0,
-                        EdgeCounts {
-                            interior: a.1.interior + b.1.interior,
-                            boundary: a.1.boundary + b.1.boundary,
-                            nonmanifold: a.1.nonmanifold + b.1.nonmanifold,
-                            misoriented: a.1.misoriented + b.1.misoriented,
-                        },
-                    )
-                },
-            );
+            .collect();
+        let mut edges = 0;
+        let mut counts = EdgeCounts::default();
+        for (_, e, c) in &per_piece {
+            edges += e;
+            counts.interior += c.interior;
+            counts.boundary += c.boundary;
+            counts.nonmanifold += c.nonmanifold;
+            counts.misoriented += c.misoriented;
+        }
+        let pieces = per_piece.into_iter().map(|(r, e, _)| (r, e)).collect();
         let half_edges: Vec<u32> = keys.par_iter().map(|&k| k as u32).collect();
         EdgeIndex {
             triangles,
@@ -309,6 +297,7 @@ impl<'a> EdgeIndex<'a> {
             half_edges,
             edges,
             counts,
+            pieces,
         }
     }
 
@@ -326,6 +315,56 @@ impl<'a> EdgeIndex<'a> {
             end: vertices.end,
         }
     }
+}
+
+/// Per vertex, where its group of half-edges starts (the last entry: their number), from
+/// `cursors`, per range of triangles how many of its half-edges each vertex is the lower
+/// end of; each count is replaced by where its range writes the first of them (the groups
+/// in vertex order, within a group the ranges in order). In blocks of vertices on the
+/// pool, each block from the sum of the counts before it, so the result is the walk's.
+fn group_offsets(cursors: &mut [Vec<u32>], vertices: usize) -> Vec<u32> {
+    const BLOCK: usize = 1 << 14;
+    let blocks = vertices.div_ceil(BLOCK);
+    let sums: Vec<u32> = (0..blocks)
+        .into_par_iter()
+        .map(|b| {
+            let r = b * BLOCK..((b + 1) * BLOCK).min(vertices);
+            cursors
+                .iter()
+                .map(|c| c[r.clone()].iter().sum::<u32>())
+                .sum()
+        })
+        .collect();
+    let mut starts = Vec::with_capacity(blocks);
+    let mut total = 0u32;
+    for s in sums {
+        starts.push(total);
+        total += s;
+    }
+    // Each block's part of every range's counts.
+    let mut parts: Vec<Vec<&mut [u32]>> = (0..blocks).map(|_| Vec::new()).collect();
+    for c in cursors.iter_mut() {
+        for (part, chunk) in parts.iter_mut().zip(c.chunks_mut(BLOCK)) {
+            part.push(chunk);
+        }
+    }
+    let mut offsets = vec![0u32; vertices + 1];
+    offsets[..vertices]
+        .par_chunks_mut(BLOCK)
+        .zip(parts)
+        .zip(starts)
+        .for_each(|((out, mut part), mut at)| {
+            for (v, o) in out.iter_mut().enumerate() {
+                *o = at;
+                for c in part.iter_mut() {
+                    let k = c[v];
+                    c[v] = at;
+                    at += k;
+                }
+            }
+        });
+    offsets[vertices] = total;
+    offsets
 }
 
 /// Iterator over the edges of an [`EdgeIndex`].
@@ -393,26 +432,38 @@ pub struct Adjacency {
 
 impl Adjacency {
     /// The edges of `triangles` and their counts. The edges are materialised in parallel,
-    /// a range of lower vertices per task, and joined in order.
+    /// each range of lower vertices of the index ([`EdgeIndex`]) into its own part of the
+    /// list, in order.
     pub fn new(triangles: &[[u32; 3]]) -> Adjacency {
         let index = EdgeIndex::new(triangles);
-        let vertices = index.offsets.len() - 1;
-        let pieces = (16 * rayon::current_num_threads()).clamp(1, vertices.max(1));
-        let edges = (0..pieces)
+        let empty = MeshEdge {
+            v: [0; 2],
+            uses: EdgeUses::new(&[]),
+        };
+        let mut edges = Vec::new();
+        (0..index.edges)
             .into_par_iter()
-            .flat_map_iter(|i| {
-                let mut buf = Vec::new();
-                let range = i * vertices / pieces..(i + 1) * vertices / pieces;
-                index.edges_from(range).map(move |e| {
-                    buf.clear();
-                    buf.extend(e.half_edges.iter().map(|&h| EdgeUse::from_half_edge(h)));
-                    MeshEdge {
-                        v: e.v,
-                        uses: EdgeUses::new(&buf),
-                    }
-                })
-            })
-            .collect();
+            .map(|_| empty.clone())
+            .collect_into_vec(&mut edges);
+        // Each piece of lower vertices fills its own edges, in order.
+        let mut rest: &mut [MeshEdge] = &mut edges;
+        let mut parts = Vec::with_capacity(index.pieces.len());
+        for (range, count) in &index.pieces {
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(*count);
+            parts.push((range.clone(), head));
+            rest = tail;
+        }
+        parts.into_par_iter().for_each(|(range, out)| {
+            let mut buf = Vec::new();
+            for (slot, e) in out.iter_mut().zip(index.edges_from(range)) {
+                buf.clear();
+                buf.extend(e.half_edges.iter().map(|&h| EdgeUse::from_half_edge(h)));
+                *slot = MeshEdge {
+                    v: e.v,
+                    uses: EdgeUses::new(&buf),
+                };
+            }
+        });
         let c = index.counts;
         Adjacency {
             edges,
@@ -512,15 +563,16 @@ mod tests {
 
     #[test]
     fn parallel_index_matches_the_sorted_uses() {
-        // 60000 triangles on 9000 vertex ids from a fixed pseudo-random sequence: several
-        // triangle ranges (2¹⁴ triangles or more each) and vertex ranges per thread count,
-        // interior, boundary, non-manifold and misoriented edges all present.
+        // 60000 triangles on 9000 vertex ids (multiples of 5 up to 44995, so that the ids
+        // span three blocks of `group_offsets`) from a fixed pseudo-random sequence:
+        // several triangle ranges (2¹⁴ triangles or more each) and vertex ranges per
+        // thread count, interior, boundary, non-manifold and misoriented edges all present.
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = || {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
-            (state % 9000) as u32
+            (state % 9000) as u32 * 5
         };
         let tris: Vec<[u32; 3]> = (0..60000)
             .map(|_| loop {
@@ -549,18 +601,22 @@ mod tests {
             }
         }
         assert!(counts.interior > 0 && counts.nonmanifold > 0 && counts.misoriented > 0);
-        for threads in [1, 2, 3, 5] {
+        for threads in [1, 2, 3, 5, 16] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            let index = pool.install(|| EdgeIndex::new(&tris));
+            let (index, adj) = pool.install(|| (EdgeIndex::new(&tris), Adjacency::new(&tris)));
             assert_eq!(index.edges, expect.len());
             assert_eq!(index.counts, counts);
-            for (e, (v, u)) in index.edges().zip(&expect) {
+            assert_eq!(adj.edges.len(), expect.len());
+            assert_eq!(adj.counts(), counts);
+            for ((e, m), (v, u)) in index.edges().zip(&adj.edges).zip(&expect) {
                 assert_eq!(e.v, *v);
+                assert_eq!(m.v, *v);
                 let got: Vec<EdgeUse> = (0..e.half_edges.len()).map(|i| e.use_at(i)).collect();
                 assert_eq!(&got, u);
+                assert_eq!(&m.uses[..], &u[..]);
             }
         }
     }
