@@ -580,8 +580,18 @@ pub fn tessellation_need(
     // The evaluator's basis weights at every grid point: stride × 3 f32 (the CPU's f32
     // kernel; the GPU uploads the same table).
     let weights = per_patch.saturating_mul(stride as u64 * 12);
+    // Where the CPU builds the patches per stage (`stitch_certified`): two stages' tables
+    // (the one evaluated and the one built meanwhile), each patch `stride` control points
+    // and a flat normal of 24 bytes. A stage holds 2^14 samples per pool thread
+    // (`stage_samples`), so this grows with the pool: about 318 MB at level 1 on 64
+    // threads.
+    let stage_patches = (crate::eval::stage_samples() as u64 / per_patch).max(1);
+    let tables = (2 * stage_patches)
+        .min(mesh.triangles.len() as u64)
+        .saturating_mul((stride as u64 + 1) * 24);
     // PLY and glTF write their faces after the evaluation, whose buffers are gone by then.
     let evaluation = weights
+        .saturating_add(tables)
         .saturating_add(estimate.chunk_bytes)
         .saturating_add(estimate.batch_bytes)
         .saturating_add(writer.0);

@@ -8,7 +8,7 @@
 //! - [`Adjacency`]: every edge materialised as a [`MeshEdge`] (32 bytes each, uses stored
 //!   inline), for code that indexes edges.
 
-use std::ops::Deref;
+use std::ops::{Deref, Range};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use rayon::prelude::*;
@@ -143,7 +143,7 @@ pub struct EdgeIndex<'a> {
     pub counts: EdgeCounts,
     /// Ranges of lower vertices, in order, covering them all, and the number of edges of
     /// each (where [`Adjacency::new`] splits its work).
-    pieces: Vec<(std::ops::Range<usize>, usize)>,
+    pieces: Vec<(Range<usize>, usize)>,
 }
 
 /// One edge as [`EdgeIndex::edges`] yields it.
@@ -235,17 +235,16 @@ impl<'a> EdgeIndex<'a> {
         // Vertex ranges: each group ordered by upper vertex, ties by half-edge (that is, by
         // triangle then local edge), and its edges counted.
         let pieces = (4 * threads).clamp(1, vertices.max(1));
-        let mut slices = Vec::with_capacity(pieces);
-        let mut rest: &mut [u64] = &mut keys;
-        for i in 0..pieces {
-            let (v0, v1) = (i * vertices / pieces, (i + 1) * vertices / pieces);
-            let len = (offsets[v1] - offsets[v0]) as usize;
-            let (head, tail) = std::mem::take(&mut rest).split_at_mut(len);
-            slices.push((v0..v1, head));
-            rest = tail;
-        }
+        let ranges: Vec<Range<usize>> = (0..pieces)
+            .map(|i| i * vertices / pieces..(i + 1) * vertices / pieces)
+            .collect();
+        let lens = ranges
+            .iter()
+            .map(|r| (offsets[r.end] - offsets[r.start]) as usize);
+        let parts = split_by(&mut keys, lens);
+        let slices: Vec<_> = ranges.iter().cloned().zip(parts).collect();
         let offsets_ref = &offsets;
-        let per_piece: Vec<(std::ops::Range<usize>, usize, EdgeCounts)> = slices
+        let per_piece: Vec<(Range<usize>, usize, EdgeCounts)> = slices
             .into_par_iter()
             .map(|(range, keys)| {
                 let base = offsets_ref[range.start] as usize;
@@ -307,7 +306,7 @@ impl<'a> EdgeIndex<'a> {
     }
 
     /// The edges whose lower vertex is in `vertices`, in order.
-    fn edges_from(&self, vertices: std::ops::Range<usize>) -> Edges<'_> {
+    fn edges_from(&self, vertices: Range<usize>) -> Edges<'_> {
         Edges {
             index: self,
             vertex: vertices.start,
@@ -315,6 +314,18 @@ impl<'a> EdgeIndex<'a> {
             end: vertices.end,
         }
     }
+}
+
+/// `items` cut into consecutive parts of `lens` items each (the lengths must sum to at
+/// most its length).
+fn split_by<T>(items: &mut [T], lens: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+    let mut rest = items;
+    lens.map(|len| {
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut(len);
+        rest = tail;
+        head
+    })
+    .collect()
 }
 
 /// Per vertex, where its group of half-edges starts (the last entry: their number), from
@@ -446,15 +457,12 @@ impl Adjacency {
             .map(|_| empty.clone())
             .collect_into_vec(&mut edges);
         // Each piece of lower vertices fills its own edges, in order.
-        let mut rest: &mut [MeshEdge] = &mut edges;
-        let mut parts = Vec::with_capacity(index.pieces.len());
-        for (range, count) in &index.pieces {
-            let (head, tail) = std::mem::take(&mut rest).split_at_mut(*count);
-            parts.push((range.clone(), head));
-            rest = tail;
-        }
+        let parts = split_by(&mut edges, index.pieces.iter().map(|p| p.1));
+        let ranges = index.pieces.iter().map(|p| p.0.clone());
+        let parts: Vec<_> = ranges.zip(parts).collect();
         parts.into_par_iter().for_each(|(range, out)| {
             let mut buf = Vec::new();
+            let mut written = 0;
             for (slot, e) in out.iter_mut().zip(index.edges_from(range)) {
                 buf.clear();
                 buf.extend(e.half_edges.iter().map(|&h| EdgeUse::from_half_edge(h)));
@@ -462,7 +470,10 @@ impl Adjacency {
                     v: e.v,
                     uses: EdgeUses::new(&buf),
                 };
+                written += 1;
             }
+            // The piece's count is the number of edges its range walks.
+            debug_assert_eq!(written, out.len());
         });
         let c = index.counts;
         Adjacency {
@@ -564,9 +575,9 @@ mod tests {
     #[test]
     fn parallel_index_matches_the_sorted_uses() {
         // 60000 triangles on 9000 vertex ids (multiples of 5 up to 44995, so that the ids
-        // span three blocks of `group_offsets`) from a fixed pseudo-random sequence:
-        // several triangle ranges (2¹⁴ triangles or more each) and vertex ranges per
-        // thread count, interior, boundary, non-manifold and misoriented edges all present.
+        // span three blocks of `group_offsets`) from a fixed pseudo-random sequence: up to
+        // four triangle ranges (of 15,000 triangles or more) and 4 × threads vertex ranges,
+        // interior, boundary, non-manifold and misoriented edges all present.
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = || {
             state ^= state << 13;

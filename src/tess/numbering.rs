@@ -334,10 +334,7 @@ fn number_corners(
 fn edge_uses(mesh: &Mesh, adjacency: &Adjacency) -> (Vec<u32>, Vec<bool>) {
     let uses = 3 * mesh.triangles.len();
     // Edge e + 1, 0 for none: the largest is the last in order.
-    let edge_of: Vec<AtomicU32> = (0..uses)
-        .into_par_iter()
-        .map(|_| AtomicU32::new(0))
-        .collect();
+    let edge_of = atomics(uses, 0);
     adjacency
         .edges
         .par_iter()
@@ -423,13 +420,18 @@ fn number_single(mesh: &Mesh, edges: usize, use_edge: &[u32]) -> Option<Order> {
     })
 }
 
+/// `n` atomics holding `value`, made on the pool.
+fn atomics(n: usize, value: u32) -> Vec<AtomicU32> {
+    (0..n)
+        .into_par_iter()
+        .map(|_| AtomicU32::new(value))
+        .collect()
+}
+
 /// Per key (of `keys`), the first of `uses` indices whose key (`key_of`) it is; `NONE` for
 /// a key that none has.
 fn first_uses(keys: usize, uses: usize, key_of: impl Fn(usize) -> usize + Sync) -> Vec<u32> {
-    let first: Vec<AtomicU32> = (0..keys)
-        .into_par_iter()
-        .map(|_| AtomicU32::new(NONE))
-        .collect();
+    let first = atomics(keys, NONE);
     (0..uses).into_par_iter().for_each(|i| {
         first[key_of(i)].fetch_min(i as u32, Relaxed);
     });
@@ -447,10 +449,7 @@ fn items(
         .into_par_iter()
         .filter(|&i| first[key_of(i as usize)] == i)
         .collect();
-    let item: Vec<AtomicU32> = (0..first.len())
-        .into_par_iter()
-        .map(|_| AtomicU32::new(NONE))
-        .collect();
+    let item = atomics(first.len(), NONE);
     made.par_iter().enumerate().for_each(|(m, &i)| {
         item[key_of(i as usize)].store(m as u32, Relaxed);
     });
@@ -474,6 +473,18 @@ impl Numbering {
             return Err(Error::Invalid(format!(
                 "{}: {nf} triangles are too many for 32-bit indices",
                 mesh.name
+            )));
+        }
+        // Every use names a corner of the mesh (a walk would index out of it).
+        let beyond = adjacency
+            .edges
+            .par_iter()
+            .flat_map_iter(|e| e.uses.iter())
+            .find_first(|u| u.local >= 3 || u.triangle as usize >= nf);
+        if let Some(u) = beyond {
+            return Err(Error::Invalid(format!(
+                "{}: the adjacency lists edge {} of triangle {}, which the mesh has not",
+                mesh.name, u.local, u.triangle
             )));
         }
         let (use_edge, use_rev) = edge_uses(mesh, adjacency);
@@ -768,7 +779,7 @@ mod tests {
             if let Some(fast) = fast {
                 assert_eq!(fast, walked.positions, "{}", mesh.name);
             }
-            // On pools below and at PARALLEL_THREADS (the walk, then the passes).
+            // On pools below, at and above PARALLEL_THREADS (the walk, then the passes).
             for threads in [1, PARALLEL_THREADS, 8] {
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
@@ -804,5 +815,40 @@ mod tests {
             Numbering::in_order(spot, &adjacency, Some(attrs), use_edge, use_rev)
         );
         assert!(n.records.is_some());
+    }
+
+    /// An adjacency that lists a use beyond the mesh's corners is an error naming it, not
+    /// a misfiled use or a panic.
+    #[test]
+    fn a_use_beyond_the_mesh_is_an_error() {
+        use crate::mesh::adjacency::{EdgeUse, EdgeUses};
+        let mesh = crate::tests::common::load("torus:12x8");
+        let nf = mesh.triangles.len() as u32;
+        for (bad, named) in [
+            (
+                EdgeUse {
+                    triangle: 5,
+                    local: 3,
+                },
+                "edge 3 of triangle 5,",
+            ),
+            (
+                EdgeUse {
+                    triangle: nf,
+                    local: 0,
+                },
+                "edge 0 of triangle 192,",
+            ),
+        ] {
+            let mut adjacency = mesh.adjacency();
+            adjacency.edges[7].uses = EdgeUses::new(&[adjacency.edges[7].uses[0], bad]);
+            let e = Numbering::new(&mesh, &adjacency, None)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains(named) && e.contains("which the mesh has not"),
+                "{e}"
+            );
+        }
     }
 }
