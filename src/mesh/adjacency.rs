@@ -443,7 +443,7 @@ pub struct Adjacency {
 
 impl Adjacency {
     /// The edges of `triangles` and their counts. The edges are materialised in parallel,
-    /// each range of lower vertices of the index ([`EdgeIndex`]) into its own part of the
+    /// each range of lower vertices of the edge index into its own part of the
     /// list, in order.
     pub fn new(triangles: &[[u32; 3]]) -> Adjacency {
         let index = EdgeIndex::new(triangles);
