@@ -360,6 +360,29 @@ fn edge_uses(mesh: &Mesh, adjacency: &Adjacency) -> (Vec<u32>, Vec<bool>) {
     (use_edge, use_rev)
 }
 
+/// The corners numbered in order ([`number_corners`]): corner items and blocks are
+/// numbered apart (each patch's corners come before its edges), the corners of every
+/// patch first.
+struct WalkedCorners {
+    records: Option<Order>,
+    positions: Order,
+    other_groups: usize,
+}
+
+impl WalkedCorners {
+    fn of(mesh: &Mesh, attrs: Option<&CornerAttributes>) -> WalkedCorners {
+        let mut records = None;
+        let mut positions = Order::with_capacity(mesh.triangles.len());
+        positions.corner_first.reserve(mesh.positions.len());
+        let other_groups = number_corners(mesh, attrs, &mut records, &mut positions);
+        WalkedCorners {
+            records,
+            positions,
+            other_groups,
+        }
+    }
+}
+
 /// Threads from which [`Numbering::new`] numbers the positions in parallel
 /// ([`number_single`]): its passes read the mesh several times where the walk in order
 /// reads it once. Stitch plans of the 2 M-triangle ogre (level 4) on 16 Xeon cores, walk
@@ -487,7 +510,19 @@ impl Numbering {
                 mesh.name, u.local, u.triangle
             )));
         }
-        let (use_edge, use_rev) = edge_uses(mesh, adjacency);
+        // The corners' walk needs no edges: where the walk numbers the mesh, it runs beside
+        // the uses' edges.
+        let parallel = attrs.is_none() && rayon::current_num_threads() >= PARALLEL_THREADS;
+        let ((use_edge, use_rev), corners) = match parallel {
+            true => (edge_uses(mesh, adjacency), None),
+            false => {
+                let (uses, corners) = rayon::join(
+                    || edge_uses(mesh, adjacency),
+                    || WalkedCorners::of(mesh, attrs),
+                );
+                (uses, Some(corners))
+            }
+        };
         if let Some(u) = use_edge.par_iter().position_first(|&e| e == NONE) {
             return Err(Error::Invalid(format!(
                 "{}: edge {} of triangle {} is missing from the adjacency",
@@ -499,7 +534,7 @@ impl Numbering {
         // Without attributes and with one normal per vertex, the records are the positions
         // and no edge is split: the positions are numbered in parallel where the pool has
         // threads enough ([`PARALLEL_THREADS`]).
-        if attrs.is_none() && rayon::current_num_threads() >= PARALLEL_THREADS {
+        if parallel {
             if let Some(positions) = number_single(mesh, adjacency.edges.len(), &use_edge) {
                 return Ok(Numbering {
                     use_edge,
@@ -510,25 +545,28 @@ impl Numbering {
                 });
             }
         }
-        Ok(Self::in_order(mesh, adjacency, attrs, use_edge, use_rev))
+        let corners = corners.unwrap_or_else(|| WalkedCorners::of(mesh, attrs));
+        Ok(Self::in_order(
+            mesh, adjacency, attrs, use_edge, use_rev, corners,
+        ))
     }
 
-    /// [`Numbering::new`] walking the corners and edge uses in order, from each use's edge
-    /// and direction.
+    /// [`Numbering::new`] walking the edge uses in order after the corners (`corners`),
+    /// from each use's edge and direction.
     fn in_order(
         mesh: &Mesh,
         adjacency: &Adjacency,
         attrs: Option<&CornerAttributes>,
         use_edge: Vec<u32>,
         use_rev: Vec<bool>,
+        corners: WalkedCorners,
     ) -> Numbering {
         let nf = mesh.triangles.len();
-        let mut records = None;
-        let mut positions = Order::with_capacity(nf);
-        positions.corner_first.reserve(mesh.positions.len());
-        // Corner items and blocks are numbered apart (each patch's corners come before its
-        // edges): first the corners of every patch, then the edges.
-        let other_groups = number_corners(mesh, attrs, &mut records, &mut positions);
+        let WalkedCorners {
+            mut records,
+            mut positions,
+            other_groups,
+        } = corners;
         // A vertex with one normal has no crease at it: without a second (normal,
         // attributes) group at any vertex, no edge is split.
         let split = if other_groups > 0 || attrs.is_some() {
@@ -775,7 +813,8 @@ mod tests {
             );
             let fast = number_single(mesh, adjacency.edges.len(), &use_edge);
             assert_eq!(fast.is_some(), *single, "{}", mesh.name);
-            let walked = Numbering::in_order(mesh, &adjacency, None, use_edge, use_rev);
+            let corners = WalkedCorners::of(mesh, None);
+            let walked = Numbering::in_order(mesh, &adjacency, None, use_edge, use_rev, corners);
             if let Some(fast) = fast {
                 assert_eq!(fast, walked.positions, "{}", mesh.name);
             }
@@ -812,7 +851,14 @@ mod tests {
         let (use_edge, use_rev) = edge_uses_walked(spot, &adjacency);
         assert_eq!(
             n,
-            Numbering::in_order(spot, &adjacency, Some(attrs), use_edge, use_rev)
+            Numbering::in_order(
+                spot,
+                &adjacency,
+                Some(attrs),
+                use_edge,
+                use_rev,
+                WalkedCorners::of(spot, Some(attrs))
+            )
         );
         assert!(n.records.is_some());
     }
