@@ -585,8 +585,8 @@ pub fn tessellation_need(
     // and a flat normal of 24 bytes. A stage holds 2^14 samples per pool thread
     // (`stage_samples`), so this grows with the pool: about 318 MB at level 1 on 64
     // threads.
-    let stage_patches = (crate::eval::stage_samples() as u64 / per_patch).max(1);
-    let tables = (2 * stage_patches)
+    let stage_patches = crate::tess::stitch::batch_patches(level, crate::eval::stage_samples());
+    let tables = (2 * stage_patches as u64)
         .min(mesh.triangles.len() as u64)
         .saturating_mul((stride as u64 + 1) * 24);
     // PLY and glTF write their faces after the evaluation, whose buffers are gone by then.

@@ -25,13 +25,13 @@
 
 use std::collections::HashMap;
 use std::ops::Range;
-use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering::Relaxed};
 
 use rayon::prelude::*;
 
 use crate::eval::pattern::grid_index;
 use crate::mesh::creases::{normal_key, split_ends};
-use crate::mesh::{Adjacency, CornerAttributes, Mesh};
+use crate::mesh::{Adjacency, CornerAttributes, EdgeUse, Mesh};
 use crate::{Error, Result};
 
 const NONE: u32 = u32::MAX;
@@ -330,34 +330,49 @@ fn number_corners(
 
 /// Per edge use 3t + k: its edge in `adjacency` (the last edge that lists it, as a walk of
 /// the edges in order writing each use's edge would leave it; `NONE` where none does), and
-/// whether its local direction runs against the edge's (from `v[1]` to `v[0]`).
-fn edge_uses(mesh: &Mesh, adjacency: &Adjacency) -> (Vec<u32>, Vec<bool>) {
-    let uses = 3 * mesh.triangles.len();
+/// whether its local direction runs against the edge's (from `v[1]` to `v[0]`); or the
+/// first use the adjacency lists (in its order) that is no corner of the mesh (a walk would
+/// index out of it).
+fn edge_uses(
+    mesh: &Mesh,
+    adjacency: &Adjacency,
+) -> std::result::Result<(Vec<u32>, Vec<bool>), EdgeUse> {
+    let nf = mesh.triangles.len();
+    let beyond_mesh = |u: &EdgeUse| u.local >= 3 || u.triangle as usize >= nf;
     // Edge e + 1, 0 for none: the largest is the last in order.
-    let edge_of = atomics(uses, 0);
+    let edge_of = atomics(3 * nf, 0);
+    // The first edge that lists a use beyond the mesh.
+    let beyond = AtomicUsize::new(usize::MAX);
     adjacency
         .edges
         .par_iter()
         .enumerate()
         .for_each(|(e, edge)| {
             for u in &edge.uses {
+                if beyond_mesh(u) {
+                    beyond.fetch_min(e, Relaxed);
+                    continue;
+                }
                 let i = 3 * u.triangle as usize + u.local as usize;
                 edge_of[i].fetch_max(e as u32 + 1, Relaxed);
             }
         });
-    let use_edge: Vec<u32> = edge_of
+    let first_beyond = adjacency.edges.get(beyond.into_inner());
+    if let Some(u) = first_beyond.and_then(|edge| edge.uses.iter().find(|u| beyond_mesh(u))) {
+        return Err(*u);
+    }
+    Ok(edge_of
         .into_par_iter()
-        .map(|e| e.into_inner().wrapping_sub(1))
-        .collect();
-    let use_rev = use_edge
-        .par_iter()
         .enumerate()
-        .map(|(u, &e)| match adjacency.edges.get(e as usize) {
-            Some(edge) => mesh.triangles[u / 3][u % 3] != edge.v[0],
-            None => false,
+        .map(|(u, e)| {
+            let e = e.into_inner().wrapping_sub(1);
+            let rev = match adjacency.edges.get(e as usize) {
+                Some(edge) => mesh.triangles[u / 3][u % 3] != edge.v[0],
+                None => false,
+            };
+            (e, rev)
         })
-        .collect();
-    (use_edge, use_rev)
+        .unzip())
 }
 
 /// The corners numbered in order ([`number_corners`]): corner items and blocks are
@@ -498,22 +513,10 @@ impl Numbering {
                 mesh.name
             )));
         }
-        // Every use names a corner of the mesh (a walk would index out of it).
-        let beyond = adjacency
-            .edges
-            .par_iter()
-            .flat_map_iter(|e| e.uses.iter())
-            .find_first(|u| u.local >= 3 || u.triangle as usize >= nf);
-        if let Some(u) = beyond {
-            return Err(Error::Invalid(format!(
-                "{}: the adjacency lists edge {} of triangle {}, which the mesh has not",
-                mesh.name, u.local, u.triangle
-            )));
-        }
         // The corners' walk needs no edges: where the walk numbers the mesh, it runs beside
         // the uses' edges.
         let parallel = attrs.is_none() && rayon::current_num_threads() >= PARALLEL_THREADS;
-        let ((use_edge, use_rev), corners) = match parallel {
+        let (uses, corners) = match parallel {
             true => (edge_uses(mesh, adjacency), None),
             false => {
                 let (uses, corners) = rayon::join(
@@ -523,6 +526,12 @@ impl Numbering {
                 (uses, Some(corners))
             }
         };
+        let (use_edge, use_rev) = uses.map_err(|u| {
+            Error::Invalid(format!(
+                "{}: the adjacency lists edge {} of triangle {}, which the mesh has not",
+                mesh.name, u.local, u.triangle
+            ))
+        })?;
         if let Some(u) = use_edge.par_iter().position_first(|&e| e == NONE) {
             return Err(Error::Invalid(format!(
                 "{}: edge {} of triangle {} is missing from the adjacency",
@@ -806,7 +815,7 @@ mod tests {
             let adjacency = mesh.adjacency();
             let (use_edge, use_rev) = edge_uses_walked(mesh, &adjacency);
             assert_eq!(
-                edge_uses(mesh, &adjacency),
+                edge_uses(mesh, &adjacency).unwrap(),
                 (use_edge.clone(), use_rev.clone()),
                 "{}",
                 mesh.name
@@ -867,7 +876,7 @@ mod tests {
     /// a misfiled use or a panic.
     #[test]
     fn a_use_beyond_the_mesh_is_an_error() {
-        use crate::mesh::adjacency::{EdgeUse, EdgeUses};
+        use crate::mesh::adjacency::EdgeUses;
         let mesh = crate::tests::common::load("torus:12x8");
         let nf = mesh.triangles.len() as u32;
         for (bad, named) in [

@@ -6,7 +6,7 @@
 //! same order (no fused multiply-add, which Rust never makes on its own), so each lane's
 //! result is bitwise that of `bound` (a unit test compares them).
 
-use super::{quick::dot, quick::Across, restrict_by, tables, Cell, Geometry, Scratch, Slopes};
+use super::{quick::dot, restrict_by, tables, Cell, Geometry, Scratch, Slopes};
 #[cfg(test)]
 use {super::Pairs, glam::DVec3};
 
@@ -189,13 +189,12 @@ impl Geometry {
             }
         }
         std::array::from_fn(|l| {
-            let maxima = |_: &Across| {
-                let s = sides.as_ref().expect("the normal part's maxima");
+            let maxima = sides.as_ref().map(|s| {
                 (
                     std::array::from_fn(|m| s[0][m][l]),
                     std::array::from_fn(|m| s[1][m][l]),
                 )
-            };
+            });
             let remainder = self.remainder(ps[l], pt[l], &slopes[l], maxima);
             self.conclude_at(imin[l], jmin[l], remainder, &cells[l])
         })

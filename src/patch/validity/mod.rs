@@ -706,30 +706,31 @@ impl Geometry {
         for &(a, b, g, w) in &t.products[m as usize] {
             jc[g] += w * r[a][0].dot(tn[b]);
         }
-        let remainder = self.remainder(ps, pt, sl, |q| q.maxima(&r[..dlen]));
+        let maxima = self
+            .normal_part
+            .as_ref()
+            .map(|q| q.across.maxima(&r[..dlen]));
+        let remainder = self.remainder(ps, pt, sl, maxima);
         self.conclude(&jc, remainder, cell)
     }
 
     /// The bound on J − J_P̂ on a cell, P̂ the polynomial part with the blend linearised:
     /// the smaller of |P̂_s| r_t + r_s |P̂_t| + r_s r_t (whole lengths: `ps`, `pt` bound the
     /// tangents) and, for a Gregory patch, [`quick::Across`]'s bound from the parts across n
-    /// (`maxima`: [`quick::Across::maxima`] over the cell's pairs), which is never larger but
-    /// for rounding.
+    /// (`maxima`: [`quick::Across::maxima`] over the cell's pairs, given where the patch
+    /// has a normal part), which is never larger but for rounding.
     #[inline(always)]
     fn remainder(
         &self,
         ps: f64,
         pt: f64,
         sl: &Slopes,
-        maxima: impl FnOnce(&quick::Across) -> ([f64; 3], [f64; 3]),
+        maxima: Option<([f64; 3], [f64; 3])>,
     ) -> f64 {
         let whole = ps * sl.rt + sl.rs * pt + sl.rs * sl.rt;
-        match &self.normal_part {
-            Some(q) => {
-                let (a, c) = maxima(&q.across);
-                whole.min(q.across.remainder(&a, &c, &sl.each))
-            }
-            None => whole,
+        match (&self.normal_part, maxima) {
+            (Some(q), Some((a, c))) => whole.min(q.across.remainder(&a, &c, &sl.each)),
+            _ => whole,
         }
     }
 
