@@ -5,7 +5,7 @@
 #[cfg(test)]
 use glam::DVec3;
 
-use crate::patch::basis::{bezier_powers, g1_boundary_powers, MAX_POINTS};
+use crate::patch::basis::{bezier_powers, g1_boundary_powers, Powers, MAX_POINTS};
 use crate::patch::PatchKind;
 
 /// Basis values of one patch kind at one point with their derivatives in the patch
@@ -40,44 +40,6 @@ impl Jet {
             }
         }
         out
-    }
-}
-
-/// Powers x⁰ … x⁴ of one coordinate, or more for higher degrees ([`Powers::get`]).
-const POWERS: usize = 5;
-
-/// The powers of a point's three barycentric coordinates, each computed once per point.
-struct Powers([[f64; POWERS]; 3]);
-
-impl Powers {
-    fn new(b: [f64; 3]) -> Powers {
-        Powers(b.map(|x| std::array::from_fn(|e| powi(x, e as u32))))
-    }
-
-    /// b_m^e.
-    #[inline]
-    fn get(&self, m: usize, e: u32) -> f64 {
-        match self.0[m].get(e as usize) {
-            Some(&v) => v,
-            None => powi(self.0[m][1], e),
-        }
-    }
-}
-
-/// x^e by repeated squaring, the algorithm of `f64::powi` (compiler-rt's `__powidf2`, and
-/// LLVM's expansion for a constant exponent), so bitwise its value: 1, x, x·x, x·(x·x),
-/// (x·x)·(x·x), …
-fn powi(x: f64, e: u32) -> f64 {
-    let (mut r, mut a, mut e) = (1.0, x, e);
-    loop {
-        if e & 1 == 1 {
-            r *= a;
-        }
-        e >>= 1;
-        if e == 0 {
-            return r;
-        }
-        a *= a;
     }
 }
 
@@ -212,29 +174,4 @@ pub(crate) fn jet(kind: PatchKind, b: [f64; 3], toward: Option<usize>) -> Jet {
         }
     }
     out
-}
-
-#[cfg(test)]
-mod tests {
-    /// The powers are bitwise `f64::powi`'s (the jets of the precomputed nodes and of those
-    /// computed on the way are then the ones `powi` gave), on coordinates of every
-    /// magnitude, signed zeros and non-finite values included.
-    #[test]
-    fn powers_are_powi_bit_for_bit() {
-        let mut xs = vec![0.0, -0.0, 1.0, -1.0, f64::INFINITY, f64::NAN, 1e-300, 1e300];
-        let mut x = 0.123_456_789_f64;
-        for _ in 0..10_000 {
-            // A deterministic spread over [0, 1] and beyond.
-            x = (x * 3.987_654_321 + 0.011).fract();
-            xs.extend([x, 1.0 - x, x * 7.0 - 3.0]);
-        }
-        for &x in &xs {
-            let p = super::Powers::new([x, 0.5, 0.25]);
-            for e in 0..12u32 {
-                let want = x.powi(e as i32);
-                assert_eq!(p.get(0, e).to_bits(), want.to_bits(), "{x:e}^{e}");
-                assert_eq!(super::powi(x, e).to_bits(), want.to_bits(), "{x:e}^{e}");
-            }
-        }
-    }
 }

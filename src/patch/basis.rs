@@ -54,17 +54,56 @@ fn factorial(n: u32) -> f64 {
     (1..=n).map(|x| x as f64).product()
 }
 
-/// Value and homogeneous gradient (∂/∂b0, ∂/∂b1, ∂/∂b2) of the monomial
-/// `c · b0^i b1^j b2^k`.
+/// Powers x⁰ … x⁴ of one coordinate, or more for higher degrees ([`Powers::get`]).
+const POWERS: usize = 5;
+
+/// The powers of a point's three barycentric coordinates, each computed once per point
+/// (the basis functions share them), bitwise those of `f64::powi`.
+pub(crate) struct Powers([[f64; POWERS]; 3]);
+
+impl Powers {
+    pub(crate) fn new(b: [f64; 3]) -> Powers {
+        Powers(b.map(|x| std::array::from_fn(|e| powi(x, e as u32))))
+    }
+
+    /// b_m^e.
+    #[inline]
+    pub(crate) fn get(&self, m: usize, e: u32) -> f64 {
+        match self.0[m].get(e as usize) {
+            Some(&v) => v,
+            None => powi(self.0[m][1], e),
+        }
+    }
+}
+
+/// x^e by repeated squaring, the algorithm of `f64::powi` (compiler-rt's `__powidf2`, and
+/// LLVM's expansion for a constant exponent), so bitwise its value: 1, x, x·x, x·(x·x),
+/// (x·x)·(x·x), …
 #[inline]
-pub fn monomial(c: f64, p: [u32; 3], b: [f64; 3]) -> (f64, [f64; 3]) {
-    let pw = |x: f64, e: u32| if e == 0 { 1.0 } else { x.powi(e as i32) };
-    let v = [pw(b[0], p[0]), pw(b[1], p[1]), pw(b[2], p[2])];
+fn powi(x: f64, e: u32) -> f64 {
+    let (mut r, mut a, mut e) = (1.0, x, e);
+    loop {
+        if e & 1 == 1 {
+            r *= a;
+        }
+        e >>= 1;
+        if e == 0 {
+            return r;
+        }
+        a *= a;
+    }
+}
+
+/// Value and homogeneous gradient (∂/∂b0, ∂/∂b1, ∂/∂b2) of the monomial
+/// `c · b0^i b1^j b2^k`, from the powers `b` of the point.
+#[inline]
+fn monomial(c: f64, p: [u32; 3], b: &Powers) -> (f64, [f64; 3]) {
+    let v = [b.get(0, p[0]), b.get(1, p[1]), b.get(2, p[2])];
     let d = |m: usize| {
         if p[m] == 0 {
             0.0
         } else {
-            p[m] as f64 * pw(b[m], p[m] - 1)
+            p[m] as f64 * b.get(m, p[m] - 1)
         }
     };
     (
@@ -82,9 +121,10 @@ pub fn bezier(n: u32, b: [f64; 3]) -> Weights {
     let powers = bezier_powers(n);
     let mut out = Weights::zero(powers.len());
     let nf = factorial(n);
+    let pw = Powers::new(b);
     for (idx, p) in powers.iter().enumerate() {
         let c = nf / (factorial(p[0]) * factorial(p[1]) * factorial(p[2]));
-        let (v, g) = monomial(c, *p, b);
+        let (v, g) = monomial(c, *p, &pw);
         out.w[idx] = v;
         out.ws[idx] = g[1] - g[0];
         out.wt[idx] = g[2] - g[0];
@@ -112,9 +152,10 @@ pub fn g1_boundary_powers() -> [[u32; 3]; 12] {
 /// α_m on G_{m,1} (slot 12 + 2m) and β_{m+1} on G_{m,2} (slot 13 + 2m).
 pub fn g1(b: [f64; 3]) -> Weights {
     let mut out = Weights::zero(18);
+    let pw = Powers::new(b);
     for (idx, p) in g1_boundary_powers().iter().enumerate() {
         let c = 24.0 / (factorial(p[0]) * factorial(p[1]) * factorial(p[2]));
-        let (v, g) = monomial(c, *p, b);
+        let (v, g) = monomial(c, *p, &pw);
         out.w[idx] = v;
         out.ws[idx] = g[1] - g[0];
         out.wt[idx] = g[2] - g[0];
@@ -293,6 +334,28 @@ mod tests {
             assert!((w.w.iter().sum::<f64>() - 1.0).abs() < 1e-15, "{b:?}");
             assert!(w.ws.iter().sum::<f64>().abs() < 1e-14);
             assert!(w.wt.iter().sum::<f64>().abs() < 1e-14);
+        }
+    }
+
+    /// The powers are bitwise `f64::powi`'s (the bases computed from them are then the
+    /// ones `powi` gave), on coordinates of every magnitude, signed zeros and non-finite
+    /// values included.
+    #[test]
+    fn powers_are_powi_bit_for_bit() {
+        let mut xs = vec![0.0, -0.0, 1.0, -1.0, f64::INFINITY, f64::NAN, 1e-300, 1e300];
+        let mut x = 0.123_456_789_f64;
+        for _ in 0..10_000 {
+            // A deterministic spread over [0, 1] and beyond.
+            x = (x * 3.987_654_321 + 0.011).fract();
+            xs.extend([x, 1.0 - x, x * 7.0 - 3.0]);
+        }
+        for &x in &xs {
+            let p = super::Powers::new([x, 0.5, 0.25]);
+            for e in 0..12u32 {
+                let want = x.powi(e as i32);
+                assert_eq!(p.get(0, e).to_bits(), want.to_bits(), "{x:e}^{e}");
+                assert_eq!(super::powi(x, e).to_bits(), want.to_bits(), "{x:e}^{e}");
+            }
         }
     }
 }
