@@ -413,6 +413,19 @@ impl PatchTable {
         SurfacePoint { p, ds, dt, n }
     }
 
+    /// S_s and S_t of patch `i` from the basis `w`: bitwise [`Self::eval_weights`]'s (the
+    /// same sums in the same order), without the position and the normal.
+    #[inline]
+    pub(crate) fn tangents_weights(&self, i: usize, w: &Weights) -> (DVec3, DVec3) {
+        let c = self.patch(i);
+        let (mut ds, mut dt) = (DVec3::ZERO, DVec3::ZERO);
+        for (j, cj) in c[..self.kind.geometry()].iter().enumerate() {
+            ds += w.ws[j] * *cj;
+            dt += w.wt[j] * *cj;
+        }
+        (ds, dt)
+    }
+
     /// [`Self::eval_weights`] through the nonzero weights only: bitwise the same result
     /// (see `basis::SparseWeights`; the AVX path multiplies and adds lane by lane, with
     /// no fused operations, in the same order), faster where weights vanish (edges).

@@ -6,7 +6,7 @@
 //! same order (no fused multiply-add, which Rust never makes on its own), so each lane's
 //! result is bitwise that of `bound` (a unit test compares them).
 
-use super::{quick::dot, restrict_by, tables, Cell, Geometry, Scratch, Slopes};
+use super::{quick::dot, restrict_by, tables, Cell, Geometry, Scratch, Slopes, Stepper};
 #[cfg(test)]
 use {super::Pairs, glam::DVec3};
 
@@ -75,9 +75,17 @@ fn restrict4(
     scratch: &mut Scratch<PairLanes>,
     out: &mut Pairs4,
 ) {
-    let step_at =
-        |src: &Pairs4, deg: u32, k: usize, dst: &mut Pairs4| step4(src, deg, &corners[k], dst);
-    restrict_by(d, m, scratch, step_at, out);
+    restrict_by(d, m, scratch, &AtCorners(corners), out);
+}
+
+/// [`step4`] at four cells' corners.
+struct AtCorners<'a>(&'a [Point4; 3]);
+
+impl Stepper<PairLanes> for AtCorners<'_> {
+    #[inline(always)]
+    fn step(&self, src: &Pairs4, deg: u32, k: usize, dst: &mut Pairs4) {
+        step4(src, deg, &self.0[k], dst);
+    }
 }
 
 impl Geometry {
@@ -146,10 +154,15 @@ impl Geometry {
             }
         }
         let mut jc = [[0.0f64; 4]; 45];
-        for &(a, b, g, w) in &t.products[m as usize] {
-            let (s, tb) = (&r[a][0], &tn[b]);
-            for l in 0..4 {
-                jc[g][l] += w * (s[0][l] * tb[0][l] + s[1][l] * tb[1][l] + s[2][l] * tb[2][l]);
+        // Row by row (`Tables::products`' order: each coefficient's sum takes its terms in
+        // the same order), with the row's s coefficient read once.
+        for (row, ra) in t.products[m as usize].chunks_exact(dlen).zip(&r[..dlen]) {
+            let s = &ra[0];
+            for (&(_, _, g, w), tb) in row.iter().zip(&tn[..dlen]) {
+                let acc = &mut jc[g];
+                for l in 0..4 {
+                    acc[l] += w * (s[0][l] * tb[0][l] + s[1][l] * tb[1][l] + s[2][l] * tb[2][l]);
+                }
             }
         }
         // As `finish`, the four lanes side by side: |S_s| and |S_t| bounds (largest lengths,
@@ -163,7 +176,9 @@ impl Geometry {
                 pt[l] = f64::max(pt[l], length(&v[1], l));
             }
         }
-        let sides = self.normal_part.as_ref().map(|q| {
+        // Not `Option::map` with a closure: the closure was not inlined, and so was compiled
+        // without AVX.
+        let sides = if let Some(q) = self.normal_part.as_ref() {
             let mut sides = [[[0.0f64; 4]; 3]; 2];
             for d in &r[..dlen] {
                 for (v, side) in sides.iter_mut().enumerate() {
@@ -177,8 +192,10 @@ impl Geometry {
                     }
                 }
             }
-            sides
-        });
+            Some(sides)
+        } else {
+            None
+        };
         let jlen = t.powers[2 * m as usize].len();
         let (mut imin, mut jmin) = ([0usize; 4], [f64::INFINITY; 4]);
         for (g, c) in jc[..jlen].iter().enumerate() {

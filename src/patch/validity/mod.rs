@@ -154,10 +154,17 @@ impl PatchCounts {
 /// J = (S_s × S_t) · n_f of patch `i` at `b` by the patch's own f64 evaluation, and the
 /// product |S_s| |S_t| (the scale of its rounding).
 pub fn jacobian(table: &PatchTable, i: usize, b: [f64; 3]) -> (f64, f64) {
-    let p = table.eval(i, b);
+    jacobian_with(table, i, &table.kind.weights(b))
+}
+
+/// [`jacobian`] from the patch kind's basis `w` at the point (bitwise: the tangents are
+/// those of the patch's evaluation).
+#[inline]
+fn jacobian_with(table: &PatchTable, i: usize, w: &basis::Weights) -> (f64, f64) {
+    let (ds, dt) = table.tangents_weights(i, w);
     (
-        p.ds.cross(p.dt).dot(table.flat_normals[i]),
-        p.ds.length() * p.dt.length(),
+        ds.cross(dt).dot(table.flat_normals[i]),
+        ds.length() * dt.length(),
     )
 }
 
@@ -202,10 +209,7 @@ pub fn count_range(table: &PatchTable, range: std::ops::Range<usize>) -> PatchCo
 fn first_stages(table: &PatchTable, range: std::ops::Range<usize>) -> Vec<Stage> {
     range
         .into_par_iter()
-        .map_init(
-            || Scratch::new([DVec3::ZERO; 2]),
-            |scratch, i| classify(table, i, scratch).0,
-        )
+        .map_init(FirstWork::new, |work, i| classify(table, i, work).0)
         .collect()
 }
 
@@ -341,7 +345,9 @@ pub struct Tables {
     pub up: Vec<Vec<[usize; 3]>>,
     powers: Vec<Vec<[u32; 3]>>,
     /// For m = 0..=4: (α index, β index, α + β index in degree 2m, weight
-    /// C(m; α) C(m; β) / C(2m; α + β)) over all pairs of degree m.
+    /// C(m; α) C(m; β) / C(2m; α + β)) over all pairs of degree m, row by row: the pair
+    /// (α, β) is entry α · len + β (len: the coefficients of degree m), so that the loops
+    /// over it may take a row at a time.
     products: Vec<Vec<(usize, usize, usize, f64)>>,
 }
 
@@ -415,8 +421,25 @@ type Pairs = [[DVec3; 2]; 15];
 /// corner, α_1 of its second, α_2 of its third; the blossoms share their prefixes).
 /// Its buffers are `scratch` (a subdivision keeps one set for all its cells).
 fn restrict(d: &Pairs, m: u32, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>, out: &mut Pairs) {
-    let step_at = |src: &Pairs, deg: u32, k: usize, dst: &mut Pairs| step(src, deg, cell[k], dst);
-    restrict_by(d, m, scratch, step_at, out);
+    restrict_by(d, m, scratch, &AtCell(cell), out);
+}
+
+/// One de Casteljau step of [`restrict_by`] on coefficients of type `P`: `step(src, deg,
+/// k, dst)` steps coefficients of degree `deg` at the cell's corner k. A trait with an
+/// inlined method rather than a closure: a closure that is not inlined is compiled
+/// without the target features of its caller (AVX in `Geometry::bound4_avx`).
+pub(super) trait Stepper<P> {
+    fn step(&self, src: &[P; 15], deg: u32, k: usize, dst: &mut [P; 15]);
+}
+
+/// [`step`] at the corners of one cell.
+struct AtCell<'a>(&'a Cell);
+
+impl Stepper<[DVec3; 2]> for AtCell<'_> {
+    #[inline(always)]
+    fn step(&self, src: &Pairs, deg: u32, k: usize, dst: &mut Pairs) {
+        step(src, deg, self.0[k], dst);
+    }
 }
 
 /// The buffers of [`restrict_by`]. Each step writes every coefficient that the next one
@@ -462,33 +485,23 @@ impl Work {
 }
 
 /// The order of the steps of [`restrict`], for coefficients of any type `P` (one pair, or
-/// four cells' pairs side by side, `lanes`): `step(src, deg, k, dst)` is one de Casteljau
-/// step of degree `deg` at the cell's corner k. The steps run between two pairs of
-/// buffers, never copying a whole set of coefficients.
+/// four cells' pairs side by side, `lanes`), each step taken by `stepper` ([`Stepper`]).
+/// The steps run between two pairs of buffers, never copying a whole set of coefficients.
 #[inline(always)]
 fn restrict_by<P: Copy>(
     d: &[P; 15],
     m: u32,
     scratch: &mut Scratch<P>,
-    step: impl Fn(&[P; 15], u32, usize, &mut [P; 15]),
+    stepper: &impl Stepper<P>,
     out: &mut [P; 15],
 ) {
-    // `step` from `buf[from]` into the other buffer of the pair.
-    let step_over = |buf: &mut [[P; 15]; 2], from: usize, deg: u32, k: usize| {
-        let (x, y) = buf.split_at_mut(1);
-        if from == 0 {
-            step(&x[0], deg, k, &mut y[0]);
-        } else {
-            step(&y[0], deg, k, &mut x[0]);
-        }
-    };
     let m = m as usize;
     let Scratch { a, bb, cc } = scratch;
     // a[i]: after i steps at the first corner (degree m − i).
     a[0] = *d;
     for i in 1..=m {
         let (lo, hi) = a.split_at_mut(i);
-        step(&lo[i - 1], (m - i + 1) as u32, 0, &mut hi[0]);
+        stepper.step(&lo[i - 1], (m - i + 1) as u32, 0, &mut hi[0]);
     }
     // b: a[i] after j steps at the second corner (degree m − i − j), in `bb[k]` once
     // stepped; c: b after the steps at the third corner, in `cc`.
@@ -503,12 +516,12 @@ fn restrict_by<P: Copy>(
                 }
             } else {
                 match b {
-                    None => step(&a[i], deg as u32, 2, &mut cc[0]),
-                    Some(k) => step(&bb[k], deg as u32, 2, &mut cc[0]),
+                    None => stepper.step(&a[i], deg as u32, 2, &mut cc[0]),
+                    Some(k) => stepper.step(&bb[k], deg as u32, 2, &mut cc[0]),
                 }
                 let mut c = 0;
                 for dd in (1..deg).rev() {
-                    step_over(cc, c, dd as u32, 2);
+                    step_over(stepper, cc, c, dd as u32, 2);
                     c ^= 1;
                 }
                 cc[c][0]
@@ -517,16 +530,33 @@ fn restrict_by<P: Copy>(
             if j < m - i {
                 b = Some(match b {
                     None => {
-                        step(&a[i], deg as u32, 1, &mut bb[0]);
+                        stepper.step(&a[i], deg as u32, 1, &mut bb[0]);
                         0
                     }
                     Some(k) => {
-                        step_over(bb, k, deg as u32, 1);
+                        step_over(stepper, bb, k, deg as u32, 1);
                         k ^ 1
                     }
                 });
             }
         }
+    }
+}
+
+/// `stepper`'s step from `buf[from]` into the other buffer of the pair ([`restrict_by`]).
+#[inline(always)]
+fn step_over<P: Copy>(
+    stepper: &impl Stepper<P>,
+    buf: &mut [[P; 15]; 2],
+    from: usize,
+    deg: u32,
+    k: usize,
+) {
+    let (x, y) = buf.split_at_mut(1);
+    if from == 0 {
+        stepper.step(&x[0], deg, k, &mut y[0]);
+    } else {
+        stepper.step(&y[0], deg, k, &mut x[0]);
     }
 }
 
@@ -703,8 +733,10 @@ impl Geometry {
             tn[j] = v[1].cross(self.nref);
         }
         let mut jc = [0.0f64; 45];
-        for &(a, b, g, w) in &t.products[m as usize] {
-            jc[g] += w * r[a][0].dot(tn[b]);
+        for (row, ra) in t.products[m as usize].chunks_exact(dlen).zip(&r[..dlen]) {
+            for (&(_, _, g, w), tb) in row.iter().zip(&tn[..dlen]) {
+                jc[g] += w * ra[0].dot(*tb);
+            }
         }
         let maxima = self
             .normal_part
@@ -864,7 +896,7 @@ fn derivatives(c: &[DVec3], n: u32) -> ([DVec3; 15], [DVec3; 15]) {
 /// ([`Geometry::never_certified`]) gets the first subdivision only, which looks for a
 /// witness of a fold (the verdict is folded or undecided).
 pub fn check_patch(table: &PatchTable, i: usize) -> Verdict {
-    let (stage, geom) = match classify(table, i, &mut Scratch::new([DVec3::ZERO; 2])) {
+    let (stage, geom) = match classify(table, i, &mut FirstWork::new()) {
         (Stage::Done(v), _) => return v,
         (stage, Some(geom)) => (stage, geom),
         (stage, None) => (stage, Geometry::new(table, i)),
@@ -905,11 +937,7 @@ enum Stage {
 /// witness's −1e-12 |S_s| |S_t|) and the subdivision would stop at that cell, so the
 /// verdict is the same for less work (a flat patch: one product). G1's quick test
 /// ([`quick_gregory`]) plays that part for the Gregory patch.
-fn classify(
-    table: &PatchTable,
-    i: usize,
-    scratch: &mut Scratch<[DVec3; 2]>,
-) -> (Stage, Option<Geometry>) {
+fn classify(table: &PatchTable, i: usize, work: &mut FirstWork) -> (Stage, Option<Geometry>) {
     let mut built = None;
     if table.kind == PatchKind::Gregory {
         if quick_gregory(table.patch(i), table.flat_normals[i]) {
@@ -922,12 +950,12 @@ fn classify(
             return (Stage::Done(Verdict::Valid), None);
         }
         let geom = Geometry::new(table, i);
-        if geom.bound(&WHOLE, scratch).0 > 0.0 {
+        if geom.bound(&WHOLE, &mut work.scratch).0 > 0.0 {
             return (Stage::Done(Verdict::Valid), None);
         }
         built = Some(geom);
     }
-    if let Some(v) = grid_witness(table, i) {
+    if let Some(v) = grid_witness(table, i, work.grid(table.kind)) {
         return (Stage::Done(v), None);
     }
     let geom = built.unwrap_or_else(|| Geometry::new(table, i));
@@ -966,21 +994,51 @@ fn flat_lower_bound(c: &[DVec3], nref: DVec3) -> f64 {
 /// Level of the grid searched for a witness before any subdivision.
 const WITNESS_GRID: u32 = 8;
 
+/// The points of the grid searched for a witness: (a, b, n − a − b) / n, a and then b
+/// rising (n = [`WITNESS_GRID`]).
+fn witness_grid() -> impl Iterator<Item = [f64; 3]> {
+    let n = WITNESS_GRID;
+    (0..=n)
+        .flat_map(move |a| (0..=n - a).map(move |b| [a, b, n - a - b].map(|k| k as f64 / n as f64)))
+}
+
+/// The buffers of [`classify`]: the restriction's, and the basis of a patch kind at the
+/// points of [`witness_grid`] (the same for every patch of the kind: computed at the first
+/// patch that needs them, instead of at every point of every patch).
+pub(super) struct FirstWork {
+    scratch: Scratch<[DVec3; 2]>,
+    grid: Option<(PatchKind, Vec<basis::Weights>)>,
+}
+
+impl FirstWork {
+    pub(super) fn new() -> FirstWork {
+        FirstWork {
+            scratch: Scratch::new([DVec3::ZERO; 2]),
+            grid: None,
+        }
+    }
+
+    /// The basis of `kind` at the points of [`witness_grid`], in order.
+    fn grid(&mut self, kind: PatchKind) -> &[basis::Weights] {
+        if self.grid.as_ref().map(|g| g.0) != Some(kind) {
+            self.grid = Some((kind, witness_grid().map(|b| kind.weights(b)).collect()));
+        }
+        self.grid.as_ref().map_or(&[], |g| &g.1)
+    }
+}
+
 /// A witness of a fold (as [`check_within`] takes them: J below −1e-12 |S_s| |S_t| by the
 /// patch's own f64 evaluation) at a point of the barycentric grid of level
 /// [`WITNESS_GRID`], if there is one: most folded patches show one there, and then need
-/// no subdivision.
-fn grid_witness(table: &PatchTable, i: usize) -> Option<Verdict> {
-    let n = WITNESS_GRID;
-    (0..=n).find_map(|a| {
-        (0..=n - a).find_map(|b| {
-            let p = [a, b, n - a - b].map(|k| k as f64 / n as f64);
-            let (j, scale) = jacobian(table, i, p);
-            (j < -1e-12 * scale).then_some(Verdict::Folded {
-                s: p[1],
-                t: p[2],
-                jacobian: j,
-            })
+/// no subdivision. `weights`: the basis of the table's kind at the grid's points
+/// ([`FirstWork`]).
+fn grid_witness(table: &PatchTable, i: usize, weights: &[basis::Weights]) -> Option<Verdict> {
+    witness_grid().zip(weights).find_map(|(p, w)| {
+        let (j, scale) = jacobian_with(table, i, w);
+        (j < -1e-12 * scale).then_some(Verdict::Folded {
+            s: p[1],
+            t: p[2],
+            jacobian: j,
         })
     })
 }
@@ -1013,9 +1071,10 @@ pub const DEEP_FLOOR: usize = 4 * DEEP_CELLS;
 #[cfg(test)]
 mod tests {
     use super::{
-        check_within, classify, flat_lower_bound, grid_witness, interior_powers, quick_flat,
-        quick_half, quick_quartic, scratch, shared, tables, Geometry, Quick, Stage, Verdict,
-        MAX_CELLS, MAX_DEPTH, QUARTIC_BOUNDARY, QUARTIC_INTERIOR, QUARTIC_UP, WHOLE,
+        check_within, classify, flat_lower_bound, grid_witness, interior_powers, jacobian_with,
+        quick_flat, quick_half, quick_quartic, scratch, shared, tables, witness_grid, FirstWork,
+        Geometry, Quick, Stage, Verdict, MAX_CELLS, MAX_DEPTH, QUARTIC_BOUNDARY, QUARTIC_INTERIOR,
+        QUARTIC_UP, WHOLE,
     };
     use crate::patch::basis;
     use crate::patch::validity::jacobian;
@@ -1023,6 +1082,37 @@ mod tests {
     use crate::{LoadOptions, Mesh};
     use crate::{Scheme, SchemeOptions};
     use glam::DVec3;
+
+    /// The witness grid's J from the basis computed once per kind ([`FirstWork`]) and
+    /// the tangents alone is bitwise J from the patch's whole evaluation at each point
+    /// (what the grid search took before), on every Suzanne patch of every scheme.
+    #[test]
+    fn the_witness_grid_is_the_patch_evaluation() {
+        let path = format!("{}/tests/data/suzanne.obj", env!("CARGO_MANIFEST_DIR"));
+        let mesh = Mesh::load(&path, &LoadOptions::default()).unwrap();
+        let mut work = FirstWork::new();
+        let mut compared = 0;
+        for scheme in crate::Scheme::all() {
+            let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
+            let grid = work.grid(table.kind).to_vec();
+            assert_eq!(grid.len(), witness_grid().count());
+            assert_eq!(grid.len(), 45);
+            for i in 0..table.len() {
+                for (b, w) in witness_grid().zip(&grid) {
+                    let p = table.eval(i, b);
+                    let want = (
+                        p.ds.cross(p.dt).dot(table.flat_normals[i]),
+                        p.ds.length() * p.dt.length(),
+                    );
+                    let got = jacobian_with(&table, i, w);
+                    assert_eq!(got.0.to_bits(), want.0.to_bits(), "{scheme} {i} {b:?}");
+                    assert_eq!(got.1.to_bits(), want.1.to_bits(), "{scheme} {i} {b:?}");
+                    compared += 1;
+                }
+            }
+        }
+        assert_eq!(compared, 45 * 968 * crate::Scheme::all().len());
+    }
 
     /// The compile-time index tables of [`quick_quartic`] are those of the runtime
     /// functions they stand for.
@@ -1035,6 +1125,20 @@ mod tests {
             assert_eq!(slot, basis::bezier_index(4, interior_powers(m)));
         }
         assert_eq!(tables().up[4], QUARTIC_UP.to_vec());
+    }
+
+    /// The products table is row by row, as the loops that take a row at a time read it:
+    /// pair (α, β) is entry α · len + β.
+    #[test]
+    fn products_go_row_by_row() {
+        for m in 0..=4u32 {
+            let len = tables().powers[m as usize].len();
+            let products = &tables().products[m as usize];
+            assert_eq!(products.len(), len * len);
+            for (k, &(a, b, _, _)) in products.iter().enumerate() {
+                assert_eq!((a, b), (k / len, k % len), "m {m}");
+            }
+        }
     }
 
     /// Every bunny G1 patch that [`quick_flat`] certifies has J > 0 at the 15 points of a
@@ -1209,7 +1313,7 @@ mod tests {
         for scheme in [Scheme::G1, Scheme::Pn] {
             let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
             for i in 0..table.len() {
-                let Some(geom) = classify(&table, i, &mut scratch()).1 else {
+                let Some(geom) = classify(&table, i, &mut FirstWork::new()).1 else {
                     continue;
                 };
                 let once = check_within(&table, i, &geom, MAX_DEPTH, MAX_CELLS, usize::MAX);
@@ -1266,7 +1370,7 @@ mod tests {
             let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
             let mut count = 0;
             for i in 0..table.len() {
-                let (Stage::First, Some(geom)) = classify(&table, i, &mut scratch()) else {
+                let (Stage::First, Some(geom)) = classify(&table, i, &mut FirstWork::new()) else {
                     continue;
                 };
                 let mut first = CellSearch::new(i, MAX_DEPTH, MAX_CELLS).recording();
@@ -1354,11 +1458,15 @@ mod tests {
                     let geom = Geometry::new(&table, i);
                     if geom.bound(&WHOLE, &mut scratch()).0 > 0.0 {
                         fast += 1;
-                        assert!(grid_witness(&table, i).is_none(), "{file} {scheme} {i}");
+                        let grid = FirstWork::new().grid(table.kind).to_vec();
+                        assert!(
+                            grid_witness(&table, i, &grid).is_none(),
+                            "{file} {scheme} {i}"
+                        );
                         let (v, cells, _) =
                             check_within(&table, i, &geom, MAX_DEPTH, MAX_CELLS, usize::MAX);
                         assert_eq!((v, cells), (Verdict::Valid, 1), "{file} {scheme} {i}");
-                        let stage = classify(&table, i, &mut scratch()).0;
+                        let stage = classify(&table, i, &mut FirstWork::new()).0;
                         assert_eq!(stage, Stage::Done(Verdict::Valid));
                     }
                 }

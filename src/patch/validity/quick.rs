@@ -71,8 +71,11 @@ pub(super) fn quick_half(c: &[DVec3], nref: DVec3) -> Quick {
 fn quartic_jmin(ds: &[DVec3], dt: &[DVec3], n: DVec3) -> f64 {
     let tn: [DVec3; 10] = std::array::from_fn(|j| dt[j].cross(n));
     let mut jc = [0.0f64; 28];
-    for &(a, b, g, w) in &tables().products[3] {
-        jc[g] += w * ds[a].dot(tn[b]);
+    // Row by row (the products' order, see `Tables::products`).
+    for (row, da) in tables().products[3].chunks_exact(10).zip(&ds[..10]) {
+        for (&(_, _, g, w), tb) in row.iter().zip(&tn) {
+            jc[g] += w * da.dot(*tb);
+        }
     }
     jc.iter().copied().fold(f64::INFINITY, f64::min)
 }

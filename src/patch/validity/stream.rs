@@ -2,10 +2,9 @@
 //! that builds each chunk's patches where it evaluates them (`tess::stitch::stitch_built`)
 //! needs, since the table of the whole mesh is never held.
 
-use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{check_listed, classify, PatchCounts, Scratch, Stage, Verdict};
+use super::{check_listed, classify, FirstWork, PatchCounts, Stage, Verdict};
 use crate::patch::{PatchBuilder, PatchTable};
 use crate::Result;
 
@@ -57,10 +56,7 @@ impl Certifier {
     fn take(&mut self, chunk: &PatchTable, mut first: impl FnMut(Option<Verdict>)) {
         let stages: Vec<Stage> = (0..chunk.len())
             .into_par_iter()
-            .map_init(
-                || Scratch::new([DVec3::ZERO; 2]),
-                |scratch, i| classify(chunk, i, scratch).0,
-            )
+            .map_init(FirstWork::new, |work, i| classify(chunk, i, work).0)
             .collect();
         let kept = self.kept.get_or_insert_with(|| PatchTable {
             points: Vec::new(),
