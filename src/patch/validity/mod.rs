@@ -420,6 +420,7 @@ type Pairs = [[DVec3; 2]; 15];
 /// coefficient α of the restriction is the blossom at α_0 copies of the cell's first
 /// corner, α_1 of its second, α_2 of its third; the blossoms share their prefixes).
 /// Its buffers are `scratch` (a subdivision keeps one set for all its cells).
+#[inline(always)]
 fn restrict(d: &Pairs, m: u32, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>, out: &mut Pairs) {
     restrict_by(d, m, scratch, &AtCell(cell), out);
 }

@@ -32,7 +32,19 @@ pub const QUICK_BLEND_BOUND: f64 = 1.0;
 /// r = Σ_m |ΔG_m|. True only when that bound, less the rounding tolerance, is positive;
 /// false says nothing (the full certificate decides).
 pub(super) fn quick_gregory(c: &[DVec3], nref: DVec3) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if cpu_has!("avx") {
+        // SAFETY: the CPU has AVX (checked just above).
+        return unsafe { quick_half_avx(c, nref) } != Quick::Neither;
+    }
     quick_half(c, nref) != Quick::Neither
+}
+
+/// [`quick_half`] compiled for AVX (the same operations, so the same result).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+fn quick_half_avx(c: &[DVec3], nref: DVec3) -> Quick {
+    quick_half(c, nref)
 }
 
 /// Which half of [`quick_gregory`] certifies a patch: the first ([`quick_flat`], or J_P's
@@ -46,6 +58,7 @@ pub(super) enum Quick {
 }
 
 /// [`quick_gregory`], telling which half certifies ([`Quick`]).
+#[inline(always)]
 pub(super) fn quick_half(c: &[DVec3], nref: DVec3) -> Quick {
     let (ds, dt, r, cmax) = quick_quartic(c);
     if quick_flat(c, &ds, &dt, r, nref, cmax) {
@@ -68,6 +81,7 @@ pub(super) fn quick_half(c: &[DVec3], nref: DVec3) -> Quick {
 /// The smallest Bernstein coefficient of J_P = (P_s × P_t) · n (degree 6) from the
 /// derivative coefficients `ds` and `dt` of a quartic P (degree 3, the first 10 of each)
 /// on a domain.
+#[inline(always)]
 fn quartic_jmin(ds: &[DVec3], dt: &[DVec3], n: DVec3) -> f64 {
     let tn: [DVec3; 10] = std::array::from_fn(|j| dt[j].cross(n));
     let mut jc = [0.0f64; 28];
@@ -197,6 +211,24 @@ impl NormalPart {
     /// A lower bound of J on `cell`, certified where positive: P's derivatives restricted
     /// to the cell (their Bernstein coefficients there) and each |∂ρ_m| bounded on the cell.
     pub(super) fn lower(&self, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        if cpu_has!("avx") {
+            // SAFETY: the CPU has AVX (checked just above).
+            return unsafe { self.lower_avx(cell, scratch) };
+        }
+        self.lower_lanes(cell, scratch)
+    }
+
+    /// [`Self::lower`] compiled for AVX (the same operations, so the same result).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn lower_avx(&self, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>) -> f64 {
+        self.lower_lanes(cell, scratch)
+    }
+
+    /// See [`Self::lower`].
+    #[inline(always)]
+    fn lower_lanes(&self, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>) -> f64 {
         let mut r = [[DVec3::ZERO; 2]; 15];
         restrict(&self.pairs, 3, cell, scratch, &mut r);
         let ds: [DVec3; 10] = std::array::from_fn(|j| r[j][0]);
@@ -207,6 +239,7 @@ impl NormalPart {
 
     /// The bound on a domain where P's derivative pairs are `r`, J_P's smallest coefficient
     /// is `jmin` and |∂ρ_m/∂s|, |∂ρ_m/∂t| are at most `slopes[m]`.
+    #[inline(always)]
     fn bound(&self, r: &Pairs, jmin: f64, slopes: &[(f64, f64); 3]) -> f64 {
         let (a, c) = self.across.maxima(&r[..10]);
         jmin - self.across.remainder(&a, &c, slopes) - self.tol
@@ -293,6 +326,7 @@ pub(super) fn dot(d: [f64; 3], g: DVec3) -> f64 {
 /// linear fraction, so where σ > 0 at every corner (then on the whole cell) its range is
 /// that of its values at the corners, and [0, 1] otherwise. ∂/∂s = ∂_{b1} − ∂_{b0} and
 /// ∂/∂t = ∂_{b2} − ∂_{b0}.
+#[inline(always)]
 pub(super) fn blend_slopes(m: usize, cell: &Cell) -> (f64, f64) {
     let (im, iy, iz) = (m, (m + 1) % 3, (m + 2) % 3);
     let BlendExtent {
