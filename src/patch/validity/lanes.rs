@@ -48,6 +48,35 @@ impl FourWork {
     }
 }
 
+/// J's products (`Tables::products` of one degree) grouped by the coefficient they add
+/// to: the terms (α index, β index, weight) of coefficient g are `terms[ends[g]..ends[g +
+/// 1]]`, in the products' order, so that a sum over them starting at 0 adds what the
+/// products' loop adds to that coefficient, in the same order (bitwise the same sum).
+pub(super) struct ByCoefficient {
+    terms: Vec<(usize, usize, f64)>,
+    ends: Vec<usize>,
+}
+
+impl ByCoefficient {
+    pub(super) fn new(products: &[(usize, usize, usize, f64)]) -> ByCoefficient {
+        let count = products.iter().map(|p| p.2 + 1).max().unwrap_or(0);
+        let mut sorted = products.to_vec();
+        // Stable: each coefficient's terms keep their order.
+        sorted.sort_by_key(|p| p.2);
+        let mut ends = vec![0; count + 1];
+        for p in &sorted {
+            ends[p.2 + 1] += 1;
+        }
+        for g in 0..count {
+            ends[g + 1] += ends[g];
+        }
+        ByCoefficient {
+            terms: sorted.iter().map(|&(a, b, _, w)| (a, b, w)).collect(),
+            ends,
+        }
+    }
+}
+
 /// [`super::step`] in every lane (lane l at `u[·][l]`).
 #[inline(always)]
 fn step4(src: &Pairs4, deg: u32, u: &Point4, dst: &mut Pairs4) {
@@ -125,14 +154,24 @@ impl Geometry {
             tn,
         } = work;
         let mut slopes = [Slopes::default(); 4];
+        // As `cell_pairs` (the derivatives of `derivatives`), written into the lanes.
+        let n = self.n;
+        let nf = n as f64;
         for (l, cell) in cells.iter().enumerate() {
-            let (pair, sl) = self.cell_pairs(cell);
+            let (p, sl) = self.cell_points(cell);
             slopes[l] = sl;
-            for j in 0..dlen {
-                for v in 0..2 {
-                    for (k, x) in pair[j][v].to_array().into_iter().enumerate() {
-                        d[j][v][k][l] = x;
-                    }
+            if n == 0 {
+                d[0] = ZERO_PAIR;
+            }
+            for (j, ix) in t.up[n as usize].iter().enumerate() {
+                let (p0, p1, p2) = (
+                    p[ix[0]].to_array(),
+                    p[ix[1]].to_array(),
+                    p[ix[2]].to_array(),
+                );
+                for k in 0..3 {
+                    d[j][0][k][l] = nf * (p1[k] - p0[k]);
+                    d[j][1][k][l] = nf * (p2[k] - p0[k]);
                 }
             }
         }
@@ -153,17 +192,19 @@ impl Geometry {
                 tn[j][2][l] = v[0][l] * n.y - n.x * v[1][l];
             }
         }
+        // Coefficient by coefficient, each sum in registers over its terms in the order of
+        // `Tables::products` ([`ByCoefficient`]).
         let mut jc = [[0.0f64; 4]; 45];
-        // Row by row (`Tables::products`' order: each coefficient's sum takes its terms in
-        // the same order), with the row's s coefficient read once.
-        for (row, ra) in t.products[m as usize].chunks_exact(dlen).zip(&r[..dlen]) {
-            let s = &ra[0];
-            for (&(_, _, g, w), tb) in row.iter().zip(&tn[..dlen]) {
-                let acc = &mut jc[g];
+        let by = &t.by_coefficient[m as usize];
+        for (c, ends) in jc.iter_mut().zip(by.ends.windows(2)) {
+            let mut acc = [0.0f64; 4];
+            for &(a, b, w) in &by.terms[ends[0]..ends[1]] {
+                let (s, tb) = (&r[a][0], &tn[b]);
                 for l in 0..4 {
                     acc[l] += w * (s[0][l] * tb[0][l] + s[1][l] * tb[1][l] + s[2][l] * tb[2][l]);
                 }
             }
+            *c = acc;
         }
         // As `finish`, the four lanes side by side: |S_s| and |S_t| bounds (largest lengths,
         // in coefficient order), `Across::maxima` (largest |d · (ΔG_m × n)|, likewise), and
@@ -231,6 +272,25 @@ mod tests {
     use super::super::{children, restrict, scratch, Geometry, Work, WHOLE};
     use super::*;
     use crate::{LoadOptions, Mesh, PatchTable, Scheme, SchemeOptions};
+
+    /// [`ByCoefficient`] holds every product once, under its coefficient, in the products'
+    /// order.
+    #[test]
+    fn products_by_coefficient_keep_their_order() {
+        for products in &tables().products {
+            let by = ByCoefficient::new(products);
+            assert_eq!(by.terms.len(), products.len());
+            for g in 0..by.ends.len() - 1 {
+                let want: Vec<(usize, usize, f64)> = products
+                    .iter()
+                    .filter(|p| p.2 == g)
+                    .map(|&(a, b, _, w)| (a, b, w))
+                    .collect();
+                assert!(!want.is_empty());
+                assert_eq!(by.terms[by.ends[g]..by.ends[g + 1]], want[..]);
+            }
+        }
+    }
 
     /// Every lane of [`Geometry::bound4`] (and of [`restrict4`]) is bitwise the scalar
     /// result, on cells down to depth 4 of patches of every kind on Suzanne (G1's Gregory

@@ -349,6 +349,8 @@ pub struct Tables {
     /// (α, β) is entry α · len + β (len: the coefficients of degree m), so that the loops
     /// over it may take a row at a time.
     products: Vec<Vec<(usize, usize, usize, f64)>>,
+    /// `products` by coefficient ([`lanes::ByCoefficient`]).
+    by_coefficient: Vec<lanes::ByCoefficient>,
 }
 
 fn multinomial(p: [u32; 3]) -> f64 {
@@ -375,7 +377,7 @@ pub fn tables() -> &'static Tables {
                     .collect(),
             );
         }
-        let products = (0..=4u32)
+        let products: Vec<Vec<(usize, usize, usize, f64)>> = (0..=4u32)
             .map(|m| {
                 let mut out = Vec::new();
                 for (ia, a) in powers[m as usize].iter().enumerate() {
@@ -388,10 +390,15 @@ pub fn tables() -> &'static Tables {
                 out
             })
             .collect();
+        let by_coefficient = products
+            .iter()
+            .map(|p| lanes::ByCoefficient::new(p))
+            .collect();
         Tables {
             up,
             powers,
             products,
+            by_coefficient,
         }
     })
 }
@@ -693,6 +700,22 @@ impl Geometry {
         let t = tables();
         let n = self.n;
         let len = t.powers[n as usize].len();
+        let (p, sl) = self.cell_points(cell);
+        let (ds, dt) = derivatives(&p[..len], n);
+        let m = n.max(1) - 1;
+        let dlen = t.powers[m as usize].len();
+        let mut pair = [[DVec3::ZERO; 2]; 15];
+        for j in 0..dlen {
+            pair[j] = [ds[j], dt[j]];
+        }
+        (pair, sl)
+    }
+
+    /// The Bézier coefficients of the polynomial part on the whole domain, with a Gregory
+    /// patch's blend linearised for `cell`, and the bounds on what that leaves out (the
+    /// first step of [`Self::cell_pairs`]).
+    #[inline(always)]
+    fn cell_points(&self, cell: &Cell) -> ([DVec3; MAXC], Slopes) {
         let mut p = self.base;
         let mut sl = Slopes::default();
         if let Some(dg) = self.gregory {
@@ -711,14 +734,7 @@ impl Geometry {
                 sl.each[m] = (bs, bt);
             }
         }
-        let (ds, dt) = derivatives(&p[..len], n);
-        let m = n.max(1) - 1;
-        let dlen = t.powers[m as usize].len();
-        let mut pair = [[DVec3::ZERO; 2]; 15];
-        for j in 0..dlen {
-            pair[j] = [ds[j], dt[j]];
-        }
-        (pair, sl)
+        (p, sl)
     }
 
     /// The last part of [`Self::bound`], from the pairs `r` restricted to `cell`.
