@@ -5,7 +5,7 @@
 #[cfg(test)]
 use glam::DVec3;
 
-use crate::patch::basis::{bezier_powers, g1_boundary_powers, Powers, MAX_POINTS};
+use crate::patch::basis::{bezier_powers, factorial, g1_boundary_powers, Powers, MAX_POINTS};
 use crate::patch::PatchKind;
 
 /// Basis values of one patch kind at one point with their derivatives in the patch
@@ -80,10 +80,6 @@ fn monomial2(c: f64, p: [u32; 3], b: &Powers) -> (f64, [f64; 3], [[f64; 3]; 3]) 
         })
     });
     (c * v[0] * v[1] * v[2], g, h)
-}
-
-fn factorial(n: u32) -> f64 {
-    (1..=n).map(|x| x as f64).product()
 }
 
 /// The Gregory weight 12 x² g(y, z), g = y² z / (y + z): value, gradient and Hessian in

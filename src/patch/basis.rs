@@ -50,7 +50,7 @@ pub fn bezier_index(n: u32, p: [u32; 3]) -> usize {
     (before + (n - i - p[1])) as usize
 }
 
-fn factorial(n: u32) -> f64 {
+pub(crate) fn factorial(n: u32) -> f64 {
     (1..=n).map(|x| x as f64).product()
 }
 

@@ -414,7 +414,8 @@ impl PatchTable {
     }
 
     /// S_s and S_t of patch `i` from the basis `w`: bitwise [`Self::eval_weights`]'s (the
-    /// same sums in the same order), without the position and the normal.
+    /// same sums in the same order; keep the two in step), without the position and the
+    /// normal.
     #[inline]
     pub(crate) fn tangents_weights(&self, i: usize, w: &Weights) -> (DVec3, DVec3) {
         let c = self.patch(i);

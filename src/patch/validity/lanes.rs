@@ -154,16 +154,17 @@ impl Geometry {
             tn,
         } = work;
         let mut slopes = [Slopes::default(); 4];
-        // As `cell_pairs` (the derivatives of `derivatives`), written into the lanes.
-        let n = self.n;
-        let nf = n as f64;
+        // As `cell_pairs`: the derivatives as `derivatives` computes them (keep the two in
+        // step; `four_lanes_are_bitwise_the_scalar_bound` compares them), into the lanes.
+        let deg = self.n;
+        let nf = deg as f64;
         for (l, cell) in cells.iter().enumerate() {
             let (p, sl) = self.cell_points(cell);
             slopes[l] = sl;
-            if n == 0 {
+            if deg == 0 {
                 d[0] = ZERO_PAIR;
             }
-            for (j, ix) in t.up[n as usize].iter().enumerate() {
+            for (j, ix) in t.up[deg as usize].iter().enumerate() {
                 let (p0, p1, p2) = (
                     p[ix[0]].to_array(),
                     p[ix[1]].to_array(),

@@ -71,6 +71,7 @@ mod lanes;
 mod quick;
 mod stream;
 mod subdivide;
+mod witness;
 use blend::{blend_extent, blend_terms, BlendExtent};
 #[cfg(test)]
 pub(crate) use quick::QUICK_BLEND_BOUND;
@@ -85,6 +86,7 @@ use subdivide::children;
 #[cfg(test)]
 use subdivide::shared;
 use subdivide::{check_listed, CellSearch};
+use witness::{grid_witness, FirstWork};
 #[cfg(test)]
 use {super::PatchBuilder, crate::Result};
 
@@ -946,7 +948,8 @@ enum Stage {
 /// The first stage of [`check_patch`], before any subdivision: the quick test (G1), the
 /// grid of witnesses, and whether a subdivision can certify the patch; with the patch's
 /// [`Geometry`] (built to tell the stage) handed on where the subdivisions decide, so that
-/// [`check_patch`] does not build it again. `scratch`: the restriction's buffers.
+/// [`check_patch`] does not build it again. `work`: its buffers and the witness grid's
+/// basis ([`FirstWork`]).
 ///
 /// A polynomial patch (every kind but G1's Gregory patch) is first bounded on the whole
 /// domain by J's Bernstein coefficients, as the subdivision's first cell would be: where
@@ -972,7 +975,7 @@ fn classify(table: &PatchTable, i: usize, work: &mut FirstWork) -> (Stage, Optio
         }
         built = Some(geom);
     }
-    if let Some(v) = grid_witness(table, i, work.grid(table.kind)) {
+    if let Some(v) = grid_witness(table, i, work) {
         return (Stage::Done(v), None);
     }
     let geom = built.unwrap_or_else(|| Geometry::new(table, i));
@@ -1008,58 +1011,6 @@ fn flat_lower_bound(c: &[DVec3], nref: DVec3) -> f64 {
     jmin - (gs * rt + rs * gt + rs * rt) - tol
 }
 
-/// Level of the grid searched for a witness before any subdivision.
-const WITNESS_GRID: u32 = 8;
-
-/// The points of the grid searched for a witness: (a, b, n − a − b) / n, a and then b
-/// rising (n = [`WITNESS_GRID`]).
-fn witness_grid() -> impl Iterator<Item = [f64; 3]> {
-    let n = WITNESS_GRID;
-    (0..=n)
-        .flat_map(move |a| (0..=n - a).map(move |b| [a, b, n - a - b].map(|k| k as f64 / n as f64)))
-}
-
-/// The buffers of [`classify`]: the restriction's, and the basis of a patch kind at the
-/// points of [`witness_grid`] (the same for every patch of the kind: computed at the first
-/// patch that needs them, instead of at every point of every patch).
-pub(super) struct FirstWork {
-    scratch: Scratch<[DVec3; 2]>,
-    grid: Option<(PatchKind, Vec<basis::Weights>)>,
-}
-
-impl FirstWork {
-    pub(super) fn new() -> FirstWork {
-        FirstWork {
-            scratch: Scratch::new([DVec3::ZERO; 2]),
-            grid: None,
-        }
-    }
-
-    /// The basis of `kind` at the points of [`witness_grid`], in order.
-    fn grid(&mut self, kind: PatchKind) -> &[basis::Weights] {
-        if self.grid.as_ref().map(|g| g.0) != Some(kind) {
-            self.grid = Some((kind, witness_grid().map(|b| kind.weights(b)).collect()));
-        }
-        self.grid.as_ref().map_or(&[], |g| &g.1)
-    }
-}
-
-/// A witness of a fold (as [`check_within`] takes them: J below −1e-12 |S_s| |S_t| by the
-/// patch's own f64 evaluation) at a point of the barycentric grid of level
-/// [`WITNESS_GRID`], if there is one: most folded patches show one there, and then need
-/// no subdivision. `weights`: the basis of the table's kind at the grid's points
-/// ([`FirstWork`]).
-fn grid_witness(table: &PatchTable, i: usize, weights: &[basis::Weights]) -> Option<Verdict> {
-    witness_grid().zip(weights).find_map(|(p, w)| {
-        let (j, scale) = jacobian_with(table, i, w);
-        (j < -1e-12 * scale).then_some(Verdict::Folded {
-            s: p[1],
-            t: p[2],
-            jacobian: j,
-        })
-    })
-}
-
 /// Depth of the second, deeper subdivision of a patch left undecided.
 pub const DEEP_DEPTH: u32 = 18;
 /// Most cells of the second subdivision.
@@ -1088,10 +1039,9 @@ pub const DEEP_FLOOR: usize = 4 * DEEP_CELLS;
 #[cfg(test)]
 mod tests {
     use super::{
-        check_within, classify, flat_lower_bound, grid_witness, interior_powers, jacobian_with,
-        quick_flat, quick_half, quick_quartic, scratch, shared, tables, witness_grid, FirstWork,
-        Geometry, Quick, Stage, Verdict, MAX_CELLS, MAX_DEPTH, QUARTIC_BOUNDARY, QUARTIC_INTERIOR,
-        QUARTIC_UP, WHOLE,
+        check_within, classify, flat_lower_bound, grid_witness, interior_powers, quick_flat,
+        quick_half, quick_quartic, scratch, shared, tables, FirstWork, Geometry, Quick, Stage,
+        Verdict, MAX_CELLS, MAX_DEPTH, QUARTIC_BOUNDARY, QUARTIC_INTERIOR, QUARTIC_UP, WHOLE,
     };
     use crate::patch::basis;
     use crate::patch::validity::jacobian;
@@ -1099,37 +1049,6 @@ mod tests {
     use crate::{LoadOptions, Mesh};
     use crate::{Scheme, SchemeOptions};
     use glam::DVec3;
-
-    /// The witness grid's J from the basis computed once per kind ([`FirstWork`]) and
-    /// the tangents alone is bitwise J from the patch's whole evaluation at each point
-    /// (what the grid search took before), on every Suzanne patch of every scheme.
-    #[test]
-    fn the_witness_grid_is_the_patch_evaluation() {
-        let path = format!("{}/tests/data/suzanne.obj", env!("CARGO_MANIFEST_DIR"));
-        let mesh = Mesh::load(&path, &LoadOptions::default()).unwrap();
-        let mut work = FirstWork::new();
-        let mut compared = 0;
-        for scheme in crate::Scheme::all() {
-            let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
-            let grid = work.grid(table.kind).to_vec();
-            assert_eq!(grid.len(), witness_grid().count());
-            assert_eq!(grid.len(), 45);
-            for i in 0..table.len() {
-                for (b, w) in witness_grid().zip(&grid) {
-                    let p = table.eval(i, b);
-                    let want = (
-                        p.ds.cross(p.dt).dot(table.flat_normals[i]),
-                        p.ds.length() * p.dt.length(),
-                    );
-                    let got = jacobian_with(&table, i, w);
-                    assert_eq!(got.0.to_bits(), want.0.to_bits(), "{scheme} {i} {b:?}");
-                    assert_eq!(got.1.to_bits(), want.1.to_bits(), "{scheme} {i} {b:?}");
-                    compared += 1;
-                }
-            }
-        }
-        assert_eq!(compared, 45 * 968 * crate::Scheme::all().len());
-    }
 
     /// The compile-time index tables of [`quick_quartic`] are those of the runtime
     /// functions they stand for.
@@ -1470,14 +1389,14 @@ mod tests {
                     continue;
                 }
                 let table = PatchTable::build(&mesh, scheme, &SchemeOptions::default()).unwrap();
+                let mut work = FirstWork::new();
                 let mut fast = 0;
                 for i in 0..table.len() {
                     let geom = Geometry::new(&table, i);
                     if geom.bound(&WHOLE, &mut scratch()).0 > 0.0 {
                         fast += 1;
-                        let grid = FirstWork::new().grid(table.kind).to_vec();
                         assert!(
-                            grid_witness(&table, i, &grid).is_none(),
+                            grid_witness(&table, i, &mut work).is_none(),
                             "{file} {scheme} {i}"
                         );
                         let (v, cells, _) =
