@@ -216,19 +216,19 @@ impl NormalPart {
             // SAFETY: the CPU has AVX (checked just above).
             return unsafe { self.lower_avx(cell, scratch) };
         }
-        self.lower_lanes(cell, scratch)
+        self.lower_inlined(cell, scratch)
     }
 
     /// [`Self::lower`] compiled for AVX (the same operations, so the same result).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     fn lower_avx(&self, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>) -> f64 {
-        self.lower_lanes(cell, scratch)
+        self.lower_inlined(cell, scratch)
     }
 
     /// See [`Self::lower`].
     #[inline(always)]
-    fn lower_lanes(&self, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>) -> f64 {
+    fn lower_inlined(&self, cell: &Cell, scratch: &mut Scratch<[DVec3; 2]>) -> f64 {
         let mut r = [[DVec3::ZERO; 2]; 15];
         restrict(&self.pairs, 3, cell, scratch, &mut r);
         let ds: [DVec3; 10] = std::array::from_fn(|j| r[j][0]);
