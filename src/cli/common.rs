@@ -581,13 +581,12 @@ pub fn tessellation_need(
     // kernel; the GPU uploads the same table).
     let weights = per_patch.saturating_mul(stride as u64 * 12);
     // Where the CPU builds the patches per stage (`stitch_certified`): two stages' tables
-    // (the one evaluated and the one built meanwhile), each patch `stride` control points
-    // and a flat normal of 24 bytes. A stage holds 2^14 samples per pool thread
-    // (`stage_samples`), so this grows with the pool: about 318 MB at level 1 on 64
-    // threads.
-    let stage_patches = crate::tess::stitch::batch_patches(level, crate::eval::stage_samples());
-    let tables = (2 * stage_patches as u64)
-        .min(mesh.triangles.len() as u64)
+    // (the one evaluated and the one built meanwhile, as many patches as the two batches),
+    // each patch `stride` control points and a flat normal of 24 bytes. A stage holds 2^14
+    // samples per pool thread (`stage_samples`), so this grows with the pool: about 318 MB
+    // at level 1 on 64 threads.
+    let tables = estimate
+        .batch_patches
         .saturating_mul((stride as u64 + 1) * 24);
     // PLY and glTF write their faces after the evaluation, whose buffers are gone by then.
     let evaluation = weights

@@ -129,6 +129,18 @@ pub struct EdgeCounts {
     pub misoriented: usize,
 }
 
+impl EdgeCounts {
+    /// The counts of two sets of edges together.
+    fn merge(self, o: EdgeCounts) -> EdgeCounts {
+        EdgeCounts {
+            interior: self.interior + o.interior,
+            boundary: self.boundary + o.boundary,
+            nonmanifold: self.nonmanifold + o.nonmanifold,
+            misoriented: self.misoriented + o.misoriented,
+        }
+    }
+}
+
 /// The edges of a triangle mesh in compact form: the half-edges (3 × triangle + local edge)
 /// grouped by their lower vertex, each group sorted by upper vertex then half-edge. An
 /// edge is a run of equal upper vertices in a group.
@@ -244,7 +256,7 @@ impl<'a> EdgeIndex<'a> {
         let parts = split_by(&mut keys, lens);
         let slices: Vec<_> = ranges.iter().cloned().zip(parts).collect();
         let offsets_ref = &offsets;
-        let per_piece: Vec<(Range<usize>, usize, EdgeCounts)> = slices
+        let per_piece: Vec<(usize, EdgeCounts)> = slices
             .into_par_iter()
             .map(|(range, keys)| {
                 let base = offsets_ref[range.start] as usize;
@@ -276,19 +288,17 @@ impl<'a> EdgeIndex<'a> {
                         j = e;
                     }
                 }
-                (range, edges, counts)
+                (edges, counts)
             })
             .collect();
-        let mut edges = 0;
-        let mut counts = EdgeCounts::default();
-        for (_, e, c) in &per_piece {
-            edges += e;
-            counts.interior += c.interior;
-            counts.boundary += c.boundary;
-            counts.nonmanifold += c.nonmanifold;
-            counts.misoriented += c.misoriented;
-        }
-        let pieces = per_piece.into_iter().map(|(r, e, _)| (r, e)).collect();
+        let edges = per_piece.iter().map(|p| p.0).sum();
+        let counts = per_piece
+            .iter()
+            .fold(EdgeCounts::default(), |a, p| a.merge(p.1));
+        let pieces = ranges
+            .into_iter()
+            .zip(per_piece.iter().map(|p| p.0))
+            .collect();
         let half_edges: Vec<u32> = keys.par_iter().map(|&k| k as u32).collect();
         EdgeIndex {
             triangles,

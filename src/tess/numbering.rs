@@ -516,15 +516,14 @@ impl Numbering {
         // The corners' walk needs no edges: where the walk numbers the mesh, it runs beside
         // the uses' edges.
         let parallel = attrs.is_none() && rayon::current_num_threads() >= PARALLEL_THREADS;
-        let (uses, corners) = match parallel {
-            true => (edge_uses(mesh, adjacency), None),
-            false => {
-                let (uses, corners) = rayon::join(
-                    || edge_uses(mesh, adjacency),
-                    || WalkedCorners::of(mesh, attrs),
-                );
-                (uses, Some(corners))
-            }
+        let (uses, corners) = if parallel {
+            (edge_uses(mesh, adjacency), None)
+        } else {
+            let (uses, corners) = rayon::join(
+                || edge_uses(mesh, adjacency),
+                || WalkedCorners::of(mesh, attrs),
+            );
+            (uses, Some(corners))
         };
         let (use_edge, use_rev) = uses.map_err(|u| {
             Error::Invalid(format!(

@@ -797,6 +797,9 @@ pub struct StitchMemory {
     /// Two batches of patch outputs ([`batch_patches`]: the one the sink reads and the one
     /// built meanwhile), bytes.
     pub batch_bytes: u64,
+    /// The patches of those two batches (at most the triangles): the stages whose patch
+    /// tables the CPU builds meanwhile hold as many.
+    pub batch_patches: u64,
 }
 
 impl StitchMemory {
@@ -858,6 +861,7 @@ pub fn memory_estimate(
         store_bytes: store_points.saturating_mul(sample_bytes),
         chunk_bytes,
         batch_bytes,
+        batch_patches: batch,
     }
 }
 

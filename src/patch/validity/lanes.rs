@@ -48,7 +48,7 @@ impl FourWork {
     }
 }
 
-/// J's products (`Tables::products` of one degree) grouped by the coefficient they add
+/// J's products (`super::products` of one degree) grouped by the coefficient they add
 /// to: the terms (α index, β index, weight) of coefficient g are `terms[ends[g]..ends[g +
 /// 1]]`, in the products' order, so that a sum over them starting at 0 adds what the
 /// products' loop adds to that coefficient, in the same order (bitwise the same sum).
@@ -74,6 +74,12 @@ impl ByCoefficient {
             terms: sorted.iter().map(|&(a, b, _, w)| (a, b, w)).collect(),
             ends,
         }
+    }
+
+    /// Each coefficient's terms, coefficient by coefficient.
+    #[inline(always)]
+    pub(super) fn each(&self) -> impl Iterator<Item = &[(usize, usize, f64)]> {
+        self.ends.windows(2).map(|e| &self.terms[e[0]..e[1]])
     }
 }
 
@@ -194,12 +200,11 @@ impl Geometry {
             }
         }
         // Coefficient by coefficient, each sum in registers over its terms in the order of
-        // `Tables::products` ([`ByCoefficient`]).
+        // `products` ([`ByCoefficient`]).
         let mut jc = [[0.0f64; 4]; 45];
-        let by = &t.by_coefficient[m as usize];
-        for (c, ends) in jc.iter_mut().zip(by.ends.windows(2)) {
+        for (c, terms) in jc.iter_mut().zip(t.by_coefficient[m as usize].each()) {
             let mut acc = [0.0f64; 4];
-            for &(a, b, w) in &by.terms[ends[0]..ends[1]] {
+            for &(a, b, w) in terms {
                 let (s, tb) = (&r[a][0], &tn[b]);
                 for l in 0..4 {
                     acc[l] += w * (s[0][l] * tb[0][l] + s[1][l] * tb[1][l] + s[2][l] * tb[2][l]);
@@ -278,7 +283,8 @@ mod tests {
     /// order.
     #[test]
     fn products_by_coefficient_keep_their_order() {
-        for products in &tables().products {
+        for m in 0..=4u32 {
+            let products = &super::super::products(m, &tables().powers[m as usize]);
             let by = ByCoefficient::new(products);
             assert_eq!(by.terms.len(), products.len());
             for g in 0..by.ends.len() - 1 {

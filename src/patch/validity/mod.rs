@@ -346,13 +346,25 @@ pub struct Tables {
     /// order): the indices of γ + e_0, γ + e_1, γ + e_2 in degree d.
     pub up: Vec<Vec<[usize; 3]>>,
     powers: Vec<Vec<[u32; 3]>>,
-    /// For m = 0..=4: (α index, β index, α + β index in degree 2m, weight
-    /// C(m; α) C(m; β) / C(2m; α + β)) over all pairs of degree m, row by row: the pair
-    /// (α, β) is entry α · len + β (len: the coefficients of degree m), so that the loops
-    /// over it may take a row at a time.
-    products: Vec<Vec<(usize, usize, usize, f64)>>,
-    /// `products` by coefficient ([`lanes::ByCoefficient`]).
+    /// For m = 0..=4: [`products`] of degree m by coefficient ([`lanes::ByCoefficient`]):
+    /// J's coefficients are summed from these, each over its terms in that order.
     by_coefficient: Vec<lanes::ByCoefficient>,
+}
+
+/// The products of two Bézier polynomials of degree m (`powers`: the multi-indices of
+/// degree m): (α index, β index, α + β index in degree 2m, weight
+/// C(m; α) C(m; β) / C(2m; α + β)) over all pairs, row by row: the pair (α, β) is entry
+/// α · len + β (len: the coefficients of degree m).
+fn products(m: u32, powers: &[[u32; 3]]) -> Vec<(usize, usize, usize, f64)> {
+    let mut out = Vec::new();
+    for (ia, a) in powers.iter().enumerate() {
+        for (ib, b) in powers.iter().enumerate() {
+            let g = [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+            let w = multinomial(*a) * multinomial(*b) / multinomial(g);
+            out.push((ia, ib, basis::bezier_index(2 * m, g), w));
+        }
+    }
+    out
 }
 
 fn multinomial(p: [u32; 3]) -> f64 {
@@ -379,27 +391,12 @@ pub fn tables() -> &'static Tables {
                     .collect(),
             );
         }
-        let products: Vec<Vec<(usize, usize, usize, f64)>> = (0..=4u32)
-            .map(|m| {
-                let mut out = Vec::new();
-                for (ia, a) in powers[m as usize].iter().enumerate() {
-                    for (ib, b) in powers[m as usize].iter().enumerate() {
-                        let g = [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
-                        let w = multinomial(*a) * multinomial(*b) / multinomial(g);
-                        out.push((ia, ib, basis::bezier_index(2 * m, g), w));
-                    }
-                }
-                out
-            })
-            .collect();
-        let by_coefficient = products
-            .iter()
-            .map(|p| lanes::ByCoefficient::new(p))
+        let by_coefficient = (0..=4u32)
+            .map(|m| lanes::ByCoefficient::new(&products(m, &powers[m as usize])))
             .collect();
         Tables {
             up,
             powers,
-            products,
             by_coefficient,
         }
     })
@@ -752,10 +749,10 @@ impl Geometry {
             tn[j] = v[1].cross(self.nref);
         }
         let mut jc = [0.0f64; 45];
-        for (row, ra) in t.products[m as usize].chunks_exact(dlen).zip(&r[..dlen]) {
-            for (&(_, _, g, w), tb) in row.iter().zip(&tn[..dlen]) {
-                jc[g] += w * ra[0].dot(*tb);
-            }
+        for (c, terms) in jc.iter_mut().zip(t.by_coefficient[m as usize].each()) {
+            *c = terms
+                .iter()
+                .fold(0.0, |acc, &(a, b, w)| acc + w * r[a][0].dot(tn[b]));
         }
         let maxima = self
             .normal_part
@@ -1063,13 +1060,13 @@ mod tests {
         assert_eq!(tables().up[4], QUARTIC_UP.to_vec());
     }
 
-    /// The products table is row by row, as the loops that take a row at a time read it:
-    /// pair (α, β) is entry α · len + β.
+    /// The products are listed row by row (the order in which each coefficient's sum takes
+    /// its terms, [`lanes::ByCoefficient`]): pair (α, β) is entry α · len + β.
     #[test]
     fn products_go_row_by_row() {
         for m in 0..=4u32 {
             let len = tables().powers[m as usize].len();
-            let products = &tables().products[m as usize];
+            let products = &super::products(m, &tables().powers[m as usize]);
             assert_eq!(products.len(), len * len);
             for (k, &(a, b, _, _)) in products.iter().enumerate() {
                 assert_eq!((a, b), (k / len, k % len), "m {m}");

@@ -84,14 +84,16 @@ pub(super) fn quick_half(c: &[DVec3], nref: DVec3) -> Quick {
 #[inline(always)]
 fn quartic_jmin(ds: &[DVec3], dt: &[DVec3], n: DVec3) -> f64 {
     let tn: [DVec3; 10] = std::array::from_fn(|j| dt[j].cross(n));
-    let mut jc = [0.0f64; 28];
-    // Row by row (the products' order, see `Tables::products`).
-    for (row, da) in tables().products[3].chunks_exact(10).zip(&ds[..10]) {
-        for (&(_, _, g, w), tb) in row.iter().zip(&tn) {
-            jc[g] += w * da.dot(*tb);
+    // Each coefficient summed over its terms (`Tables::by_coefficient`), the smallest kept.
+    let mut jmin = f64::INFINITY;
+    for terms in tables().by_coefficient[3].each() {
+        let mut c = 0.0;
+        for &(a, b, w) in terms {
+            c += w * ds[a].dot(tn[b]);
         }
+        jmin = jmin.min(c);
     }
-    jc.iter().copied().fold(f64::INFINITY, f64::min)
+    jmin
 }
 
 /// The quartic of [`quick_gregory`] (the Gregory interior points replaced by their means):

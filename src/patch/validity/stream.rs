@@ -2,9 +2,7 @@
 //! that builds each chunk's patches where it evaluates them (`tess::stitch::stitch_built`)
 //! needs, since the table of the whole mesh is never held.
 
-use rayon::prelude::*;
-
-use super::{check_listed, classify, FirstWork, PatchCounts, Stage, Verdict};
+use super::{check_listed, first_stages, PatchCounts, Stage, Verdict};
 use crate::patch::{PatchBuilder, PatchTable};
 use crate::Result;
 
@@ -54,10 +52,7 @@ impl Certifier {
 
     /// [`Self::see`], handing `first` each patch's first-stage verdict in order.
     fn take(&mut self, chunk: &PatchTable, mut first: impl FnMut(Option<Verdict>)) {
-        let stages: Vec<Stage> = (0..chunk.len())
-            .into_par_iter()
-            .map_init(FirstWork::new, |work, i| classify(chunk, i, work).0)
-            .collect();
+        let stages = first_stages(chunk, 0..chunk.len());
         let kept = self.kept.get_or_insert_with(|| PatchTable {
             points: Vec::new(),
             flat_normals: Vec::new(),
