@@ -72,7 +72,9 @@ mod quick;
 mod stream;
 mod subdivide;
 mod witness;
-use blend::{blend_extent, blend_terms, BlendExtent};
+#[cfg(test)]
+use blend::blend_terms;
+use blend::{blend_corners, blend_extent, BlendExtent};
 #[cfg(test)]
 pub(crate) use quick::QUICK_BLEND_BOUND;
 #[cfg(test)]
@@ -567,7 +569,7 @@ fn step_over<P: Copy>(
     }
 }
 
-/// What a Gregory patch's linearised blend leaves out on a cell ([`blend_terms`]): bounds
+/// What a Gregory patch's linearised blend leaves out on a cell ([`blend_corners`]): bounds
 /// on its derivatives' lengths (r_s = Σ_m |ΔG_m| b_s,m, likewise r_t) and each corner's
 /// (b_s,m, b_t,m); zero for a polynomial patch.
 #[derive(Clone, Copy, Default)]
@@ -718,8 +720,8 @@ impl Geometry {
         let mut p = self.base;
         let mut sl = Slopes::default();
         if let Some(dg) = self.gregory {
-            for (m, d) in dg.iter().enumerate() {
-                let (ell, bs, bt) = blend_terms(m, cell);
+            let terms = blend_corners(cell);
+            for (m, (d, &(ell, bs, bt))) in dg.iter().zip(&terms).enumerate() {
                 // 12 x² y z φ̂ with φ̂ = Σ_k ℓ_k b_k: B⁴_α b_k = (α_k + 1)/5 B⁵_{α + e_k}.
                 let a = interior_powers(m);
                 for k in 0..3 {
