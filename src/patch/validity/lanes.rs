@@ -142,8 +142,10 @@ impl Geometry {
 
     /// [`Self::bound4_lanes`] compiled for AVX. Not for AVX-512: built with
     /// `avx512f,avx512vl` it ran 14 % faster on an AVX-512 CPU, but gave other values (a
-    /// standalone copy of `blend_corners`' loops, built with rustc 1.95, drops a cell corner
-    /// from some lanes' maxima), so the AVX-512 build is left out until that is understood.
+    /// standalone copy of `blend_corners`' loops built with rustc 1.95 drops a cell corner
+    /// from some lanes' maxima; built with a 1.97 nightly it does not), so the AVX-512 build
+    /// waits for a compiler that builds it right (`four_lanes_are_bitwise_the_scalar_bound`
+    /// is the test it has to pass).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     fn bound4_avx(&self, cells: &[Cell; 4], work: &mut FourWork) -> [(f64, [f64; 3], bool); 4] {
