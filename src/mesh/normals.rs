@@ -34,8 +34,15 @@ pub fn vertex_normals(
     triangles: &[[u32; 3]],
     weighting: NormalWeighting,
 ) -> Vec<DVec3> {
-    let mut acc = vec![DVec3::ZERO; positions.len()];
-    let mut fallback = vec![DVec3::ZERO; positions.len()];
+    // Filled in parallel: the first write to fresh memory is what faults its pages in,
+    // and the sums below add into them in one task.
+    let zeros = || -> Vec<DVec3> {
+        (0..positions.len())
+            .into_par_iter()
+            .map(|_| DVec3::ZERO)
+            .collect()
+    };
+    let (mut acc, mut fallback) = rayon::join(zeros, zeros);
     let weigh = |block: &[[u32; 3]], out: &mut Vec<Option<(DVec3, [f64; 3])>>| {
         block
             .par_iter()
