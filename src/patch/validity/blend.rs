@@ -188,8 +188,11 @@ pub(super) fn blend_corners(cell: &Cell) -> [([f64; 3], f64, f64); 3] {
     let (mut dy, mut dz) = ([0.0f64; 4], [0.0f64; 4]);
     let (mut llo, mut lhi) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
     let mut w = [0.0f64; 4];
-    for v in 0..3 {
-        for l in 0..4 {
+    // Lanes outermost: with the corners outermost, rustc 1.95 built for AVX-512 (as
+    // `-C target-cpu=native` does on such a CPU) drops a corner from some lanes' maxima
+    // (`blend_corners_are_blend_terms` checks that build where the CPU has it).
+    for l in 0..4 {
+        for v in 0..3 {
             dy[l] = dy[l].max((uy[v][l] - cy[l]).abs());
             dz[l] = dz[l].max((uz[v][l] - cz[l]).abs());
             let lin = phi_c[l] + gy[l] * (uy[v][l] - cy[l]) + gz[l] * (uz[v][l] - cz[l]);
@@ -238,8 +241,9 @@ mod tests {
     use super::{blend_corners, blend_terms};
     use crate::patch::validity::{children, Cell};
 
-    /// [`blend_corners`] is [`blend_terms`] of each corner, bit for bit, on every cell of
-    /// seven levels of the midpoint subdivision (21,845 cells: those at the domain's
+    /// [`blend_corners`] is [`blend_terms`] of each corner, bit for bit, in every build this
+    /// CPU can run (portable, AVX, AVX-512), on every cell of seven levels of the midpoint
+    /// subdivision (21,845 cells: those at the domain's
     /// corners, where y + z vanishes at a cell corner and the Taylor branch is not taken,
     /// among them) and on cells with a corner in the middle of an edge or on no edge.
     #[test]
@@ -257,14 +261,43 @@ mod tests {
             [ell[0], ell[1], ell[2], bs, bt].map(f64::to_bits)
         };
         for cell in &all {
-            let lanes = blend_corners(cell);
-            for (m, &terms) in lanes.iter().enumerate() {
-                assert_eq!(
-                    bits(terms),
-                    bits(blend_terms(m, cell)),
-                    "{cell:?} corner {m}"
-                );
+            #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
+            let mut builds = vec![("portable", blend_corners(cell))];
+            #[cfg(target_arch = "x86_64")]
+            {
+                if cpu_has!("avx") {
+                    // SAFETY: the CPU has AVX (checked just above).
+                    builds.push(("avx", unsafe { avx(cell) }));
+                }
+                if cpu_has!("avx512f", "avx512vl") {
+                    // SAFETY: the CPU has AVX-512F and VL (checked just above).
+                    builds.push(("avx512", unsafe { avx512(cell) }));
+                }
+            }
+            for (build, lanes) in builds {
+                for (m, &terms) in lanes.iter().enumerate() {
+                    assert_eq!(
+                        bits(terms),
+                        bits(blend_terms(m, cell)),
+                        "{build}: {cell:?} corner {m}"
+                    );
+                }
             }
         }
+    }
+
+    /// [`blend_corners`] built for AVX, as the four-lane bound's AVX path builds it.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn avx(cell: &Cell) -> [([f64; 3], f64, f64); 3] {
+        blend_corners(cell)
+    }
+
+    /// [`blend_corners`] built for AVX-512, as `-C target-cpu=native` builds everything on
+    /// such a CPU (rustc 1.95 once built it wrong: see the loop over the corners).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    fn avx512(cell: &Cell) -> [([f64; 3], f64, f64); 3] {
+        blend_corners(cell)
     }
 }
