@@ -14,16 +14,19 @@
 # `measure` prints the machine, its load and the mesh's sha256, then runs
 # `bench MESH --end-to-end --tess-level 8 --stats-level 1 --json --no-gpu` (its JSON goes
 # to real-mesh-bench.json in the working directory; the rows the issue names are printed),
-# then `tessellate MESH --scheme flat --level 1` five times, each after `wc -w MESH`, and
-# prints each pair's seconds and their ratio (the target: at most 3). About a minute on 2
-# cores for the 2 M-triangle mesh.
+# then `tessellate MESH --backend cpu --scheme flat --level 1 -o TEMP.ply -q` five times,
+# each after `wc -w MESH`, and prints each pair's seconds and their ratio (the target: at
+# most 3). About a minute on 2 cores for the 2 M-triangle mesh. Both need python3.
 set -euo pipefail
+export LC_ALL=C # `time` and awk read and write decimal points
+
+command -v python3 >/dev/null || { echo "real-mesh.sh: python3 is needed" >&2; exit 2; }
 
 make_mesh() {
   python3 - "$1" "$2" <<'EOF'
 import os, sys
 vs, fs = [], []
-for line in open(sys.argv[1]):
+for line in open(sys.argv[1], encoding='utf-8', errors='replace'):
     p = line.split()
     if not p:
         continue
@@ -60,10 +63,16 @@ EOF
 measure() {
   local mesh="$1" bin="${2:-target/release/g1tess}"
   [ -f "$mesh" ] || { echo "real-mesh.sh: $mesh: no such file" >&2; exit 2; }
-  [ -x "$bin" ] || { echo "real-mesh.sh: $bin: not an executable (cargo build --release)" >&2; exit 2; }
+  command -v "$bin" >/dev/null ||
+    { echo "real-mesh.sh: $bin: no such program (cargo build --release)" >&2; exit 2; }
+  local out
+  out=$(mktemp -d)
+  # shellcheck disable=SC2064 # `out` is expanded now: it is local to this function.
+  trap "rm -rf '$out'" EXIT
+  # The Vulkan loader complains without a runtime folder (the bench asks for no GPU).
   if [ -z "${XDG_RUNTIME_DIR:-}" ]; then
-    export XDG_RUNTIME_DIR="${TMPDIR:-/tmp}/g1tess-xdg-$(id -u)"
-    mkdir -p "$XDG_RUNTIME_DIR" && chmod 700 "$XDG_RUNTIME_DIR"
+    export XDG_RUNTIME_DIR="$out/xdg"
+    mkdir -m 700 "$XDG_RUNTIME_DIR"
   fi
   local model
   model=$(grep -m1 'model name' /proc/cpuinfo 2>/dev/null | cut -d: -f2- | sed 's/^ *//' || true)
@@ -81,23 +90,23 @@ for r in d['rows']:
         rate = r['samples_per_s'] or 0.0
         print(f"{r['step']:24} {level!s:>3} {r['seconds']:8.3f} s {rate / 1e6:8.1f} M/s")
 EOF
-  local out
-  out=$(mktemp -d)
-  # shellcheck disable=SC2064 # `out` is expanded now: it is local to this function.
-  trap "rm -rf '$out'" EXIT
   TIMEFORMAT=%R
   echo "== flat level 1 against wc -w (seconds)"
   for _ in 1 2 3 4 5; do
     local w f
     w=$({ time wc -w "$mesh" >/dev/null; } 2>&1)
     f=$({ time "$bin" tessellate "$mesh" --backend cpu --scheme flat --level 1 \
-      -o "$out/flat.ply" -q 2>/dev/null; } 2>&1)
-    echo "wc -w $w  flat $f  ratio $(awk -v a="$f" -v b="$w" 'BEGIN { printf "%.2f", a / b }')"
+      -o "$out/flat.ply" -q 2>"$out/err"; } 2>&1) ||
+      { echo "real-mesh.sh: tessellate failed:" >&2; cat "$out/err" >&2; exit 1; }
+    echo "wc -w $w  flat $f  ratio $(awk -v a="$f" -v b="$w" \
+      'BEGIN { if (b > 0) printf "%.2f", a / b; else printf "-" }')"
   done
 }
 
 case "${1:-}" in
   make) [ $# -eq 3 ] || { echo "usage: $0 make SCAN.obj OUT.obj" >&2; exit 2; }; make_mesh "$2" "$3" ;;
-  measure) [ $# -ge 2 ] || { echo "usage: $0 measure MESH [BINARY]" >&2; exit 2; }; measure "$2" "${3:-}" ;;
+  measure)
+    [ $# -eq 2 ] || [ $# -eq 3 ] || { echo "usage: $0 measure MESH [BINARY]" >&2; exit 2; }
+    measure "$2" "${3:-}" ;;
   *) echo "usage: $0 make SCAN.obj OUT.obj | $0 measure MESH [BINARY]" >&2; exit 2 ;;
 esac
