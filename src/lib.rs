@@ -80,6 +80,7 @@ pub(crate) mod eval;
 pub(crate) mod gpu;
 pub(crate) mod io;
 pub(crate) mod mesh;
+mod par;
 pub(crate) mod patch;
 mod pipelined;
 mod progress;

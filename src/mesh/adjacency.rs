@@ -11,6 +11,7 @@
 use std::ops::{Deref, Range};
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use crate::par::filled_with;
 use rayon::prelude::*;
 
 /// One use of an edge by a triangle: the triangle and its local edge k (from corner k to
@@ -222,10 +223,7 @@ impl<'a> EdgeIndex<'a> {
         let offsets = group_offsets(&mut cursors, vertices);
         // Each half-edge as the key (upper vertex, half-edge), at its range's cursor in its
         // lower vertex's group: every slot is written by exactly one range.
-        let keys: Vec<AtomicU64> = (0..3 * n)
-            .into_par_iter()
-            .map(|_| AtomicU64::new(0))
-            .collect();
+        let keys: Vec<AtomicU64> = filled_with(3 * n, || AtomicU64::new(0));
         triangles
             .par_chunks(per)
             .zip(cursors.par_iter_mut())

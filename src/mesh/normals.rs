@@ -1,6 +1,8 @@
 //! Vertex-normal estimation from face normals.
 
 use glam::DVec3;
+
+use crate::par::filled_with;
 use rayon::prelude::*;
 
 /// How face normals are weighted when a vertex normal is estimated.
@@ -34,14 +36,8 @@ pub fn vertex_normals(
     triangles: &[[u32; 3]],
     weighting: NormalWeighting,
 ) -> Vec<DVec3> {
-    // Filled in parallel: the first write to fresh memory is what faults its pages in,
-    // and the sums below add into them in one task.
-    let zeros = || -> Vec<DVec3> {
-        (0..positions.len())
-            .into_par_iter()
-            .map(|_| DVec3::ZERO)
-            .collect()
-    };
+    // Made on the pool (`filled_with`): the sums below add into them in one task.
+    let zeros = || filled_with(positions.len(), || DVec3::ZERO);
     let (mut acc, mut fallback) = rayon::join(zeros, zeros);
     let weigh = |block: &[[u32; 3]], out: &mut Vec<Option<(DVec3, [f64; 3])>>| {
         block

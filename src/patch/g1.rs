@@ -712,10 +712,8 @@ pub fn any_split_normals(mesh: &Mesh) -> bool {
     if corners >= u32::MAX as usize || mesh.corner_normals.len() != mesh.triangles.len() {
         return true;
     }
-    let first: Vec<AtomicU32> = (0..mesh.positions.len())
-        .into_par_iter()
-        .map(|_| AtomicU32::new(u32::MAX))
-        .collect();
+    let first: Vec<AtomicU32> =
+        crate::par::filled_with(mesh.positions.len(), || AtomicU32::new(u32::MAX));
     mesh.triangles
         .par_iter()
         .zip(mesh.corner_normals.par_iter())

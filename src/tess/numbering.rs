@@ -32,6 +32,7 @@ use rayon::prelude::*;
 use crate::eval::pattern::grid_index;
 use crate::mesh::creases::{normal_key, split_ends};
 use crate::mesh::{Adjacency, CornerAttributes, EdgeUse, Mesh};
+use crate::par::filled_with;
 use crate::{Error, Result};
 
 const NONE: u32 = u32::MAX;
@@ -120,17 +121,12 @@ pub struct Order {
     pub interior: Vec<[u32; 2]>,
 }
 
-/// `n` copies of `value`, written in parallel. On fresh memory the first write to a page is
-/// what maps it in (and the kernel zeroes it then): the walks below, which write in one
-/// task, find the pages of these vectors mapped. Those faults were about a third of the
-/// 2-thread walk's samples on a 2 M-triangle mesh.
-fn filled<T: Copy + Send + Sync>(n: usize, value: T) -> Vec<T> {
-    (0..n).into_par_iter().map(|_| value).collect()
-}
-
-/// An empty vector with room for `n` items, its memory mapped in by [`filled`].
-fn room<T: Default + Copy + Send + Sync>(n: usize) -> Vec<T> {
-    let mut v = filled(n, T::default());
+/// An empty vector with room for `n` items, its memory mapped in on the pool
+/// ([`filled_with`]): the walks below, which push in one task, find its pages mapped.
+/// Those page faults were about a third of the 2-thread walk's samples on a 2 M-triangle
+/// mesh.
+fn room<T: Default + Send>(n: usize) -> Vec<T> {
+    let mut v = filled_with(n, T::default);
     v.clear();
     v
 }
@@ -293,7 +289,7 @@ fn number_corners(
     // Per vertex: its position item, and the record item of its first (normal, attributes)
     // group (the position item while `records` is `None`); the other groups (few vertices)
     // by key.
-    let mut vertex_item = filled(mesh.positions.len(), NONE);
+    let mut vertex_item = filled_with(mesh.positions.len(), || NONE);
     let mut first_group: Vec<u32> = Vec::new();
     let mut groups: HashMap<(u32, [u64; 3], [u32; 6]), u32> = HashMap::new();
     let key_of = |c: usize| {
@@ -475,10 +471,7 @@ fn number_single(mesh: &Mesh, edges: usize, use_edge: &[u32]) -> Option<Order> {
 
 /// `n` atomics holding `value`, made on the pool.
 fn atomics(n: usize, value: u32) -> Vec<AtomicU32> {
-    (0..n)
-        .into_par_iter()
-        .map(|_| AtomicU32::new(value))
-        .collect()
+    filled_with(n, || AtomicU32::new(value))
 }
 
 /// Per key (of `keys`), the first of `uses` indices whose key (`key_of`) it is; `NONE` for
@@ -603,9 +596,9 @@ impl Numbering {
             records = Some(positions.clone());
         }
         // Per edge: its position block, and its owner's record block.
-        let mut edge_item = filled(adjacency.edges.len(), NONE);
+        let mut edge_item = filled_with(adjacency.edges.len(), || NONE);
         let mut owner_block = match records {
-            Some(_) => filled(adjacency.edges.len(), NONE),
+            Some(_) => filled_with(adjacency.edges.len(), || NONE),
             None => Vec::new(),
         };
         // No block is made before this walk.

@@ -4,6 +4,7 @@
 //! corners at once; `blend_terms`, one corner at a time, is its readable reference in the
 //! tests).
 
+use super::lanes::Lanes;
 use super::Cell;
 
 /// What the bounds on corner m's Gregory blend need of `cell` (x, y, z = b_m, b_{m+1},
@@ -122,10 +123,7 @@ pub(super) fn blend_terms(m: usize, cell: &Cell) -> ([f64; 3], f64, f64) {
     (ell, d[1] + d[0], d[2] + d[0])
 }
 
-/// Four lanes of f64: lane m holds corner m's value (lane 3 repeats corner 0's).
-type Lanes = [f64; 4];
-
-/// Corner of each lane.
+/// Corner of each lane ([`Lanes`]: lane m holds corner m's value, lane 3 repeats corner 0's).
 const LANE_CORNER: [usize; 4] = [0, 1, 2, 0];
 
 /// `blend_terms` of corners 0, 1 and 2 on `cell`, bit for bit: the same operations in

@@ -10,8 +10,8 @@ use super::{quick::dot, restrict_by, tables, Cell, Geometry, Scratch, Slopes, St
 #[cfg(test)]
 use {super::Pairs, glam::DVec3};
 
-/// One value per cell.
-type Lanes = [f64; 4];
+/// Four f64 side by side: one value per cell (per corner in `blend_corners`).
+pub(super) type Lanes = [f64; 4];
 
 /// One coefficient pair of four cells: `[s or t][x, y or z][lane]`.
 type PairLanes = [[Lanes; 3]; 2];
