@@ -110,15 +110,17 @@ struct Stager<'a, V> {
     plan: &'a StitchPlan,
     needs: Needs,
     /// The samples of the corner items (vertices), then of the blocks (edges), each
-    /// appended by the use that owns it, in the order the plan numbers them (by first
-    /// use): slot `corner_slot` and `block_slot`.
+    /// written by the use that owns it, in the order the plan numbers them (by first
+    /// use): slot `corner_slot` and `block_slot`. Both are the plan's length from the
+    /// start (NaN where nothing is written yet).
     corners: Vec<V>,
     blocks: Vec<V>,
+    /// How many of `corners` and of `blocks` are written: the owners staged so far.
+    stored: (usize, usize),
     /// Patches staged.
     next: usize,
     /// Stages run.
     calls: usize,
-    scratch: LocalScratch,
     /// Where each patch of the run being staged starts in its samples, and the end.
     offsets: Vec<usize>,
 }
@@ -157,12 +159,13 @@ impl<'a, V: Vector> Stitcher<'a, V> {
             stager: Stager {
                 plan,
                 needs,
-                // Capacity only: pages are touched as the owners append.
-                corners: Vec::with_capacity(plan.corner_items),
-                blocks: Vec::with_capacity(plan.block_store_len()),
+                // Filled on the pool, which maps their pages in (the stages write them
+                // in parallel).
+                corners: crate::par::filled_with(plan.corner_items, || V::NAN),
+                blocks: crate::par::filled_with(plan.block_store_len(), || V::NAN),
+                stored: (0, 0),
                 next: 0,
                 calls: 0,
-                scratch: LocalScratch::default(),
                 offsets: Vec::new(),
             },
             drainer: Drainer {
@@ -327,9 +330,7 @@ impl<V: Vector> Stager<'_, V> {
         let count = self.offsets.len() - 1;
         let offsets = std::mem::take(&mut self.offsets);
         let at = |j: usize| offsets[j]..offsets[j + 1];
-        for j in 0..count {
-            self.store_owned(first + j, &positions[at(j)]);
-        }
+        self.store_owned(first, count, positions, &offsets);
         if run.bufs.len() < count {
             run.bufs.resize_with(count, PatchBuf::default);
         }
@@ -399,38 +400,88 @@ impl<V: Vector> Stager<'_, V> {
         Ok(())
     }
 
-    /// Appends the samples patch `p` owns (its first uses of vertices and edges) to the
-    /// store: slots are numbered by first use, so each owner's slots come next.
-    fn store_owned(&mut self, p: usize, pos: &[V]) {
-        let Stager {
-            plan,
-            corners,
-            blocks,
-            scratch,
-            ..
-        } = self;
-        let map = plan.local_map(p, scratch);
-        for k in 0..3 {
-            let c = 3 * p + k;
-            if plan.corner_flags[c] & OWNS != 0 {
-                debug_assert_eq!(plan.corner_slot[c] as usize, corners.len());
-                corners.push(pos[map.corner[k] as usize]);
-            }
-        }
-        for k in 0..3 {
-            let u = 3 * p + k;
-            let flags = plan.use_flags[u];
-            if flags & OWNS != 0 {
-                debug_assert_eq!(plan.block_slot(plan.use_block[u]), blocks.len());
-                let eg = map.edges[k];
-                // Canonical sample m (1..n) lies at step n − m on a reversed use.
-                if flags & REV != 0 {
-                    blocks.extend(eg.iter().rev().map(|&g| pos[g as usize]));
-                } else {
-                    blocks.extend(eg.iter().map(|&g| pos[g as usize]));
+    /// Writes the samples that patches `first..first + count` own (their first uses of
+    /// vertices and edges; patch j's samples at `offsets[j]..offsets[j + 1]` of
+    /// `positions`) into the store, in parallel. Slots are numbered by first use, so the
+    /// owners' slots follow one another in patch order: each group of patches counts what
+    /// it owns, and writes into its own stretch of the store from there.
+    fn store_owned(&mut self, first: usize, count: usize, positions: &[V], offsets: &[usize]) {
+        let plan = self.plan;
+        // About 4096 samples a group: a job that costs more than rayon's hand-over.
+        let group = (4096 * count / positions.len().max(1)).max(1);
+        let groups: Vec<std::ops::Range<usize>> = (0..count)
+            .step_by(group)
+            .map(|j| j..(j + group).min(count))
+            .collect();
+        // What each group owns: corner samples, block samples.
+        let owned: Vec<(usize, usize)> = groups
+            .par_iter()
+            .map_init(LocalScratch::default, |scratch, r| {
+                let mut n = (0, 0);
+                for p in r.clone().map(|j| first + j) {
+                    let map = plan.local_map(p, scratch);
+                    for k in 0..3 {
+                        n.0 += usize::from(plan.corner_flags[3 * p + k] & OWNS != 0);
+                        if plan.use_flags[3 * p + k] & OWNS != 0 {
+                            n.1 += map.edges[k].len();
+                        }
+                    }
                 }
-            }
+                n
+            })
+            .collect();
+        // Each group's stretches of the two stores.
+        let (mut corners, mut blocks) = (
+            &mut self.corners[self.stored.0..],
+            &mut self.blocks[self.stored.1..],
+        );
+        let mut jobs = Vec::with_capacity(groups.len());
+        let mut at = self.stored;
+        for (r, &(nc, nb)) in groups.into_iter().zip(&owned) {
+            let (c, c_rest) = std::mem::take(&mut corners).split_at_mut(nc);
+            let (b, b_rest) = std::mem::take(&mut blocks).split_at_mut(nb);
+            (corners, blocks) = (c_rest, b_rest);
+            jobs.push((r, c, b, at));
+            at = (at.0 + nc, at.1 + nb);
         }
+        self.stored = at;
+        jobs.into_par_iter()
+            .for_each_init(LocalScratch::default, |scratch, (r, c, b, stored)| {
+                let (mut nc, mut nb) = (0, 0);
+                for j in r {
+                    let (p, pos) = (first + j, &positions[offsets[j]..offsets[j + 1]]);
+                    let map = plan.local_map(p, scratch);
+                    for k in 0..3 {
+                        let i = 3 * p + k;
+                        if plan.corner_flags[i] & OWNS != 0 {
+                            debug_assert_eq!(plan.corner_slot[i] as usize, stored.0 + nc);
+                            c[nc] = pos[map.corner[k] as usize];
+                            nc += 1;
+                        }
+                    }
+                    for k in 0..3 {
+                        let u = 3 * p + k;
+                        let flags = plan.use_flags[u];
+                        if flags & OWNS != 0 {
+                            debug_assert_eq!(plan.block_slot(plan.use_block[u]), stored.1 + nb);
+                            let eg = map.edges[k];
+                            let out = &mut b[nb..nb + eg.len()];
+                            // Canonical sample m (1..n) lies at step n − m on a reversed use.
+                            if flags & REV != 0 {
+                                for (o, &g) in out.iter_mut().zip(eg.iter().rev()) {
+                                    *o = pos[g as usize];
+                                }
+                            } else {
+                                for (o, &g) in out.iter_mut().zip(eg) {
+                                    *o = pos[g as usize];
+                                }
+                            }
+                            nb += eg.len();
+                        }
+                    }
+                }
+                debug_assert_eq!((nc, nb), (c.len(), b.len()));
+            });
     }
 }
 
