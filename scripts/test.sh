@@ -78,6 +78,11 @@ step() { # NAME (the next step; none at the end)
 step "cargo test --release"
 cargo test --release 2>&1
 
+step "cargo test --lib in the dev profile (debug assertions and overflow checks)"
+# What a program that embeds the library runs in its own debug builds: arithmetic that
+# would wrap, and the debug_asserts (a stitched store's slots, for one), panic here.
+cargo test --lib 2>&1
+
 step "other platforms and CPU-only: scripts/check-targets.sh"
 # What this run compiles anyway is not checked twice: the web's GPU build (the browser
 # step, scripts/build-web.sh), this machine's with the default features (cargo test above)

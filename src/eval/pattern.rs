@@ -152,10 +152,12 @@ impl EdgePairs {
     }
 }
 
-/// Points per patch on the grid of level n.
+/// Points per patch on the grid of level n (saturating at `usize::MAX / 2` where the
+/// product does not fit, at level `u32::MAX` on 64-bit targets: estimates of memory
+/// that use it then refuse rather than wrap).
 pub fn grid_len(level: u32) -> usize {
     let n = level as usize;
-    (n + 1) * (n + 2) / 2
+    (n + 1).saturating_mul(n + 2) / 2
 }
 
 /// Index of grid point (i, j) (b1 = i/n, b2 = j/n) in grid order: rows of constant j,
@@ -218,6 +220,16 @@ mod tests {
         grid_barycentrics, grid_corners, grid_index, grid_len, grid_triangles,
     };
 
+    /// The largest level's count does not fit a 64-bit product: it saturates, so a
+    /// memory estimate built on it refuses instead of wrapping to a small figure.
+    #[test]
+    #[cfg(target_pointer_width = "64")]
+    fn the_largest_grid_saturates() {
+        assert_eq!(grid_len(u32::MAX), usize::MAX / 2);
+        // The level below fits: 2^32 (2^32 − 1) / 2.
+        assert_eq!(grid_len(u32::MAX - 1), (1usize << 31) * (u32::MAX as usize));
+    }
+
     #[test]
     fn grid_index_and_triangles() {
         for n in 1..=9 {
@@ -231,6 +243,7 @@ mod tests {
                 }
             }
             assert_eq!(grid_triangles(n).len(), (n * n) as usize);
+            assert_eq!(grid_len(n), (n as usize + 1) * (n as usize + 2) / 2);
             let c = grid_corners(n);
             assert_eq!(c, [0, n as usize, grid_len(n) - 1]);
             for (k, &g) in c.iter().enumerate() {

@@ -204,7 +204,7 @@ mod tests {
                 return;
             }
         };
-        let want: Vec<u32> = (0..64u32).map(|i| i * 2_654_435_761).collect();
+        let want: Vec<u32> = (0..64u32).map(|i| i.wrapping_mul(2_654_435_761)).collect();
         let buffer = ctx
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {

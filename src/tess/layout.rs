@@ -57,14 +57,14 @@ pub fn effective_inner(edges: [u32; 3], inner: u32) -> u32 {
 
 /// Samples of one patch: 3 + Σ(E_k − 1) + (n' − 1)(n' − 2)/2.
 pub fn point_count(edges: [u32; 3], inner: u32) -> usize {
-    let n = effective_inner(edges, inner) as usize;
-    3 + edges.iter().map(|&e| e as usize - 1).sum::<usize>() + (n - 1) * (n - 2) / 2
+    3 + edges.iter().map(|&e| e as usize - 1).sum::<usize>() + interior_count(edges, inner)
 }
 
-/// Interior samples of one patch: (n' − 1)(n' − 2)/2.
+/// Interior samples of one patch: (n' − 1)(n' − 2)/2 (none at n' = 1, where n' − 2 is
+/// below zero: the product is taken as 0 rather than wrapped).
 pub fn interior_count(edges: [u32; 3], inner: u32) -> usize {
     let n = effective_inner(edges, inner) as usize;
-    (n - 1) * (n - 2) / 2
+    n.saturating_sub(1) * n.saturating_sub(2) / 2
 }
 
 /// Triangles of one patch: (n' − 3)² + ΣE_k + 3(n' − 3).
@@ -225,8 +225,8 @@ pub fn rings(edges: [u32; 3], n: u32, out: &mut Vec<[u32; 3]>) {
 #[cfg(test)]
 mod tests {
     use super::rings;
-    use crate::eval::grid_barycentrics;
-    use crate::tess::layout::{point_count, points, triangle_count, triangles};
+    use crate::eval::{grid_barycentrics, grid_len};
+    use crate::tess::layout::{interior_count, point_count, points, triangle_count, triangles};
 
     /// Signed area of a triangle in (b1, b2).
     fn area(p: &[[f64; 3]], t: [u32; 3]) -> f64 {
@@ -252,6 +252,14 @@ mod tests {
             let mut t = Vec::new();
             triangles([n; 3], n, &mut t);
             assert_eq!(t.len(), (n * n) as usize);
+            // The counts are the grid's: (n + 1)(n + 2)/2 points, (n − 1)(n − 2)/2 inside
+            // (none at n = 1 or 2, without wrapping below zero).
+            assert_eq!(point_count([n; 3], n), grid_len(n));
+            let m = n as usize;
+            assert_eq!(
+                interior_count([n; 3], n),
+                if m < 3 { 0 } else { (m - 1) * (m - 2) / 2 }
+            );
         }
     }
 

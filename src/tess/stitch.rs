@@ -854,7 +854,9 @@ pub fn memory_estimate(
         patch = patch.saturating_add(n2.saturating_mul(24));
     }
     let batch = (2 * batch_patches(level.max(1), stage_samples()) as u64).min(t.max(1));
-    let batch_bytes = patch.saturating_mul(batch).saturating_add(n2 * 12);
+    let batch_bytes = patch
+        .saturating_mul(batch)
+        .saturating_add(n2.saturating_mul(12));
     StitchMemory {
         store_points,
         plan_bytes,
