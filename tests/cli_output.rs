@@ -106,6 +106,24 @@ fn memory_budget_refuses_before_allocating() {
         &out,
         &["level 65536", "2.1 G samples per patch", "--max-memory"],
     );
+    // The largest level: 2^32 (2^32 + 1)/2 samples per patch overflows 64 bits, so the
+    // count saturates (2^63 − 1: 9223372036.9 G) rather than wrapping to 2^31 (2.1 G).
+    let out = run(&[
+        "tessellate",
+        &mesh,
+        "--level",
+        "4294967295",
+        "-o",
+        obj.to_str().unwrap(),
+    ]);
+    expect_error(
+        &out,
+        &[
+            "level 4294967295",
+            "9223372036.9 G samples per patch",
+            "--max-memory",
+        ],
+    );
     // The bandwidth buffer of bench: 100000 MiB = 97.7 GiB.
     let out = run(&[
         "bench",

@@ -380,7 +380,8 @@ fn check_memory(
         format.needs(),
         format.buffer_bytes(level, mesh.triangles.len()),
     );
-    let per_patch = (level as u64 + 1) * (level as u64 + 2) / 2;
+    // Saturating: level u32::MAX overflows the product (and is refused).
+    let per_patch = (level as u64 + 1).saturating_mul(level as u64 + 2) / 2;
     a.memory.budget().check(
         "tessellate",
         &if adaptive {

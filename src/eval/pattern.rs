@@ -27,7 +27,7 @@ impl Pattern {
     /// Number of samples for a table of `patches` patches.
     pub fn len(&self, patches: usize) -> usize {
         match self {
-            Pattern::Grid { level } => grid_len(*level) * patches,
+            Pattern::Grid { level } => grid_len(*level).saturating_mul(patches),
             Pattern::Points(p) => p.len(),
         }
     }
@@ -153,11 +153,11 @@ impl EdgePairs {
 }
 
 /// Points per patch on the grid of level n (saturating at `usize::MAX / 2` where the
-/// product does not fit, at level `u32::MAX` on 64-bit targets: estimates of memory
-/// that use it then refuse rather than wrap).
+/// product does not fit: at level `u32::MAX` on 64-bit targets, from level 65,535 on
+/// 32-bit ones; estimates of memory that use it then refuse rather than wrap).
 pub fn grid_len(level: u32) -> usize {
     let n = level as usize;
-    (n + 1).saturating_mul(n + 2) / 2
+    n.saturating_add(1).saturating_mul(n.saturating_add(2)) / 2
 }
 
 /// Index of grid point (i, j) (b1 = i/n, b2 = j/n) in grid order: rows of constant j,
@@ -198,7 +198,7 @@ pub fn grid_barycentrics(level: u32) -> Vec<[f64; 3]> {
 /// (counter-clockwise in (b1, b2), so like the input triangle).
 pub fn grid_triangles(level: u32) -> Vec<[u32; 3]> {
     let n = level.max(1);
-    let mut out = Vec::with_capacity((n * n) as usize);
+    let mut out = Vec::with_capacity(n as usize * n as usize);
     for j in 0..n {
         for i in 0..n - j {
             let a = grid_index(n, i, j) as u32;
@@ -228,6 +228,14 @@ mod tests {
         assert_eq!(grid_len(u32::MAX), usize::MAX / 2);
         // The level below fits: 2^32 (2^32 − 1) / 2.
         assert_eq!(grid_len(u32::MAX - 1), (1usize << 31) * (u32::MAX as usize));
+        // A pattern's sample count saturates with it.
+        let grid = crate::eval::Pattern::Grid { level: u32::MAX };
+        assert_eq!(grid.len(3), usize::MAX);
+        // Gmsh's node count is the grid's, past the orders whose product overflows a u32.
+        assert_eq!(
+            crate::io::msh::triangle_node_count(70_000),
+            70_001 * 70_002 / 2
+        );
     }
 
     #[test]

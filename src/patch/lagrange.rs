@@ -4,9 +4,9 @@
 
 use glam::DVec3;
 
-/// Nodes of the triangle of order `p`.
+/// Nodes of the triangle of order `p`: the grid's count (in `usize`, saturating).
 pub fn triangle_node_count(p: u32) -> usize {
-    ((p + 1) * (p + 2) / 2) as usize
+    crate::eval::grid_len(p)
 }
 
 /// The nodes of Gmsh's triangle of order `p` (0 gives the single node (0, 0)) as lattice

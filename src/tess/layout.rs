@@ -67,11 +67,12 @@ pub fn interior_count(edges: [u32; 3], inner: u32) -> usize {
     n.saturating_sub(1) * n.saturating_sub(2) / 2
 }
 
-/// Triangles of one patch: (n' − 3)² + ΣE_k + 3(n' − 3).
+/// Triangles of one patch: (n' − 3)² + ΣE_k + 3(n' − 3) (in i128, where n'² fits;
+/// saturating at `usize::MAX` where the count does not fit a `usize`).
 pub fn triangle_count(edges: [u32; 3], inner: u32) -> usize {
-    let n = effective_inner(edges, inner) as i64;
-    let sum: i64 = edges.iter().map(|&e| e as i64).sum();
-    ((n - 3) * (n - 3) + sum + 3 * (n - 3)) as usize
+    let n = effective_inner(edges, inner) as i128;
+    let sum: i128 = edges.iter().map(|&e| e as i128).sum();
+    usize::try_from((n - 3) * (n - 3) + sum + 3 * (n - 3)).unwrap_or(usize::MAX)
 }
 
 /// First local index of each edge's samples, and of the interior.
@@ -282,6 +283,17 @@ mod tests {
             b.sort();
             assert_eq!(a, b, "level {n}");
         }
+    }
+
+    /// The largest levels' counts: n² triangles (in i128, not an overflowing i64).
+    #[test]
+    #[cfg(target_pointer_width = "64")]
+    fn the_largest_levels_count_without_overflow() {
+        let n = u32::MAX;
+        assert_eq!(triangle_count([n; 3], n), n as usize * n as usize);
+        // Per-edge levels at most n on edges of level 1: 3·1 + 3(n' − 3) + (n' − 3)².
+        let m = n as usize - 3;
+        assert_eq!(triangle_count([1, 1, 1], n), m * m + 3 + 3 * m);
     }
 
     #[test]

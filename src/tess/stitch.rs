@@ -277,9 +277,18 @@ impl StitchPlan {
             )));
         }
         let attrs = (a.uvs.is_some() || a.colors.is_some()).then(|| Box::new(a.clone()));
+        let uniform = adaptive.is_none();
+        // A uniform level whose one patch has more samples than 32-bit indices reach is
+        // refused before the tables of its size (the grid's edge and interior indices)
+        // are made; the counts below refuse the rest.
+        if uniform && grid_len(level) as u64 >= NONE as u64 {
+            return Err(Error::Invalid(format!(
+                "{}: level {level} gives too many vertices for 32-bit indices",
+                mesh.name
+            )));
+        }
         let mut numbering = Numbering::new(mesh, adjacency, attrs.as_deref())?;
         let nv = mesh.positions.len();
-        let uniform = adaptive.is_none();
         let mut plan = StitchPlan {
             level,
             positions: 0,
@@ -332,8 +341,11 @@ impl StitchPlan {
             let (e, inner) = plan.patch_levels(p);
             let interior = layout::interior_count(e, inner) as u64;
             let copies = if uniform { nf as u64 } else { 1 };
-            bound += copies * (3 + e.iter().map(|&l| l as u64 - 1).sum::<u64>() + interior);
-            triangles += copies * layout::triangle_count(e, inner) as u64;
+            // Saturating: an absurd level is refused below, not wrapped into range.
+            let samples = 3 + e.iter().map(|&l| l as u64 - 1).sum::<u64>() + interior;
+            bound = bound.saturating_add(copies.saturating_mul(samples));
+            let patch_triangles = layout::triangle_count(e, inner) as u64;
+            triangles = triangles.saturating_add(copies.saturating_mul(patch_triangles));
             if !uniform {
                 interiors.push(interior);
             }
@@ -836,7 +848,9 @@ pub fn memory_estimate(
     // Per triangle: its vertex ids (12), per corner and edge use: edge, direction, corner
     // record, flag, use record, flag (15 × 3), interior ids (8); per vertex and edge two
     // ids; the corner-normal groups (a hash entry of ~48 bytes per corner at most).
-    let plan_bytes = t * (12 + 45 + 8) + (v + e) * 8 + 3 * t * 48;
+    let plan_bytes = (t.saturating_mul(12 + 45 + 8))
+        .saturating_add((v + e).saturating_mul(8))
+        .saturating_add(t.saturating_mul(3 * 48));
     let chunk_points = per
         .max((chunk_samples as u64).min(per.saturating_mul(t)))
         .max(1);

@@ -532,3 +532,28 @@ fn built_chunks_stop_at_a_patch_that_cannot_be_built() {
     .to_string();
     assert_eq!(got, want);
 }
+
+/// Levels whose output cannot have 32-bit indices are refused with one error, before
+/// anything of their size is made: at `u32::MAX` one patch's grid alone is out of range
+/// (its edge tables would take 48 GiB), and at 92,681 (the first level whose grid has
+/// 2^32 − 1 points or more) and 65,536 (the first whose n² triangles are) as well.
+#[test]
+fn absurd_levels_are_refused_not_allocated() {
+    use crate::tess::stitch::StitchPlan;
+    let mesh = common::load("sphere320");
+    let adjacency = mesh.adjacency();
+    assert!(grid_len(92_680) < u32::MAX as usize && grid_len(92_681) >= u32::MAX as usize);
+    for level in [u32::MAX, 5_000_000, 92_681, 65_536] {
+        let e = StitchPlan::new(&mesh, &adjacency, level)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&format!(
+                "level {level} gives too many vertices for 32-bit indices"
+            )),
+            "{e}"
+        );
+    }
+    // A level that fits plans as before.
+    assert!(StitchPlan::new(&mesh, &adjacency, 64).is_ok());
+}

@@ -246,9 +246,10 @@ impl Topology {
     /// them (`grid_triangle_index`); the CPU mirror of the index buffer.
     pub fn triangles(&self, level: u32) -> Vec<[u32; 3]> {
         let n = level.max(1);
-        let mut out = vec![[0u32; 3]; self.patches * (n * n) as usize];
+        let per = n as usize * n as usize;
+        let mut out = vec![[0u32; 3]; self.patches * per];
         for p in 0..self.patches as u32 {
-            let base = p as usize * (n * n) as usize;
+            let base = p as usize * per;
             for j in 0..n {
                 for i in 0..n - j {
                     let t = base + grid_triangle_index(n, i, j) as usize;

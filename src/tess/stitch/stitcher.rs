@@ -3,10 +3,10 @@
 //!
 //! Samples arrive a run of whole patches at a time, and each run is *staged*, then
 //! *drained*:
-//! - the stage ([`Stager::stage`]) appends the samples the run's patches own (first uses of
-//!   vertices and edges, in patch order) to the store of shared samples, then builds every
-//!   patch's output in parallel (rayon), reading the samples the patches share from the
-//!   store;
+//! - the stage ([`Stager::stage`]) writes the samples the run's patches own (first uses of
+//!   vertices and edges, whose slots follow one another in patch order) into the store of
+//!   shared samples, then builds every patch's output, reading the samples the patches
+//!   share from the store; both steps run in parallel (rayon);
 //! - the drain ([`Drainer::drain`]) hands the run's patches to the sink, in order, on the
 //!   calling thread.
 //!
