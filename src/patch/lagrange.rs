@@ -4,9 +4,11 @@
 
 use glam::DVec3;
 
-/// Nodes of the triangle of order `p`: the grid's count (in `usize`, saturating).
+/// Nodes of the triangle of order `p`: (p + 1)(p + 2)/2, in `usize` and saturating (as
+/// `eval::grid_len`, which this layer does not reach).
 pub fn triangle_node_count(p: u32) -> usize {
-    crate::eval::grid_len(p)
+    let p = p as usize;
+    p.saturating_add(1).saturating_mul(p.saturating_add(2)) / 2
 }
 
 /// The nodes of Gmsh's triangle of order `p` (0 gives the single node (0, 0)) as lattice
