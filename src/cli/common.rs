@@ -576,8 +576,8 @@ pub fn tessellation_need(
         CHUNK_SAMPLES,
         needs,
     );
-    // Saturating: level u32::MAX overflows the product (and is refused).
-    let per_patch = (level as u64 + 1).saturating_mul(level as u64 + 2) / 2;
+    // The grid's count, saturating where level u32::MAX overflows it (and is refused).
+    let per_patch = crate::eval::grid_len(level) as u64;
     // The evaluator's basis weights at every grid point: stride × 3 f32 (the CPU's f32
     // kernel; the GPU uploads the same table).
     let weights = per_patch.saturating_mul(stride as u64 * 12);

@@ -380,8 +380,8 @@ fn check_memory(
         format.needs(),
         format.buffer_bytes(level, mesh.triangles.len()),
     );
-    // Saturating: level u32::MAX overflows the product (and is refused).
-    let per_patch = (level as u64 + 1).saturating_mul(level as u64 + 2) / 2;
+    // The grid's count, saturating where level u32::MAX overflows it (and is refused).
+    let per_patch = crate::eval::grid_len(level) as u64;
     a.memory.budget().check(
         "tessellate",
         &if adaptive {

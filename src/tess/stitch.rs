@@ -278,15 +278,6 @@ impl StitchPlan {
         }
         let attrs = (a.uvs.is_some() || a.colors.is_some()).then(|| Box::new(a.clone()));
         let uniform = adaptive.is_none();
-        // A uniform level whose one patch has more samples than 32-bit indices reach is
-        // refused before the tables of its size (the grid's edge and interior indices)
-        // are made; the counts below refuse the rest.
-        if uniform && grid_len(level) as u64 >= NONE as u64 {
-            return Err(Error::Invalid(format!(
-                "{}: level {level} gives too many vertices for 32-bit indices",
-                mesh.name
-            )));
-        }
         let mut numbering = Numbering::new(mesh, adjacency, attrs.as_deref())?;
         let nv = mesh.positions.len();
         let mut plan = StitchPlan {
@@ -316,18 +307,9 @@ impl StitchPlan {
             interior_rec: Vec::new(),
             records_are_positions: false,
             corner_g: [0, 1, 2].map(|k| corner_grid(n, k) as u32),
-            edge_g: if uniform {
-                (0..3)
-                    .flat_map(|k| (1..n).map(move |i| edge_grid(n, k, i) as u32))
-                    .collect()
-            } else {
-                Vec::new()
-            },
-            interior: if uniform {
-                interior_rows(n)
-            } else {
-                Vec::new()
-            },
+            // A uniform plan's grid tables, once its counts are in range (below).
+            edge_g: Vec::new(),
+            interior: Vec::new(),
             adaptive,
             attrs,
         };
@@ -342,7 +324,7 @@ impl StitchPlan {
             let interior = layout::interior_count(e, inner) as u64;
             let copies = if uniform { nf as u64 } else { 1 };
             // Saturating: an absurd level is refused below, not wrapped into range.
-            let samples = 3 + e.iter().map(|&l| l as u64 - 1).sum::<u64>() + interior;
+            let samples = layout::point_count(e, inner) as u64;
             bound = bound.saturating_add(copies.saturating_mul(samples));
             let patch_triangles = layout::triangle_count(e, inner) as u64;
             triangles = triangles.saturating_add(copies.saturating_mul(patch_triangles));
@@ -360,6 +342,14 @@ impl StitchPlan {
                     format!("levels up to {level}")
                 }
             )));
+        }
+        // Made only now: at a level refused above they would not fit in memory (3 (n − 1)
+        // indices, 48 GiB at level u32::MAX).
+        if uniform {
+            plan.edge_g = (0..3)
+                .flat_map(|k| (1..n).map(move |i| edge_grid(n, k, i) as u32))
+                .collect();
+            plan.interior = interior_rows(n);
         }
         plan.triangles = triangles as usize;
         plan.resolve(numbering, &interiors);

@@ -413,18 +413,15 @@ impl<V: Vector> Stager<'_, V> {
             .step_by(group)
             .map(|j| j..(j + group).min(count))
             .collect();
-        // What each group owns: corner samples, block samples.
+        // What each group owns: corner samples, block samples (an edge's samples).
         let owned: Vec<(usize, usize)> = groups
             .par_iter()
-            .map_init(LocalScratch::default, |scratch, r| {
+            .map(|r| {
                 let mut n = (0, 0);
-                for p in r.clone().map(|j| first + j) {
-                    let map = plan.local_map(p, scratch);
-                    for k in 0..3 {
-                        n.0 += usize::from(plan.corner_flags[3 * p + k] & OWNS != 0);
-                        if plan.use_flags[3 * p + k] & OWNS != 0 {
-                            n.1 += map.edges[k].len();
-                        }
+                for i in 3 * (first + r.start)..3 * (first + r.end) {
+                    n.0 += usize::from(plan.corner_flags[i] & OWNS != 0);
+                    if plan.use_flags[i] & OWNS != 0 {
+                        n.1 += plan.edge_samples(plan.use_edge[i] as usize) as usize;
                     }
                 }
                 n
