@@ -15,7 +15,6 @@ pub mod stl;
 pub mod weld;
 
 use glam::DVec3;
-use rayon::prelude::*;
 use std::path::Path;
 
 pub use adjacency::{Adjacency, EdgeUse};
@@ -586,7 +585,8 @@ impl Mesh {
             return Err(Error::mesh(&self.name, "normals do not match triangles"));
         }
         // In parallel; each error names the first element at fault, as a walk in order would.
-        if let Some(i) = self.positions.par_iter().position_first(|p| !p.is_finite()) {
+        let positions = &self.positions;
+        if let Some(i) = crate::par::first_index(positions.len(), |i| !positions[i].is_finite()) {
             return Err(Error::mesh(
                 &self.name,
                 format!("vertex {i} has a non-finite coordinate"),
@@ -594,13 +594,9 @@ impl Mesh {
         }
         let nv = self.positions.len() as u32;
         let unit = |n: &DVec3| n.is_finite() && (n.length() - 1.0).abs() <= 1e-9;
-        let fault = self
-            .triangles
-            .par_iter()
-            .zip(&self.corner_normals)
-            .position_first(|(tri, normals)| {
-                tri.iter().any(|&v| v >= nv) || !normals.iter().all(unit)
-            });
+        let fault = crate::par::first_index(self.triangles.len(), |t| {
+            self.triangles[t].iter().any(|&v| v >= nv) || !self.corner_normals[t].iter().all(unit)
+        });
         if let Some(t) = fault {
             let what = if self.triangles[t].iter().any(|&v| v >= nv) {
                 "a vertex index out of range"

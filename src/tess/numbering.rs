@@ -539,7 +539,7 @@ impl Numbering {
                 mesh.name, u.local, u.triangle
             ))
         })?;
-        if let Some(u) = use_edge.par_iter().position_first(|&e| e == NONE) {
+        if let Some(u) = crate::par::first_index(use_edge.len(), |u| use_edge[u] == NONE) {
             return Err(Error::Invalid(format!(
                 "{}: edge {} of triangle {} is missing from the adjacency",
                 mesh.name,
