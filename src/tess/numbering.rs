@@ -427,11 +427,11 @@ fn number_single(mesh: &Mesh, edges: usize, use_edge: &[u32]) -> Option<Order> {
     let vertex = |c: usize| tris[c / 3][c % 3] as usize;
     let first_corner = first_uses(mesh.positions.len(), 3 * tris.len(), vertex);
     let key = |c: usize| normal_key(mesh.corner_normals[c / 3][c % 3]);
-    let single = (0..3 * tris.len()).into_par_iter().all(|c| {
+    let second = crate::par::first_index(3 * tris.len(), |c| {
         let f = first_corner[vertex(c)] as usize;
-        f == c || key(f) == key(c)
+        f != c && key(f) != key(c)
     });
-    if !single {
+    if second.is_some() {
         return None;
     }
     let (corner_first, corner) = items(&first_corner, 3 * tris.len(), vertex);

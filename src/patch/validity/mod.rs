@@ -195,7 +195,7 @@ pub fn count_range(table: &PatchTable, range: std::ops::Range<usize>) -> PatchCo
         Stage::Done(v) => Some(*v),
         _ => None,
     };
-    if first.par_iter().all(|s| done(s).is_some()) {
+    if crate::par::first_index(first.len(), |k| done(&first[k]).is_none()).is_none() {
         return first
             .par_iter()
             .filter_map(done)
