@@ -138,3 +138,73 @@ pub fn has_area(p: [DVec3; 3]) -> bool {
 pub fn face_normal(p: [DVec3; 3]) -> DVec3 {
     (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`vertex_normals`] as one loop in triangle order: the sums it must give bit for bit.
+    fn serial(positions: &[DVec3], triangles: &[[u32; 3]], w: NormalWeighting) -> Vec<DVec3> {
+        let mut acc = vec![DVec3::ZERO; positions.len()];
+        let mut fallback = acc.clone();
+        for t in triangles {
+            if let Some((unit, cw)) = corner_weights(t.map(|v| positions[v as usize]), w) {
+                for k in 0..3 {
+                    acc[t[k] as usize] += cw[k] * unit;
+                    fallback[t[k] as usize] += unit;
+                }
+            }
+        }
+        acc.iter()
+            .zip(&fallback)
+            .map(|(a, f)| {
+                a.try_normalize()
+                    .or_else(|| f.try_normalize())
+                    .unwrap_or(DVec3::Z)
+            })
+            .collect()
+    }
+
+    /// On pools of 1 to 8 threads every weighting gives the serial loop's normals bit for
+    /// bit: the bunny (several blocks of [`WEIGHT_BLOCK`]), Suzanne, an icosphere, and a
+    /// strip with degenerate triangles and an unused vertex; no triangles give +z.
+    #[test]
+    fn vertex_normals_are_the_serial_sums_on_any_pool() {
+        let load = crate::tests::common::load;
+        let mut strip = load("icosphere:1");
+        strip.triangles.truncate(30);
+        strip.triangles.push([0, 0, 1]);
+        strip.triangles.push([2, 3, 2]);
+        strip.positions.push(DVec3::new(7.0, 8.0, 9.0));
+        let meshes = [
+            load("stanford-bunny.obj"),
+            load("suzanne.obj"),
+            load("icosphere:4"),
+            strip,
+        ];
+        assert!(meshes[0].triangles.len() > 2 * WEIGHT_BLOCK);
+        let weightings = [
+            NormalWeighting::Unweighted,
+            NormalWeighting::Area,
+            NormalWeighting::Angle,
+        ];
+        let bits = |n: &[DVec3]| -> Vec<[u64; 3]> {
+            n.iter().map(|v| v.to_array().map(f64::to_bits)).collect()
+        };
+        for mesh in &meshes {
+            for w in weightings {
+                let want = bits(&serial(&mesh.positions, &mesh.triangles, w));
+                for threads in [1, 2, 3, 8] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let got = pool.install(|| vertex_normals(&mesh.positions, &mesh.triangles, w));
+                    assert!(bits(&got) == want, "{} {w:?} {threads} threads", mesh.name);
+                }
+            }
+        }
+        let none = vertex_normals(&meshes[3].positions, &[], NormalWeighting::Angle);
+        assert!(none.iter().all(|&n| n == DVec3::Z));
+    }
+}
