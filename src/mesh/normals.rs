@@ -72,12 +72,16 @@ pub fn vertex_normals(
     }
     acc.par_iter()
         .zip(&fallback)
-        .map(|(a, f)| {
-            a.try_normalize()
-                .or_else(|| f.try_normalize())
-                .unwrap_or(DVec3::Z)
-        })
+        .map(|(a, f)| normal_of_sums(*a, *f))
         .collect()
+}
+
+/// A vertex's normal from its weighted sum `a` and its unweighted sum `f`
+/// ([`vertex_normals`]): `a` made unit, else `f`, else +z.
+fn normal_of_sums(a: DVec3, f: DVec3) -> DVec3 {
+    a.try_normalize()
+        .or_else(|| f.try_normalize())
+        .unwrap_or(DVec3::Z)
 }
 
 /// Unit normal of a flat triangle and the weight of each of its corners in a vertex-normal
@@ -157,11 +161,7 @@ mod tests {
         }
         acc.iter()
             .zip(&fallback)
-            .map(|(a, f)| {
-                a.try_normalize()
-                    .or_else(|| f.try_normalize())
-                    .unwrap_or(DVec3::Z)
-            })
+            .map(|(a, f)| normal_of_sums(*a, *f))
             .collect()
     }
 
