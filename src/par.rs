@@ -24,6 +24,11 @@ pub(crate) fn first_index(n: usize, holds: impl Fn(usize) -> bool + Sync) -> Opt
         .find_map_first(|k| (k * STRETCH..n.min((k + 1) * STRETCH)).find(|&i| holds(i)))
 }
 
+/// Whether `holds(i)` for every `i` in `0..n`: [`first_index`] of the first that does not.
+pub(crate) fn all_indices(n: usize, holds: impl Fn(usize) -> bool + Sync) -> bool {
+    first_index(n, |i| !holds(i)).is_none()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -49,6 +54,11 @@ mod tests {
             }
             let want = marked.iter().position(|&m| m);
             assert_eq!(first_index(n, |i| marked[i]), want, "hits {hits:?}");
+            assert_eq!(
+                all_indices(n, |i| !marked[i]),
+                want.is_none(),
+                "hits {hits:?}"
+            );
         }
         assert_eq!(first_index(0, |_| true), None);
         assert_eq!(first_index(1, |_| true), Some(0));

@@ -427,11 +427,11 @@ fn number_single(mesh: &Mesh, edges: usize, use_edge: &[u32]) -> Option<Order> {
     let vertex = |c: usize| tris[c / 3][c % 3] as usize;
     let first_corner = first_uses(mesh.positions.len(), 3 * tris.len(), vertex);
     let key = |c: usize| normal_key(mesh.corner_normals[c / 3][c % 3]);
-    let second = crate::par::first_index(3 * tris.len(), |c| {
+    let single = crate::par::all_indices(3 * tris.len(), |c| {
         let f = first_corner[vertex(c)] as usize;
-        f != c && key(f) != key(c)
+        f == c || key(f) == key(c)
     });
-    if second.is_some() {
+    if !single {
         return None;
     }
     let (corner_first, corner) = items(&first_corner, 3 * tris.len(), vertex);

@@ -195,7 +195,7 @@ pub fn count_range(table: &PatchTable, range: std::ops::Range<usize>) -> PatchCo
         Stage::Done(v) => Some(*v),
         _ => None,
     };
-    if crate::par::first_index(first.len(), |k| done(&first[k]).is_none()).is_none() {
+    if crate::par::all_indices(first.len(), |k| done(&first[k]).is_some()) {
         return first
             .par_iter()
             .filter_map(done)
