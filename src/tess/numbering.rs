@@ -372,18 +372,21 @@ fn edge_uses(
     if let Some(u) = first_beyond.and_then(|edge| edge.uses.iter().find(|u| beyond_mesh(u))) {
         return Err(*u);
     }
-    Ok(edge_of
-        .into_par_iter()
+    // In place (the standard library's collect reuses the allocation): edge e, NONE for
+    // none.
+    let use_edge: Vec<u32> = edge_of
+        .into_iter()
+        .map(|e| e.into_inner().wrapping_sub(1))
+        .collect();
+    let use_rev = use_edge
+        .par_iter()
         .enumerate()
-        .map(|(u, e)| {
-            let e = e.into_inner().wrapping_sub(1);
-            let rev = match adjacency.edges.get(e as usize) {
-                Some(edge) => mesh.triangles[u / 3][u % 3] != edge.v[0],
-                None => false,
-            };
-            (e, rev)
+        .map(|(u, &e)| match adjacency.edges.get(e as usize) {
+            Some(edge) => mesh.triangles[u / 3][u % 3] != edge.v[0],
+            None => false,
         })
-        .unzip())
+        .collect();
+    Ok((use_edge, use_rev))
 }
 
 /// The corners numbered in order ([`number_corners`]): corner items and blocks are
@@ -481,7 +484,8 @@ fn first_uses(keys: usize, uses: usize, key_of: impl Fn(usize) -> usize + Sync) 
     (0..uses).into_par_iter().for_each(|i| {
         first[key_of(i)].fetch_min(i as u32, Relaxed);
     });
-    first.into_par_iter().map(AtomicU32::into_inner).collect()
+    // In place (the standard library's collect reuses the allocation).
+    first.into_iter().map(AtomicU32::into_inner).collect()
 }
 
 /// The items made by the first use of each key (`first`, from [`first_uses`]): the uses
