@@ -737,6 +737,64 @@ fn a_large_file_reads_like_its_soup_and_names_lines_deep_inside() {
 }
 
 #[test]
+fn a_large_file_with_normals_on_some_faces_estimates_the_others() {
+    // The wavy sheet (about 12 MB, read in parallel blocks) with the normals cut from the
+    // faces of its first 40 % and last 30 % of rows and of every fifth band of 11 rows
+    // between: blocks with no normal at all come before and after blocks with some, and
+    // bands start and end inside blocks. Each corner must get the file's normal where its
+    // face gives one and, elsewhere, the normal estimated for the same sheet with no
+    // normals in any face; every position as given.
+    let n = 300;
+    let (text, face_line, _) = wavy_sheet(n);
+    assert!(text.len() > 10 << 20, "{} bytes", text.len());
+    let strip = |line: &str| -> String {
+        let corners: Vec<&str> = line[2..]
+            .split(' ')
+            .map(|c| c.split('/').next().unwrap())
+            .collect();
+        format!("f {}", corners.join(" "))
+    };
+    let banded = |cut: &dyn Fn(usize) -> bool| -> String {
+        let mut row = 0;
+        let mut out = String::with_capacity(text.len());
+        for (k, line) in text.split_inclusive('\n').enumerate() {
+            // Rows 1.. start at their first face line (line numbers count from 1).
+            while row + 1 < n && face_line[row + 1] == k + 1 {
+                row += 1;
+            }
+            if line.starts_with("f ") && cut(row) {
+                out += &strip(line.trim_end());
+                out.push('\n');
+            } else {
+                out += line;
+            }
+        }
+        out
+    };
+    let opts = LoadOptions::default();
+    let given = load_path(&write_obj("sheet-all.obj", &text), &opts);
+    let none = load_path(&write_obj("sheet-none.obj", &banded(&|_| true)), &opts);
+    let cut = |row: usize| 5 * row < 2 * n || 10 * row >= 7 * n || (row / 11) % 5 == 0;
+    let mixed = load_path(&write_obj("sheet-mixed.obj", &banded(&cut)), &opts);
+    let per_row = 2 * (n - 1);
+    let cut_faces = (1..n).filter(|&r| cut(r)).count() * per_row;
+    assert_eq!(given.load_report.normals_estimated, 0);
+    assert_eq!(
+        none.load_report.normals_estimated,
+        3 * 2 * (n - 1) * (n - 1)
+    );
+    assert_eq!(mixed.load_report.normals_estimated, 3 * cut_faces);
+    assert_eq!(corners(&mixed), corners(&given));
+    assert_eq!(corners(&none), corners(&given));
+    for (f, normals) in mixed.corner_normals.iter().enumerate() {
+        let want = if cut(f / per_row + 1) { &none } else { &given };
+        assert_eq!(*normals, want.corner_normals[f], "face {f}");
+    }
+    // The two sources differ (or the test would prove nothing).
+    assert_ne!(none.corner_normals[0], given.corner_normals[0]);
+}
+
+#[test]
 fn a_large_point_normal_file_reads_like_its_soup_and_names_lines_deep_inside() {
     // The wavy sheet as .pn, with a corner normal on every 50th triangle: about 14 MB,
     // two chunks of parallel blocks.

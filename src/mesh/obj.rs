@@ -42,9 +42,11 @@ struct Block {
     positions: Vec<DVec3>,
     normals: Vec<DVec3>,
     texcoords: Vec<[f32; 2]>,
-    /// Position and normal index of each triangle corner: absolute (>= 0), relative to the
-    /// block (`r - REL`) or [`NONE`].
+    /// Position index of each triangle corner: absolute (>= 0) or relative to the block
+    /// (`r - REL`).
     tris: Vec<[i64; 3]>,
+    /// Normal index of each corner, as `tris` or [`NONE`]; empty until a face gives one
+    /// (files without normals pay nothing), then one entry per triangle.
     tri_normals: Vec<[i64; 3]>,
     /// Texture coordinate index of each corner, as `tris`; empty until a face gives one
     /// (files without `vt` indices pay nothing), then one entry per triangle.
@@ -200,11 +202,12 @@ impl Block {
     #[inline]
     fn push_triangle(&mut self, a: [i64; 3], b: [i64; 3], c: [i64; 3]) {
         self.tris.push([a[0], b[0], c[0]]);
-        self.tri_normals.push([a[1], b[1], c[1]]);
-        let uv = [a[2], b[2], c[2]];
-        if !self.tri_uvs.is_empty() || uv != [NONE; 3] {
-            self.tri_uvs.resize(self.tris.len() - 1, [NONE; 3]);
-            self.tri_uvs.push(uv);
+        for (list, k) in [(&mut self.tri_normals, 1), (&mut self.tri_uvs, 2)] {
+            let corners = [a[k], b[k], c[k]];
+            if !list.is_empty() || corners != [NONE; 3] {
+                list.resize(self.tris.len() - 1, [NONE; 3]);
+                list.push(corners);
+            }
         }
     }
 
@@ -394,7 +397,7 @@ struct Raw {
     normals: Vec<DVec3>,
     texcoords: Vec<[f32; 2]>,
     tris: Vec<[u32; 3]>,
-    /// Normal index of each corner, `u32::MAX` for none.
+    /// Normal index of each corner (`u32::MAX` for none), empty when no face gives one.
     tri_normals: Vec<[u32; 3]>,
     /// Texture coordinate index of each corner (`u32::MAX` for none), empty when no face
     /// gives one.
@@ -428,20 +431,19 @@ impl Raw {
                 e as u32
             }
         };
-        if !b.tri_uvs.is_empty() || !self.tri_uvs.is_empty() {
-            self.tri_uvs.resize(self.tris.len(), [u32::MAX; 3]);
-            self.tri_uvs
-                .extend(b.tri_uvs.iter().map(|t| t.map(|e| resolve(e, base[VT]))));
-            self.tri_uvs
-                .resize(self.tris.len() + b.tris.len(), [u32::MAX; 3]);
+        let (done, more) = (self.tris.len(), b.tris.len());
+        for (list, given, base) in [
+            (&mut self.tri_normals, &b.tri_normals, base[VN]),
+            (&mut self.tri_uvs, &b.tri_uvs, base[VT]),
+        ] {
+            if !given.is_empty() || !list.is_empty() {
+                list.resize(done, [u32::MAX; 3]);
+                list.extend(given.iter().map(|t| t.map(|e| resolve(e, base))));
+                list.resize(done + more, [u32::MAX; 3]);
+            }
         }
         self.tris
             .extend(b.tris.iter().map(|t| t.map(|e| resolve(e, base[V]))));
-        self.tri_normals.extend(
-            b.tri_normals
-                .iter()
-                .map(|t| t.map(|e| resolve(e, base[VN]))),
-        );
         self.positions.extend_from_slice(&b.positions);
         self.normals.extend_from_slice(&b.normals);
         self.texcoords.extend_from_slice(&b.texcoords);
@@ -640,11 +642,16 @@ fn build(src: Source<'_>, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
              smallest f64), this one first: empty mesh",
         ));
     }
-    let missing = tri_normals
-        .iter()
-        .flatten()
-        .filter(|&&n| n == u32::MAX)
-        .count();
+    // No list: no face gave a normal.
+    let missing = if tri_normals.is_empty() {
+        3 * tris.len()
+    } else {
+        tri_normals
+            .iter()
+            .flatten()
+            .filter(|&&n| n == u32::MAX)
+            .count()
+    };
     report.normals_estimated = missing;
     let estimated = if missing > 0 {
         normals::vertex_normals(&positions, &tris, opts.weighting)
@@ -653,8 +660,9 @@ fn build(src: Source<'_>, raw: Raw, opts: &LoadOptions) -> Result<Mesh> {
     };
     let corner_normals = tris
         .par_iter()
-        .zip(&tri_normals)
-        .map(|(t, n)| {
+        .enumerate()
+        .map(|(f, t)| {
+            let n = tri_normals.get(f).unwrap_or(&[u32::MAX; 3]);
             std::array::from_fn(|k| match n[k] {
                 u32::MAX => estimated[t[k] as usize],
                 i => normals_in[i as usize],
