@@ -70,10 +70,11 @@ pub fn vertex_normals(
         }
         std::mem::swap(&mut cur, &mut next);
     }
-    acc.par_iter()
+    // In place: a new vector would be fresh memory to fault in.
+    acc.par_iter_mut()
         .zip(&fallback)
-        .map(|(a, f)| normal_of_sums(*a, *f))
-        .collect()
+        .for_each(|(a, f)| *a = normal_of_sums(*a, *f));
+    acc
 }
 
 /// A vertex's normal from its weighted sum `a` and its unweighted sum `f`
