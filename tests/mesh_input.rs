@@ -774,7 +774,7 @@ fn a_large_file_with_normals_on_some_faces_estimates_the_others() {
     let opts = LoadOptions::default();
     let given = load_path(&write_obj("sheet-all.obj", &text), &opts);
     let none = load_path(&write_obj("sheet-none.obj", &banded(&|_| true)), &opts);
-    let cut = |row: usize| 5 * row < 2 * n || 10 * row >= 7 * n || (row / 11) % 5 == 0;
+    let cut = |row: usize| 5 * row < 2 * n || 10 * row >= 7 * n || (row / 11).is_multiple_of(5);
     let mixed = load_path(&write_obj("sheet-mixed.obj", &banded(&cut)), &opts);
     let per_row = 2 * (n - 1);
     let cut_faces = (1..n).filter(|&r| cut(r)).count() * per_row;
