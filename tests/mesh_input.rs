@@ -740,12 +740,12 @@ fn a_large_file_reads_like_its_soup_and_names_lines_deep_inside() {
 fn a_large_file_with_normals_on_some_faces_estimates_the_others() {
     // The wavy sheet (about 12 MB, read in parallel blocks) with the normals cut from the
     // faces of its first 40 % and last 30 % of rows and of every fifth band of 11 rows
-    // between: blocks with no normal at all come before and after blocks with some, and
-    // bands start and end inside blocks. Each corner must get the file's normal where its
-    // face gives one and, elsewhere, the normal estimated for the same sheet with no
-    // normals in any face; every position as given.
+    // between: blocks with no normal index at all come before and after blocks with some,
+    // and bands start and end inside blocks. Each corner must get the normal given for its
+    // vertex where its face gives one and, elsewhere, the normal estimated for the sheet
+    // (both as the soup of the same sheet gets them); every position as given.
     let n = 300;
-    let (text, face_line, _) = wavy_sheet(n);
+    let (text, face_line, (pos, tris, nrm)) = wavy_sheet(n);
     assert!(text.len() > 10 << 20, "{} bytes", text.len());
     let strip = |line: &str| -> String {
         let corners: Vec<&str> = line[2..]
@@ -772,20 +772,24 @@ fn a_large_file_with_normals_on_some_faces_estimates_the_others() {
         out
     };
     let opts = LoadOptions::default();
-    let given = load_path(&write_obj("sheet-all.obj", &text), &opts);
-    let none = load_path(&write_obj("sheet-none.obj", &banded(&|_| true)), &opts);
+    let given = Mesh::from_soup("sheet", &pos, &tris, Some(&nrm), &opts).unwrap();
+    let none = Mesh::from_soup("sheet", &pos, &tris, None, &opts).unwrap();
+    let all = load_path(&write_obj("sheet-all.obj", &text), &opts);
+    let bare = load_path(&write_obj("sheet-none.obj", &banded(&|_| true)), &opts);
+    assert_eq!(all.corner_normals, given.corner_normals);
+    assert_eq!(bare.corner_normals, none.corner_normals);
     let cut = |row: usize| 5 * row < 2 * n || 10 * row >= 7 * n || (row / 11).is_multiple_of(5);
     let mixed = load_path(&write_obj("sheet-mixed.obj", &banded(&cut)), &opts);
     let per_row = 2 * (n - 1);
     let cut_faces = (1..n).filter(|&r| cut(r)).count() * per_row;
-    assert_eq!(given.load_report.normals_estimated, 0);
+    assert_eq!(all.load_report.normals_estimated, 0);
     assert_eq!(
-        none.load_report.normals_estimated,
+        bare.load_report.normals_estimated,
         3 * 2 * (n - 1) * (n - 1)
     );
     assert_eq!(mixed.load_report.normals_estimated, 3 * cut_faces);
     assert_eq!(corners(&mixed), corners(&given));
-    assert_eq!(corners(&none), corners(&given));
+    assert_eq!(corners(&bare), corners(&given));
     for (f, normals) in mixed.corner_normals.iter().enumerate() {
         let want = if cut(f / per_row + 1) { &none } else { &given };
         assert_eq!(*normals, want.corner_normals[f], "face {f}");

@@ -242,7 +242,8 @@ impl<'a> EdgeIndex<'a> {
             });
         drop(cursors);
         // In place (the standard library's collect reuses the allocation where the item
-        // sizes match): a parallel collect would fault in 24 bytes per triangle afresh.
+        // sizes match, though it does not promise to): a parallel collect would fault in
+        // 24 bytes per triangle afresh.
         let mut keys: Vec<u64> = keys.into_iter().map(AtomicU64::into_inner).collect();
         // Vertex ranges: each group ordered by upper vertex, ties by half-edge (that is, by
         // triangle then local edge), and its edges counted.
