@@ -10,6 +10,14 @@ pub(crate) fn filled_with<T: Send>(n: usize, make: impl Fn() -> T + Sync + Send)
     (0..n).into_par_iter().map(|_| make()).collect()
 }
 
+/// The values of `cells` (atomics, typically made by [`filled_with`] and written on the
+/// pool), each through `take`, in one task and in place: the standard library's collect
+/// reuses the allocation where the sizes match (an optimisation it does not promise),
+/// where a collect on the pool would fault in a new vector's pages.
+pub(crate) fn into_values<A, T>(cells: Vec<A>, take: impl FnMut(A) -> T) -> Vec<T> {
+    cells.into_iter().map(take).collect()
+}
+
 /// Indices searched by one task of [`first_index`]: enough that a task's cost is its loop,
 /// not rayon's bookkeeping.
 const STRETCH: usize = 1 << 14;

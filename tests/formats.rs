@@ -31,14 +31,9 @@ fn dir() -> PathBuf {
 
 /// A smooth mesh and one with split normals (cube with one normal per face).
 fn meshes() -> Vec<Mesh> {
-    // A folder per call: the tests that call this run at once in one process, and one
-    // writing `cube.obj` (truncating it first) while another reads it gave the reader an
-    // empty file ("no faces") in a CI-like run.
-    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let folder = dir().join(format!("meshes-{call}"));
-    std::fs::create_dir_all(&folder).unwrap();
-    let cube = folder.join("cube.obj");
+    // A folder per call: one test writing `cube.obj` (truncating it first) while another
+    // read it gave the reader an empty file ("no faces") in a CI-like run.
+    let cube = common::fresh_dir(&dir(), "meshes").join("cube.obj");
     std::fs::write(&cube, common::cube_obj(true)).unwrap();
     vec![
         Mesh::load("torus200", &LoadOptions::default()).unwrap(),

@@ -133,14 +133,12 @@ fn render_gpu_and_cpu_backends_draw_the_same_picture() {
 }
 
 fn render_fails(args: &[&str]) -> String {
-    // A folder per call: two tests call this at once in one process, and with one shared
-    // folder the first to finish would remove it under the other, whose own removal
-    // would then fail (not found).
-    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("g1tess-render-bad-{}-{call}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    // A folder per call: with one shared folder the first call to finish would remove it
+    // under another, whose own removal would then fail (not found).
+    let dir = crate::common::fresh_dir(
+        std::path::Path::new(env!("CARGO_TARGET_TMPDIR")),
+        &format!("g1tess-render-bad-{}", std::process::id()),
+    );
     let o = Command::new(env!("CARGO_BIN_EXE_g1tess"))
         .arg("render")
         .args(args)

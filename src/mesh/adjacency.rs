@@ -241,10 +241,7 @@ impl<'a> EdgeIndex<'a> {
                 }
             });
         drop(cursors);
-        // In place (the standard library's collect reuses the allocation where the item
-        // sizes match, though it does not promise to): a parallel collect would fault in
-        // 24 bytes per triangle afresh.
-        let mut keys: Vec<u64> = keys.into_iter().map(AtomicU64::into_inner).collect();
+        let mut keys = crate::par::into_values(keys, AtomicU64::into_inner);
         // Vertex ranges: each group ordered by upper vertex, ties by half-edge (that is, by
         // triangle then local edge), and its edges counted.
         let pieces = (4 * threads).clamp(1, vertices.max(1));

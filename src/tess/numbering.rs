@@ -372,12 +372,8 @@ fn edge_uses(
     if let Some(u) = first_beyond.and_then(|edge| edge.uses.iter().find(|u| beyond_mesh(u))) {
         return Err(*u);
     }
-    // In place (the standard library's collect reuses the allocation, though it does not
-    // promise to): edge e, NONE for none.
-    let use_edge: Vec<u32> = edge_of
-        .into_iter()
-        .map(|e| e.into_inner().wrapping_sub(1))
-        .collect();
+    // Edge e, NONE for none.
+    let use_edge = crate::par::into_values(edge_of, |e| e.into_inner().wrapping_sub(1));
     let use_rev = use_edge
         .par_iter()
         .enumerate()
@@ -484,9 +480,7 @@ fn first_uses(keys: usize, uses: usize, key_of: impl Fn(usize) -> usize + Sync) 
     (0..uses).into_par_iter().for_each(|i| {
         first[key_of(i)].fetch_min(i as u32, Relaxed);
     });
-    // In place (the standard library's collect reuses the allocation, though it does not
-    // promise to).
-    first.into_iter().map(AtomicU32::into_inner).collect()
+    crate::par::into_values(first, AtomicU32::into_inner)
 }
 
 /// The items made by the first use of each key (`first`, from [`first_uses`]): the uses

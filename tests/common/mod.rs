@@ -1,9 +1,20 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 
 use g1tess::{LoadOptions, Mesh};
+
+/// A new folder `PREFIX-N` under `parent`, N counting this process's calls: the suite's tests
+/// run at once in one process, and two that shared a folder or a file name in it would
+/// rewrite or remove it under each other.
+pub fn fresh_dir(parent: &Path, prefix: &str) -> PathBuf {
+    static CALLS: AtomicUsize = AtomicUsize::new(0);
+    let dir = parent.join(format!("{prefix}-{}", CALLS.fetch_add(1, Relaxed)));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
 
 /// A mesh of `tests/data` (copies of the project's shared test meshes, provenance in
 /// `tests/data/PROVENANCE.md`), so the tests pass from a plain clone.
